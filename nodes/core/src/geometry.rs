@@ -1,0 +1,55 @@
+//! In-memory meshes and point clouds (their PLY encoding lives in `ply` / `mesh_io`).
+//!
+//! Mesh artifact (a folder): `mesh.ply` — binary PLY with vertex `x,y,z` (float),
+//! optional `red,green,blue` (uchar) and, when annotated, `object_id` (int, −1 =
+//! none); faces as `vertex_indices` lists — plus `objects.json` (id → label) when
+//! annotated. Points artifact (a folder): `points.ply` with `x,y,z` + `red,green,blue`.
+
+/// A triangle mesh, optionally annotated with a per-vertex object id.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Mesh {
+    pub positions: Vec<[f32; 3]>,
+    pub faces: Vec<[u32; 3]>,
+    pub colors: Option<Vec<[u8; 3]>>,
+    /// Per-vertex object id; −1 = not part of any object.
+    pub object_ids: Option<Vec<i32>>,
+}
+
+impl Mesh {
+    /// Checks indices and finiteness; the error names the first offender.
+    pub fn validate(&self) -> Result<(), String> {
+        let n = self.positions.len();
+        if let Some(i) = self.positions.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+            return Err(format!("vertex {i} has a non-finite coordinate"));
+        }
+        if let Some((i, f)) = self.faces.iter().enumerate().find(|(_, f)| f.iter().any(|&v| v as usize >= n)) {
+            return Err(format!("face {i} refers to vertex {:?} but there are only {n} vertices", f));
+        }
+        for (name, len) in [
+            ("colors", self.colors.as_ref().map(Vec::len)),
+            ("object_ids", self.object_ids.as_ref().map(Vec::len)),
+        ] {
+            if let Some(len) = len
+                && len != n
+            {
+                return Err(format!("{name} has {len} entries for {n} vertices"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The object owning a face: the object of its first vertex (the ScanNet++ toolkit rule).
+    pub fn face_object(&self, face: usize) -> i32 {
+        match &self.object_ids {
+            Some(ids) => ids[self.faces[face][0] as usize],
+            None => -1,
+        }
+    }
+}
+
+/// A coloured point cloud (e.g. SfM points).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct Points {
+    pub positions: Vec<[f32; 3]>,
+    pub colors: Vec<[u8; 3]>,
+}

@@ -1,0 +1,186 @@
+//! Float images and their PNG encoding (8-bit sRGB or 16-bit).
+//!
+//! Values are stored as they are encoded (sRGB-encoded colours in [0, 1]); no
+//! colour-space conversion happens here. Training and metrics work in this space,
+//! like 3DGS; only glTF export converts to linear.
+
+use anyhow::{Context, Result, bail};
+use std::path::Path;
+
+/// A row-major, channel-interleaved float image.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub channels: u32,
+    pub data: Vec<f32>,
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32, channels: u32) -> Self {
+        Image { width, height, channels, data: vec![0.0; (width * height * channels) as usize] }
+    }
+
+    pub fn from_fn(width: u32, height: u32, channels: u32, f: impl Fn(u32, u32, u32) -> f32) -> Self {
+        let mut img = Image::new(width, height, channels);
+        for y in 0..height {
+            for x in 0..width {
+                for c in 0..channels {
+                    img.data[((y * width + x) * channels + c) as usize] = f(x, y, c);
+                }
+            }
+        }
+        img
+    }
+
+    #[inline]
+    pub fn get(&self, x: u32, y: u32, c: u32) -> f32 {
+        self.data[((y * self.width + x) * self.channels + c) as usize]
+    }
+
+    #[inline]
+    pub fn set(&mut self, x: u32, y: u32, c: u32, v: f32) {
+        self.data[((y * self.width + x) * self.channels + c) as usize] = v;
+    }
+
+    pub fn pixel_count(&self) -> usize {
+        (self.width * self.height) as usize
+    }
+
+    /// Loads a PNG or JPEG; 8- and 16-bit grey, grey+alpha, RGB and RGBA are kept with their channel count.
+    pub fn load(path: &Path) -> Result<Image> {
+        let img = image::ImageReader::open(path)
+            .with_context(|| format!("{}: cannot open image", path.display()))?
+            .with_guessed_format()
+            .with_context(|| format!("{}: cannot read image", path.display()))?
+            .decode()
+            .with_context(|| format!("{}: not a decodable image", path.display()))?;
+        Ok(Self::from_dynamic(img))
+    }
+
+    pub fn from_dynamic(img: image::DynamicImage) -> Image {
+        use image::DynamicImage as D;
+        let (w, h) = (img.width(), img.height());
+        let (channels, data): (u32, Vec<f32>) = match img {
+            D::ImageLuma8(b) => (1, b.into_raw().iter().map(|&v| v as f32 / 255.0).collect()),
+            D::ImageLumaA8(b) => (2, b.into_raw().iter().map(|&v| v as f32 / 255.0).collect()),
+            D::ImageRgb8(b) => (3, b.into_raw().iter().map(|&v| v as f32 / 255.0).collect()),
+            D::ImageRgba8(b) => (4, b.into_raw().iter().map(|&v| v as f32 / 255.0).collect()),
+            D::ImageLuma16(b) => (1, b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect()),
+            D::ImageLumaA16(b) => (2, b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect()),
+            D::ImageRgb16(b) => (3, b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect()),
+            D::ImageRgba16(b) => (4, b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect()),
+            other => (4, other.to_rgba32f().into_raw()),
+        };
+        Image { width: w, height: h, channels, data }
+    }
+
+    /// The RGB part (grey is replicated, alpha dropped).
+    pub fn to_rgb(&self) -> Image {
+        match self.channels {
+            3 => self.clone(),
+            1 | 2 => Image::from_fn(self.width, self.height, 3, |x, y, _| self.get(x, y, 0)),
+            _ => Image::from_fn(self.width, self.height, 3, |x, y, c| self.get(x, y, c)),
+        }
+    }
+
+    fn quantize<T: Copy>(&self, max: f32, conv: impl Fn(f32) -> T) -> Vec<T> {
+        self.data.iter().map(|&v| conv((v.clamp(0.0, 1.0) * max).round())).collect()
+    }
+
+    /// Saves as an 8-bit PNG (values clamped to [0, 1] and rounded).
+    pub fn save_png8(&self, path: &Path) -> Result<()> {
+        let raw = self.quantize(255.0, |v| v as u8);
+        let color = match self.channels {
+            1 => image::ExtendedColorType::L8,
+            2 => image::ExtendedColorType::La8,
+            3 => image::ExtendedColorType::Rgb8,
+            4 => image::ExtendedColorType::Rgba8,
+            c => bail!("cannot save a {c}-channel image as PNG"),
+        };
+        image::save_buffer_with_format(path, &raw, self.width, self.height, color, image::ImageFormat::Png)
+            .with_context(|| format!("{}: cannot write PNG", path.display()))
+    }
+
+    /// Saves as a 16-bit PNG.
+    pub fn save_png16(&self, path: &Path) -> Result<()> {
+        let raw: Vec<u8> = self.quantize(65535.0, |v| v as u16).iter().flat_map(|v| v.to_ne_bytes()).collect();
+        let color = match self.channels {
+            1 => image::ExtendedColorType::L16,
+            2 => image::ExtendedColorType::La16,
+            3 => image::ExtendedColorType::Rgb16,
+            4 => image::ExtendedColorType::Rgba16,
+            c => bail!("cannot save a {c}-channel image as PNG"),
+        };
+        image::save_buffer_with_format(path, &raw, self.width, self.height, color, image::ImageFormat::Png)
+            .with_context(|| format!("{}: cannot write PNG", path.display()))
+    }
+
+    /// Box-filter (area) downscale to `width`×`height`; exact for integer factors.
+    pub fn resize_area(&self, width: u32, height: u32) -> Image {
+        let sx = self.width as f64 / width as f64;
+        let sy = self.height as f64 / height as f64;
+        let ch = self.channels as usize;
+        let mut out = Image::new(width, height, self.channels);
+        for oy in 0..height {
+            let (y0, y1) = (oy as f64 * sy, (oy + 1) as f64 * sy);
+            for ox in 0..width {
+                let (x0, x1) = (ox as f64 * sx, (ox + 1) as f64 * sx);
+                let mut acc = vec![0.0f64; ch];
+                let mut wsum = 0.0;
+                let mut y = y0.floor() as u32;
+                while (y as f64) < y1 && y < self.height {
+                    let wy = (y1.min(y as f64 + 1.0) - y0.max(y as f64)).max(0.0);
+                    let mut x = x0.floor() as u32;
+                    while (x as f64) < x1 && x < self.width {
+                        let wx = (x1.min(x as f64 + 1.0) - x0.max(x as f64)).max(0.0);
+                        let w = wx * wy;
+                        for (c, a) in acc.iter_mut().enumerate() {
+                            *a += w * self.get(x, y, c as u32) as f64;
+                        }
+                        wsum += w;
+                        x += 1;
+                    }
+                    y += 1;
+                }
+                for (c, a) in acc.iter().enumerate() {
+                    out.set(ox, oy, c as u32, (a / wsum.max(1e-12)) as f32);
+                }
+            }
+        }
+        out
+    }
+
+    /// Fails with a message naming the first non-finite value.
+    pub fn check_finite(&self, what: &str) -> Result<()> {
+        if let Some(i) = self.data.iter().position(|v| !v.is_finite()) {
+            let p = i / self.channels as usize;
+            bail!("{what}: non-finite value at pixel ({}, {})", p % self.width as usize, p / self.width as usize);
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn png8_and_png16_roundtrip() {
+        let dir = tempfile::tempdir().unwrap();
+        let img = Image::from_fn(7, 5, 3, |x, y, c| ((x * 31 + y * 17 + c * 5) % 256) as f32 / 255.0);
+        img.save_png8(&dir.path().join("a.png")).unwrap();
+        assert_eq!(Image::load(&dir.path().join("a.png")).unwrap(), img);
+        let img16 = Image::from_fn(3, 2, 1, |x, y, _| (x * 1000 + y * 7) as f32 / 65535.0);
+        img16.save_png16(&dir.path().join("b.png")).unwrap();
+        let back = Image::load(&dir.path().join("b.png")).unwrap();
+        assert!(back.data.iter().zip(&img16.data).all(|(a, b)| (a - b).abs() < 1e-7));
+    }
+
+    #[test]
+    fn area_downscale_averages_blocks() {
+        let img = Image::from_fn(4, 2, 1, |x, _, _| x as f32);
+        let small = img.resize_area(2, 1);
+        assert_eq!(small.data, vec![0.5, 2.5]);
+    }
+}

@@ -1,0 +1,20 @@
+//! Scene types shared by every ObjectSplat stage, and their on-disk encodings.
+//!
+//! Every artifact that crosses a node boundary is a folder in a documented
+//! encoding (see `docs/artifacts.md`); this crate reads and writes the ones that
+//! describe captures: cameras, frames, images, object masks, meshes and components.
+
+pub mod camera;
+pub mod component;
+pub mod frames;
+pub mod geometry;
+pub mod image;
+pub mod masks;
+
+pub use camera::Camera;
+pub use component::{ComponentInfo, ComponentKind};
+pub use frames::{Frame, Frames, Split, SplitPolicy};
+pub use geometry::{Mesh, Points};
+pub use glam;
+pub use image::Image;
+pub use masks::{IdMap, ObjectLabels};
