@@ -1,1 +1,171 @@
-fn main() {}
+//! `objectsplat`: the command-line front end. Parsing, display and exit codes only;
+//! the work happens in `objectsplat-runtime` and the node crates.
+
+mod display;
+
+use anyhow::{Context as _, Result, anyhow};
+use clap::{Parser, Subcommand};
+use objectsplat_runtime::exec::{self, RunOptions};
+use objectsplat_runtime::graph::GraphSource;
+use objectsplat_runtime::plan::{self, Override, Plan};
+use objectsplat_runtime::store::Store;
+use objectsplat_runtime::{Diagnostics, Registry};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::sync::Arc;
+
+#[derive(Parser)]
+#[command(name = "objectsplat", version, about = "Object-decomposed mesh splatting as a cached dataflow graph")]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Run a graph: only what the targets need, reusing cached results.
+    Run {
+        graph: PathBuf,
+        /// Cache folder.
+        #[arg(long, default_value = ".objectsplat-cache")]
+        cache: PathBuf,
+        /// Output folder (default: out/<graph name>/).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// Run only these nodes and their ancestors (repeatable).
+        #[arg(long = "target")]
+        targets: Vec<String>,
+        /// Override a param: NODE.PARAM=VALUE (RON syntax; part of the cache key).
+        #[arg(long = "set")]
+        sets: Vec<String>,
+        /// Load a plugin library (repeatable).
+        #[arg(long = "plugin")]
+        plugins: Vec<PathBuf>,
+        /// Also write the run report as JSON to this file.
+        #[arg(long)]
+        json: Option<PathBuf>,
+        /// Worker threads (default: the number of CPUs).
+        #[arg(short = 'j', long = "jobs")]
+        jobs: Option<usize>,
+    },
+    /// Validate a graph without running it.
+    Check {
+        graph: PathBuf,
+        #[arg(long = "plugin")]
+        plugins: Vec<PathBuf>,
+        #[arg(long = "set")]
+        sets: Vec<String>,
+    },
+    /// Print the graph.
+    Graph {
+        graph: PathBuf,
+        /// Graphviz dot output.
+        #[arg(long)]
+        dot: bool,
+        #[arg(long = "plugin")]
+        plugins: Vec<PathBuf>,
+    },
+    /// Say why a node would (re)run.
+    Explain {
+        graph: PathBuf,
+        node: String,
+        #[arg(long, default_value = ".objectsplat-cache")]
+        cache: PathBuf,
+        #[arg(long = "set")]
+        sets: Vec<String>,
+        #[arg(long = "plugin")]
+        plugins: Vec<PathBuf>,
+    },
+    /// List every node kind with its ports and params (plugins included).
+    Nodes {
+        #[arg(long = "plugin")]
+        plugins: Vec<PathBuf>,
+    },
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match dispatch(cli) {
+        Ok(code) => code,
+        Err(e) => {
+            match e.downcast_ref::<Diagnostics>() {
+                Some(d) => eprintln!("{d}"),
+                None => eprintln!("error: {e:#}"),
+            }
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn registry_with(plugins: &[PathBuf]) -> Result<Registry> {
+    let mut reg = objectsplat_nodes::builtin_registry();
+    for p in plugins {
+        objectsplat_runtime::plugin::load(&mut reg, p).map_err(|e| anyhow!("plugin {}: {e}", p.display()))?;
+    }
+    Ok(reg)
+}
+
+/// Registry with the command line's plugins and the graph's own `plugins: [...]`.
+fn load_plan(graph: &Path, plugins: &[PathBuf], sets: &[String], targets: &[String]) -> Result<Plan> {
+    let source = GraphSource::read(graph)?;
+    let mut libs: Vec<PathBuf> = plugins.to_vec();
+    for (p, _) in plan::declared_plugins(&source)? {
+        if !libs.contains(&p) {
+            libs.push(p);
+        }
+    }
+    let reg = registry_with(&libs)?;
+    let overrides = sets.iter().map(|s| Override::parse(s)).collect::<Result<Vec<_>, _>>().map_err(|d| Diagnostics(vec![d]))?;
+    Ok(plan::build_plan(&source, &reg, &overrides, targets)?)
+}
+
+fn dispatch(cli: Cli) -> Result<ExitCode> {
+    match cli.command {
+        Command::Run { graph, cache, out, targets, sets, plugins, json, jobs } => {
+            let plan = load_plan(&graph, &plugins, &sets, &targets)?;
+            let store = Store::open(&cache)?;
+            let out = out.unwrap_or_else(|| PathBuf::from("out").join(plan.source.name()));
+            let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+            let observer = Arc::new(display::Display::new());
+            let report = exec::run(&plan, &store, &RunOptions { jobs, out_dir: Some(out.clone()), observer: observer.clone() })?;
+            observer.finish();
+            eprint!("{}", report.render_table());
+            if let Some(path) = json {
+                let text = serde_json::to_string_pretty(&report)?;
+                std::fs::write(&path, text).with_context(|| format!("{}: cannot write report", path.display()))?;
+            }
+            if report.ok {
+                eprintln!("outputs in {}", out.display());
+                Ok(ExitCode::SUCCESS)
+            } else {
+                eprintln!("error: {}", report.first_failure().unwrap_or_else(|| "the run failed".into()));
+                Ok(ExitCode::FAILURE)
+            }
+        }
+        Command::Check { graph, plugins, sets } => {
+            let plan = load_plan(&graph, &plugins, &sets, &[])?;
+            println!("{}: ok ({} nodes, targets: {})", graph.display(), plan.nodes.len(), target_names(&plan));
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Graph { graph, dot, plugins } => {
+            let plan = load_plan(&graph, &plugins, &[], &[])?;
+            print!("{}", if dot { display::to_dot(&plan) } else { display::to_text(&plan) });
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Explain { graph, node, cache, sets, plugins } => {
+            let plan = load_plan(&graph, &plugins, &sets, &[])?;
+            let store = Store::open(&cache)?;
+            println!("{}", exec::explain(&plan, &store, &node)?);
+            Ok(ExitCode::SUCCESS)
+        }
+        Command::Nodes { plugins } => {
+            let reg = registry_with(&plugins)?;
+            print!("{}", display::catalogue(&reg));
+            Ok(ExitCode::SUCCESS)
+        }
+    }
+}
+
+fn target_names(plan: &Plan) -> String {
+    plan.targets.iter().map(|&t| plan.nodes[t].id.as_str()).collect::<Vec<_>>().join(", ")
+}

@@ -1,1 +1,23 @@
-//! placeholder while the engine is written
+//! The ObjectSplat dataflow engine. It knows nothing about 3D: nodes are
+//! functions from input folders to output folders; the engine validates graphs,
+//! caches results by content, schedules work in parallel and loads plugins.
+
+pub mod diag;
+pub mod exec;
+pub mod graph;
+pub mod node;
+pub mod params;
+pub mod plan;
+pub mod plugin;
+pub mod registry;
+pub mod report;
+pub mod store;
+pub mod syntax;
+pub mod testing;
+pub mod value;
+
+pub use diag::{Diagnostic, Diagnostics};
+pub use node::{Context, InputValue, Node, NodeSpec, Outcome, PortSpec, ProgressSink, TypeRef};
+pub use params::{ParamSpec, ParamType, Params};
+pub use registry::{Origin, Registry};
+pub use value::Value;

@@ -10,6 +10,8 @@ pub mod frames;
 pub mod geometry;
 pub mod image;
 pub mod masks;
+pub mod mesh_io;
+pub mod ply;
 
 pub use camera::Camera;
 pub use component::{ComponentInfo, ComponentKind};
@@ -18,3 +20,5 @@ pub use geometry::{Mesh, Points};
 pub use glam;
 pub use image::Image;
 pub use masks::{IdMap, ObjectLabels};
+pub use mesh_io::{read_mesh_artifact, write_mesh_artifact};
+pub use ply::Ply;

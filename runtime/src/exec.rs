@@ -1,0 +1,725 @@
+//! The scheduler: runs the ancestors of the targets in dependency order, in
+//! parallel, each node (or fan-out item) at most once, reusing cached results.
+//!
+//! Cache key of a run = blake3(kind, code version, canonical params with input
+//! paths replaced by their content fingerprint, input digests, fan-out item).
+//! Because input digests are themselves derived from upstream keys' outputs, a key
+//! is a Merkle hash of everything upstream; because they are digests of *outputs*,
+//! a rerun that reproduces the same bytes leaves its consumers' keys unchanged
+//! (early cutoff).
+
+use crate::node::{Context, InputValue, Outcome, ProgressSink, TypeRef};
+use crate::plan::Plan;
+use crate::report::{ItemReport, NodeReport, RunReport, Status};
+use crate::store::{ActionRecord, Corrupt, Digest, Manifest, Store, short};
+use anyhow::{Context as _, Result, anyhow};
+use std::collections::BTreeMap;
+use std::panic::{AssertUnwindSafe, catch_unwind};
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+/// Lifecycle events for displays (progress bars, logs).
+pub trait Observer: ProgressSink {
+    fn job_started(&self, _job: &str) {}
+    fn job_finished(&self, _job: &str, _status: Status, _seconds: f64) {}
+    fn warning(&self, _message: &str) {}
+}
+
+pub struct Silent;
+impl ProgressSink for Silent {
+    fn progress(&self, _: &str, _: u64, _: u64, _: &str) {}
+}
+impl Observer for Silent {}
+
+pub struct RunOptions {
+    pub jobs: usize,
+    /// Where to materialize targets' outputs (`OUT/<node>/<port>/`); `None` = don't.
+    pub out_dir: Option<PathBuf>,
+    pub observer: Arc<dyn Observer>,
+}
+
+/// What one job (a node, or one item of a fanned-out node) needs.
+struct Job {
+    node: usize,
+    item: Option<(String, Digest)>,
+    key: String,
+    params_key: String,
+    inputs: BTreeMap<String, Digest>,
+    label: String,
+}
+
+struct JobOutcome {
+    node: usize,
+    item: Option<String>,
+    result: Result<ActionRecord, JobError>,
+    status: Status,
+    seconds: f64,
+    warnings: Vec<String>,
+}
+
+enum JobError {
+    Failed(String),
+    Corrupt(String),
+}
+
+#[derive(Default)]
+struct NodeState {
+    outputs: Option<BTreeMap<String, Digest>>,
+    status: Option<Status>,
+    reason: Option<String>,
+    started: Option<Instant>,
+    seconds: f64,
+    pending: usize,
+    items: Vec<(String, Option<ActionRecord>, ItemReport)>,
+    notes: BTreeMap<String, String>,
+    warnings: Vec<String>,
+    keys: BTreeMap<String, String>,
+    record: Option<ActionRecord>,
+    corrupt: bool,
+}
+
+pub fn run(plan: &Plan, store: &Store, opts: &RunOptions) -> Result<RunReport> {
+    let start = Instant::now();
+    let mut warnings = Vec::new();
+    // A corrupt cache entry found mid-run is deleted; the next pass recomputes it.
+    for _pass in 0..4 {
+        let (mut report, corrupt) = run_pass(plan, store, opts, &mut warnings)?;
+        if corrupt {
+            continue;
+        }
+        if report.ok && let Some(out) = &opts.out_dir {
+            match materialize_targets(plan, store, &report, out) {
+                Ok(()) => report.out = Some(out.display().to_string()),
+                Err(e) if e.downcast_ref::<Corrupt>().is_some() => {
+                    let msg = format!("warning: {e:#}; recomputing");
+                    opts.observer.warning(&msg);
+                    warnings.push(msg);
+                    continue;
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        report.seconds = start.elapsed().as_secs_f64();
+        report.warnings = warnings;
+        return Ok(report);
+    }
+    Err(anyhow!("the cache keeps returning corrupt entries; delete {} and run again", store.root().display()))
+}
+
+fn params_key(plan: &Plan, i: usize) -> Result<String> {
+    let n = &plan.nodes[i];
+    let mut params = n.params.clone();
+    for (name, path) in &n.input_paths {
+        let fp = Store::fingerprint(path).with_context(|| format!("node `{}` param `{name}`", n.id))?;
+        params.values.insert(name.clone(), crate::Value::Str(fp));
+    }
+    Ok(params.canonical())
+}
+
+fn compute_key(kind: &str, version: &str, params: &str, inputs: &BTreeMap<String, Digest>, item: Option<&(String, Digest)>) -> String {
+    let mut h = blake3::Hasher::new();
+    h.update(b"objectsplat-key-v1\0");
+    for part in [kind, version, params] {
+        h.update(part.as_bytes());
+        h.update(b"\0");
+    }
+    for (port, d) in inputs {
+        h.update(format!("{port}={d}\0").as_bytes());
+    }
+    if let Some((name, d)) = item {
+        h.update(format!("item:{name}={d}\0").as_bytes());
+    }
+    h.finalize().to_hex().to_string()
+}
+
+fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<String>) -> Result<(RunReport, bool)> {
+    let needed = plan.needed();
+    let mut state: BTreeMap<usize, NodeState> = needed.iter().map(|&i| (i, NodeState::default())).collect();
+    let jobs = opts.jobs.max(1);
+    let active = AtomicUsize::new(0);
+    let cancel = AtomicBool::new(false);
+    let mut corrupt_seen = false;
+    let mut pkeys: BTreeMap<usize, Result<String, String>> = BTreeMap::new();
+    let warn_lock = Mutex::new(Vec::<String>::new());
+
+    crossbeam::scope(|s| -> Result<()> {
+        let (job_tx, job_rx) = crossbeam::channel::unbounded::<Job>();
+        let (res_tx, res_rx) = crossbeam::channel::unbounded::<JobOutcome>();
+        for _ in 0..jobs {
+            let job_rx = job_rx.clone();
+            let res_tx = res_tx.clone();
+            let (active, cancel) = (&active, &cancel);
+            s.spawn(move |_| {
+                for job in job_rx {
+                    let out = execute(plan, store, opts, job, active, jobs, cancel);
+                    if res_tx.send(out).is_err() {
+                        break;
+                    }
+                }
+            });
+        }
+        drop(res_tx);
+        let mut in_flight = 0usize;
+        let mut dispatched: Vec<bool> = vec![false; plan.nodes.len()];
+        loop {
+            // Dispatch every node whose inputs are settled.
+            for &i in &needed {
+                if dispatched[i] {
+                    continue;
+                }
+                let node = &plan.nodes[i];
+                if !node.inputs.iter().all(|inp| state[&inp.from].status.is_some()) {
+                    continue;
+                }
+                dispatched[i] = true;
+                let st = state.get_mut(&i).expect("needed nodes have state");
+                st.started = Some(Instant::now());
+                // Upstream failures and skips propagate.
+                let mut blocked = None;
+                let mut inputs = BTreeMap::new();
+                for inp in &node.inputs {
+                    let up = &state[&inp.from];
+                    match (up.status, up.outputs.as_ref().and_then(|o| o.get(&inp.from_port))) {
+                        (Some(Status::Failed), _) => {
+                            blocked = Some((Status::Failed, format!("upstream `{}` failed", plan.nodes[inp.from].id)));
+                            break;
+                        }
+                        (_, Some(d)) => {
+                            inputs.insert(inp.port.clone(), d.clone());
+                        }
+                        (_, None) => {
+                            let why = up.reason.clone().unwrap_or_default();
+                            blocked = Some((
+                                Status::Skipped,
+                                format!("upstream `{}` skipped ({why}), so `{}` has no value", plan.nodes[inp.from].id, inp.from_port),
+                            ));
+                            break;
+                        }
+                    }
+                }
+                let st = state.get_mut(&i).expect("needed nodes have state");
+                if let Some((status, reason)) = blocked {
+                    st.status = Some(status);
+                    st.reason = Some(reason);
+                    continue;
+                }
+                let pk = pkeys.entry(i).or_insert_with(|| params_key(plan, i).map_err(|e| format!("{e:#}")));
+                let pk = match pk {
+                    Ok(k) => k.clone(),
+                    Err(e) => {
+                        st.status = Some(Status::Failed);
+                        st.reason = Some(e.clone());
+                        continue;
+                    }
+                };
+                // Fan-out: one job per item of the `each` input.
+                let each = node.inputs.iter().find(|x| x.each);
+                let items: Vec<Option<(String, Digest)>> = match each {
+                    None => vec![None],
+                    Some(e) => {
+                        let d = inputs.remove(&e.port).expect("each input resolved above");
+                        match store.manifest(&d) {
+                            Ok(Some(Manifest::Collection { items, .. })) => items.into_iter().map(Some).collect(),
+                            Ok(_) => {
+                                st.status = Some(Status::Failed);
+                                st.reason = Some(format!("input `{}` is not a collection in the cache", e.port));
+                                continue;
+                            }
+                            Err(c) => {
+                                let msg = format!("warning: {c}; recomputing");
+                                opts.observer.warning(&msg);
+                                warnings.push(msg);
+                                corrupt_seen = true;
+                                st.status = Some(Status::Failed);
+                                st.reason = Some("corrupt cache entry (recomputed next pass)".into());
+                                continue;
+                            }
+                        }
+                    }
+                };
+                let (kind, version) = (&node.reg.spec.kind, &node.reg.spec.version);
+                for item in items {
+                    let key = compute_key(kind, version, &pk, &inputs, item.as_ref());
+                    let item_name = item.as_ref().map(|(n, _)| n.clone());
+                    st.keys.insert(item_name.clone().unwrap_or_default(), key.clone());
+                    let label = match &item_name {
+                        Some(n) => format!("{}[{n}]", node.id),
+                        None => node.id.clone(),
+                    };
+                    match cached(store, &key) {
+                        Ok(Some(rec)) => {
+                            record_item(st, item_name, Ok(rec), Status::Cached, 0.0, vec![]);
+                        }
+                        Ok(None) => {
+                            let mut job_inputs = inputs.clone();
+                            if let (Some(e), Some((_, d))) = (each, &item) {
+                                job_inputs.insert(e.port.clone(), d.clone());
+                            }
+                            st.pending += 1;
+                            in_flight += 1;
+                            job_tx
+                                .send(Job { node: i, item: item.clone(), key, params_key: pk.clone(), inputs: job_inputs, label })
+                                .map_err(|_| anyhow!("worker threads stopped"))?;
+                        }
+                        Err(c) => {
+                            let msg = format!("warning: {c}; recomputing");
+                            opts.observer.warning(&msg);
+                            warnings.push(msg);
+                            let mut job_inputs = inputs.clone();
+                            if let (Some(e), Some((_, d))) = (each, &item) {
+                                job_inputs.insert(e.port.clone(), d.clone());
+                            }
+                            st.pending += 1;
+                            in_flight += 1;
+                            job_tx
+                                .send(Job { node: i, item: item.clone(), key, params_key: pk.clone(), inputs: job_inputs, label })
+                                .map_err(|_| anyhow!("worker threads stopped"))?;
+                        }
+                    }
+                }
+                if st.pending == 0 {
+                    finish_node(plan, store, i, st, each.is_some());
+                }
+            }
+            if in_flight == 0 {
+                break;
+            }
+            let out = res_rx.recv().map_err(|_| anyhow!("worker threads stopped"))?;
+            in_flight -= 1;
+            let st = state.get_mut(&out.node).expect("jobs belong to needed nodes");
+            st.pending -= 1;
+            if let Err(JobError::Corrupt(_)) = &out.result {
+                corrupt_seen = true;
+                st.corrupt = true;
+            }
+            for w in &out.warnings {
+                opts.observer.warning(w);
+                if let Ok(mut v) = warn_lock.lock() {
+                    v.push(w.clone());
+                }
+            }
+            let result = out.result.map_err(|e| match e {
+                JobError::Failed(m) | JobError::Corrupt(m) => m,
+            });
+            record_item(st, out.item, result, out.status, out.seconds, out.warnings);
+            if st.pending == 0 {
+                let fans = plan.nodes[out.node].fans_out;
+                finish_node(plan, store, out.node, st, fans);
+            }
+        }
+        drop(job_tx);
+        Ok(())
+    })
+    .map_err(|_| anyhow!("a scheduler thread panicked"))??;
+
+    warnings.extend(warn_lock.into_inner().unwrap_or_default());
+    for &i in &needed {
+        let st = &state[&i];
+        if st.status == Some(Status::Ran) || st.status == Some(Status::Cached) || st.status == Some(Status::Skipped) {
+            let _ = store.set_head(&plan.source.path, &plan.nodes[i].id, &st.keys);
+        }
+    }
+    let nodes: Vec<NodeReport> = needed
+        .iter()
+        .map(|&i| {
+            let st = state.remove(&i).expect("state exists for needed nodes");
+            let n = &plan.nodes[i];
+            NodeReport {
+                id: n.id.clone(),
+                kind: n.kind.clone(),
+                status: st.status.unwrap_or(Status::Failed),
+                seconds: st.seconds,
+                reason: st.reason,
+                items: st.items.into_iter().map(|(_, _, r)| r).collect(),
+                notes: st.notes,
+                warnings: st.warnings,
+                outputs: st.outputs.unwrap_or_default(),
+            }
+        })
+        .collect();
+    let ok = nodes.iter().all(|n| n.status != Status::Failed);
+    Ok((
+        RunReport {
+            graph: plan.source.path.display().to_string(),
+            ok,
+            seconds: 0.0,
+            jobs,
+            nodes,
+            warnings: vec![],
+            out: None,
+        },
+        corrupt_seen,
+    ))
+}
+
+/// A cache hit: a record for the key whose outputs are all present.
+fn cached(store: &Store, key: &str) -> Result<Option<ActionRecord>, Corrupt> {
+    match store.action(key)? {
+        Some(rec) if rec.outputs.values().all(|d| store.has_artifact(d)) => Ok(Some(rec)),
+        _ => Ok(None),
+    }
+}
+
+fn record_item(
+    st: &mut NodeState,
+    item: Option<String>,
+    result: Result<ActionRecord, String>,
+    status: Status,
+    seconds: f64,
+    warnings: Vec<String>,
+) {
+    st.warnings.extend(warnings);
+    let (rec, status, reason) = match result {
+        Ok(rec) => {
+            let status = if rec.status == "skipped" && status == Status::Ran { Status::Skipped } else { status };
+            let reason = match (status, &rec.reason) {
+                (Status::Cached, Some(r)) if rec.status == "skipped" => Some(format!("skipped: {r}")),
+                (_, r) => r.clone(),
+            };
+            for (k, v) in &rec.notes {
+                st.notes.insert(k.clone(), v.clone());
+            }
+            (Some(rec), status, reason)
+        }
+        Err(msg) => (None, Status::Failed, Some(msg)),
+    };
+    match item {
+        Some(name) => {
+            st.items.push((name.clone(), rec, ItemReport { name, status, seconds, reason }));
+        }
+        None => {
+            st.status = Some(status);
+            st.reason = reason;
+            st.record = rec;
+        }
+    }
+}
+
+fn finish_node(plan: &Plan, store: &Store, i: usize, st: &mut NodeState, fans_out: bool) {
+    st.seconds = st.started.map_or(0.0, |t| t.elapsed().as_secs_f64());
+    if st.corrupt {
+        st.status = Some(Status::Failed);
+        st.reason = Some("corrupt cache entry (recomputed next pass)".into());
+        return;
+    }
+    if !fans_out {
+        if let Some(rec) = &st.record {
+            st.outputs = Some(rec.outputs.clone());
+        }
+        return;
+    }
+    // Assemble collection outputs from the items, in input order.
+    let node = &plan.nodes[i];
+    let failed: Vec<&str> = st.items.iter().filter(|(_, _, r)| r.status == Status::Failed).map(|(n, _, _)| n.as_str()).collect();
+    if !failed.is_empty() {
+        st.status = Some(Status::Failed);
+        let first = st.items.iter().find(|(_, _, r)| r.status == Status::Failed).and_then(|(_, _, r)| r.reason.clone());
+        st.reason = Some(format!("{} of {} items failed ({}): {}", failed.len(), st.items.len(), failed.join(", "), first.unwrap_or_default()));
+        return;
+    }
+    let mut outputs = BTreeMap::new();
+    for (port, ty) in &node.outputs {
+        let items: Vec<(String, Digest)> = st
+            .items
+            .iter()
+            .filter_map(|(name, rec, _)| rec.as_ref().and_then(|r| r.outputs.get(port)).map(|d| (name.clone(), d.clone())))
+            .collect();
+        match store.put_manifest(&Manifest::Collection { ty: ty.element().to_string(), items }) {
+            Ok(d) => {
+                outputs.insert(port.clone(), d);
+            }
+            Err(e) => {
+                st.status = Some(Status::Failed);
+                st.reason = Some(format!("cannot record outputs: {e:#}"));
+                return;
+            }
+        }
+    }
+    st.outputs = Some(outputs);
+    let all = |s: Status| st.items.iter().all(|(_, _, r)| r.status == s);
+    st.status = Some(if st.items.is_empty() || all(Status::Cached) {
+        Status::Cached
+    } else if all(Status::Skipped) {
+        Status::Skipped
+    } else {
+        Status::Ran
+    });
+    let skipped = st.items.iter().filter(|(_, _, r)| r.status == Status::Skipped).count();
+    if skipped > 0 && st.status != Some(Status::Skipped) {
+        st.reason = Some(format!("{skipped} of {} items skipped", st.items.len()));
+    } else if st.status == Some(Status::Skipped) {
+        st.reason = st.items.first().and_then(|(_, _, r)| r.reason.clone());
+    }
+}
+
+fn execute(plan: &Plan, store: &Store, opts: &RunOptions, job: Job, active: &AtomicUsize, jobs: usize, cancel: &AtomicBool) -> JobOutcome {
+    let t0 = Instant::now();
+    opts.observer.job_started(&job.label);
+    let running = active.fetch_add(1, Ordering::SeqCst) + 1;
+    let threads = (jobs / running).max(1);
+    let mut warnings = Vec::new();
+    let result = execute_inner(plan, store, opts, &job, threads, cancel, &mut warnings);
+    active.fetch_sub(1, Ordering::SeqCst);
+    let seconds = t0.elapsed().as_secs_f64();
+    let (result, status) = match result {
+        Ok((rec, hit)) => {
+            let status = if hit { Status::Cached } else if rec.status == "skipped" { Status::Skipped } else { Status::Ran };
+            (Ok(rec), status)
+        }
+        Err(e) => {
+            let status = Status::Failed;
+            if let Some(c) = e.downcast_ref::<Corrupt>() {
+                warnings.push(format!("warning: {c}; recomputing"));
+                (Err(JobError::Corrupt(c.to_string())), status)
+            } else {
+                (Err(JobError::Failed(format!("{e:#}"))), status)
+            }
+        }
+    };
+    opts.observer.job_finished(&job.label, status, seconds);
+    JobOutcome { node: job.node, item: job.item.map(|(n, _)| n), result, status, seconds, warnings }
+}
+
+fn execute_inner(
+    plan: &Plan,
+    store: &Store,
+    opts: &RunOptions,
+    job: &Job,
+    threads: usize,
+    cancel: &AtomicBool,
+    warnings: &mut Vec<String>,
+) -> Result<(ActionRecord, bool)> {
+    let node = &plan.nodes[job.node];
+    let spec = &node.reg.spec;
+    // Another process may be computing the same key: wait for it, then reuse.
+    let _lock = store.lock_key(&job.key)?;
+    if let Ok(Some(rec)) = cached(store, &job.key) {
+        return Ok((rec, true));
+    }
+    let stage = store.staging(&job.label)?;
+    let result = (|| {
+        let mut inputs = BTreeMap::new();
+        for (port, digest) in &job.inputs {
+            let dir = stage.join("in").join(port);
+            let items = store.materialize(digest, &dir, false)?;
+            let v = match items {
+                Some(items) => InputValue::Items { dir, items },
+                None => InputValue::One(dir),
+            };
+            inputs.insert(port.clone(), v);
+        }
+        let mut outputs = BTreeMap::new();
+        for o in &spec.outputs {
+            let d = stage.join("out").join(&o.name);
+            std::fs::create_dir_all(&d)?;
+            outputs.insert(o.name.clone(), d);
+        }
+        let scratch = stage.join("scratch");
+        std::fs::create_dir_all(&scratch)?;
+        let mut ctx = Context {
+            job: job.label.clone(),
+            item: job.item.as_ref().map(|(n, _)| n.clone()),
+            inputs,
+            outputs: outputs.clone(),
+            forwarded: BTreeMap::new(),
+            params: &node.params,
+            notes: vec![],
+            warnings: vec![],
+            threads,
+            scratch,
+            progress: opts.observer.as_ref(),
+            cancel,
+        };
+        let t0 = Instant::now();
+        let outcome = catch_unwind(AssertUnwindSafe(|| node.reg.node.run(&mut ctx))).unwrap_or_else(|p| {
+            let msg = p
+                .downcast_ref::<String>()
+                .cloned()
+                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                .unwrap_or_else(|| "unknown panic".into());
+            Err(anyhow!("node panicked: {msg}"))
+        })?;
+        let seconds = t0.elapsed().as_secs_f64();
+        warnings.extend(ctx.warnings.iter().map(|w| format!("{}: {w}", job.label)));
+        let mut out_digests = BTreeMap::new();
+        for o in &spec.outputs {
+            if let Some(inp) = ctx.forwarded.get(&o.name) {
+                let d = job.inputs.get(inp).ok_or_else(|| anyhow!("forwarded input `{inp}` has no value"))?;
+                out_digests.insert(o.name.clone(), d.clone());
+                continue;
+            }
+            if matches!(outcome, Outcome::Skipped(_)) {
+                continue;
+            }
+            let dir = &outputs[&o.name];
+            let digest = match &o.ty {
+                TypeRef::One(t) => store.ingest_folder(t, dir)?,
+                TypeRef::List(t) => {
+                    let mut names: Vec<String> = Vec::new();
+                    for e in std::fs::read_dir(dir)? {
+                        let e = e?;
+                        if !e.file_type()?.is_dir() {
+                            anyhow::bail!(
+                                "output `{}` is a collection: expected one sub-folder per item, found file {:?}",
+                                o.name,
+                                e.file_name()
+                            );
+                        }
+                        names.push(e.file_name().to_string_lossy().into_owned());
+                    }
+                    names.sort();
+                    let mut items = Vec::new();
+                    for n in names {
+                        items.push((n.clone(), store.ingest_folder(t, &dir.join(&n))?));
+                    }
+                    store.put_manifest(&Manifest::Collection { ty: t.clone(), items })?
+                }
+            };
+            out_digests.insert(o.name.clone(), digest);
+        }
+        let (status, reason) = match outcome {
+            Outcome::Done => ("ran", None),
+            Outcome::Skipped(r) => ("skipped", Some(r)),
+        };
+        let rec = ActionRecord {
+            key: job.key.clone(),
+            node: node.id.clone(),
+            kind: spec.kind.clone(),
+            version: spec.version.clone(),
+            item: job.item.as_ref().map(|(n, _)| n.clone()),
+            params: job.params_key.clone(),
+            inputs: job.inputs.clone(),
+            outputs: out_digests,
+            status: status.into(),
+            reason,
+            seconds,
+            notes: ctx.notes,
+        };
+        store.put_action(&rec)?;
+        Ok((rec, false))
+    })();
+    let _ = std::fs::remove_dir_all(&stage);
+    result
+}
+
+fn materialize_targets(plan: &Plan, store: &Store, report: &RunReport, out: &Path) -> Result<()> {
+    for &t in &plan.targets {
+        let id = &plan.nodes[t].id;
+        let Some(n) = report.node(id) else { continue };
+        for (port, digest) in &n.outputs {
+            let dest = out.join(id).join(port);
+            if dest.exists() {
+                std::fs::remove_dir_all(&dest).with_context(|| format!("{}: cannot replace", dest.display()))?;
+            }
+            store.materialize(digest, &dest, true).map_err(|e| {
+                if e.downcast_ref::<Corrupt>().is_some() {
+                    store.forget_artifact(digest);
+                }
+                e
+            })?;
+        }
+    }
+    Ok(())
+}
+
+/// Why each needed node would (re)run, without running anything.
+pub fn explain(plan: &Plan, store: &Store, target: &str) -> Result<String> {
+    let t = plan.index(target).ok_or_else(|| anyhow!("no node `{target}` in {}", plan.source.path.display()))?;
+    let mut sub = plan.clone();
+    sub.targets = vec![t];
+    let mut known: BTreeMap<usize, Option<BTreeMap<String, Digest>>> = BTreeMap::new();
+    let mut lines = Vec::new();
+    for i in sub.needed() {
+        let node = &plan.nodes[i];
+        let mut inputs = BTreeMap::new();
+        let mut unknown_up = None;
+        for inp in &node.inputs {
+            match known.get(&inp.from).cloned().flatten().and_then(|o| o.get(&inp.from_port).cloned()) {
+                Some(d) => {
+                    inputs.insert(inp.port.clone(), d);
+                }
+                None => unknown_up = Some(plan.nodes[inp.from].id.clone()),
+            }
+        }
+        if let Some(up) = unknown_up {
+            lines.push(format!("{}: will run if `{up}` produces new outputs (its inputs are not cached yet)", node.id));
+            known.insert(i, None);
+            continue;
+        }
+        let pk = params_key(plan, i)?;
+        let spec = &node.reg.spec;
+        let each = node.inputs.iter().find(|x| x.each);
+        let items: Vec<Option<(String, Digest)>> = match each {
+            None => vec![None],
+            Some(e) => match store.manifest(&inputs.remove(&e.port).unwrap_or_default()).ok().flatten() {
+                Some(Manifest::Collection { items, .. }) => items.into_iter().map(Some).collect(),
+                _ => vec![],
+            },
+        };
+        let head = store.head(&plan.source.path, &node.id).unwrap_or_default();
+        let mut hits = 0;
+        let mut reasons = Vec::new();
+        let mut outputs: Option<BTreeMap<String, Vec<(String, Digest)>>> = Some(BTreeMap::new());
+        for item in &items {
+            let key = compute_key(&spec.kind, &spec.version, &pk, &inputs, item.as_ref());
+            let name = item.as_ref().map(|(n, _)| n.clone()).unwrap_or_default();
+            match cached(store, &key).ok().flatten() {
+                Some(rec) => {
+                    hits += 1;
+                    if let Some(o) = outputs.as_mut() {
+                        for (p, d) in rec.outputs {
+                            o.entry(p).or_default().push((name.clone(), d));
+                        }
+                    }
+                }
+                None => {
+                    outputs = None;
+                    let why = match head.get(&name).and_then(|k| store.action(k).ok().flatten()) {
+                        None => "it has never run with this graph".to_string(),
+                        Some(prev) => diff_reason(&prev, spec, &pk, &inputs),
+                    };
+                    reasons.push(if name.is_empty() { why } else { format!("item `{name}`: {why}") });
+                }
+            }
+        }
+        if reasons.is_empty() {
+            lines.push(format!("{}: cached ({} run{})", node.id, hits.max(1), if hits == 1 { "" } else { "s" }));
+            let outs = outputs.unwrap_or_default();
+            let resolved: BTreeMap<String, Digest> = if each.is_some() {
+                outs.into_iter()
+                    .filter_map(|(p, items)| {
+                        let ty = node.outputs.get(&p)?.element().to_string();
+                        store.put_manifest(&Manifest::Collection { ty, items }).ok().map(|d| (p, d))
+                    })
+                    .collect()
+            } else {
+                outs.into_iter().filter_map(|(p, mut v)| v.pop().map(|(_, d)| (p, d))).collect()
+            };
+            known.insert(i, Some(resolved));
+        } else {
+            lines.push(format!("{}: will run — {}", node.id, reasons.join("; ")));
+            known.insert(i, None);
+        }
+    }
+    Ok(lines.join("\n"))
+}
+
+fn diff_reason(prev: &ActionRecord, spec: &crate::NodeSpec, params: &str, inputs: &BTreeMap<String, Digest>) -> String {
+    let mut why = Vec::new();
+    if prev.version != spec.version {
+        why.push(format!("code version changed ({} → {})", prev.version, spec.version));
+    }
+    if prev.params != params {
+        why.push(format!("params changed (was {}, now {})", prev.params, params));
+    }
+    for (port, d) in inputs {
+        match prev.inputs.get(port) {
+            Some(p) if p == d => {}
+            Some(p) => why.push(format!("input `{port}` changed ({} → {})", short(p), short(d))),
+            None => why.push(format!("input `{port}` is new")),
+        }
+    }
+    if why.is_empty() { "its cached outputs are missing or were corrupt".into() } else { why.join(", ") }
+}

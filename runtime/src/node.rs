@@ -1,0 +1,271 @@
+//! What a node is to the engine: a declared interface (`NodeSpec`) and a `run`
+//! function that reads input folders and writes output folders through a `Context`.
+//!
+//! The engine knows artifact types only by name; every artifact is a folder in the
+//! documented encoding of its type (see docs/artifacts.md).
+
+use crate::params::{ParamSpec, ParamType, Params};
+use anyhow::{Result, anyhow, bail};
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// A port's type: one artifact, or a collection of named items (`[T]`).
+#[derive(Debug, Clone, PartialEq, Eq, Hash)]
+pub enum TypeRef {
+    One(String),
+    List(String),
+}
+
+impl TypeRef {
+    pub fn parse(text: &str) -> Result<TypeRef, String> {
+        let t = text.trim();
+        let valid = |n: &str| !n.is_empty() && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+        if let Some(inner) = t.strip_prefix('[').and_then(|r| r.strip_suffix(']')) {
+            if valid(inner) {
+                return Ok(TypeRef::List(inner.to_string()));
+            }
+        } else if valid(t) {
+            return Ok(TypeRef::One(t.to_string()));
+        }
+        Err(format!("`{t}` is not a type; expected a name like Image or a collection like [Component]"))
+    }
+
+    pub fn element(&self) -> &str {
+        match self {
+            TypeRef::One(n) | TypeRef::List(n) => n,
+        }
+    }
+
+    pub fn is_list(&self) -> bool {
+        matches!(self, TypeRef::List(_))
+    }
+}
+
+impl fmt::Display for TypeRef {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            TypeRef::One(n) => write!(f, "{n}"),
+            TypeRef::List(n) => write!(f, "[{n}]"),
+        }
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct PortSpec {
+    pub name: String,
+    pub ty: TypeRef,
+    pub optional: bool,
+    pub doc: String,
+}
+
+/// The declared interface of a node kind.
+#[derive(Debug, Clone)]
+pub struct NodeSpec {
+    pub kind: String,
+    /// Bump when the node's output for the same inputs changes: it is part of every cache key.
+    pub version: String,
+    pub doc: String,
+    pub inputs: Vec<PortSpec>,
+    pub outputs: Vec<PortSpec>,
+    pub params: Vec<ParamSpec>,
+}
+
+impl NodeSpec {
+    pub fn new(kind: &str, version: &str) -> NodeSpec {
+        NodeSpec {
+            kind: kind.into(),
+            version: version.into(),
+            doc: String::new(),
+            inputs: vec![],
+            outputs: vec![],
+            params: vec![],
+        }
+    }
+
+    pub fn doc(mut self, doc: &str) -> Self {
+        self.doc = doc.into();
+        self
+    }
+
+    fn port(name: &str, ty: &str, optional: bool, doc: &str) -> PortSpec {
+        // Built-in specs are written by us; a typo in a type is a programming error
+        // caught by the registry tests, so fall back to a name the registry rejects.
+        let ty = TypeRef::parse(ty).unwrap_or_else(|_| TypeRef::One(format!("invalid type `{ty}`")));
+        PortSpec { name: name.into(), ty, optional, doc: doc.into() }
+    }
+
+    pub fn input(mut self, name: &str, ty: &str, doc: &str) -> Self {
+        self.inputs.push(Self::port(name, ty, false, doc));
+        self
+    }
+
+    pub fn optional_input(mut self, name: &str, ty: &str, doc: &str) -> Self {
+        self.inputs.push(Self::port(name, ty, true, doc));
+        self
+    }
+
+    pub fn output(mut self, name: &str, ty: &str, doc: &str) -> Self {
+        self.outputs.push(Self::port(name, ty, false, doc));
+        self
+    }
+
+    /// A parameter with a default given as RON text (`None` = required).
+    pub fn param(mut self, name: &str, ty: ParamType, default: Option<&str>, doc: &str) -> Self {
+        self.params.push(ParamSpec { name: name.into(), ty, default: default.map(str::to_string), doc: doc.into() });
+        self
+    }
+
+    pub fn input_port(&self, name: &str) -> Option<&PortSpec> {
+        self.inputs.iter().find(|p| p.name == name)
+    }
+
+    pub fn output_port(&self, name: &str) -> Option<&PortSpec> {
+        self.outputs.iter().find(|p| p.name == name)
+    }
+
+    pub fn param_spec(&self, name: &str) -> Option<&ParamSpec> {
+        self.params.iter().find(|p| p.name == name)
+    }
+}
+
+/// How a run ended when it did not fail.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Outcome {
+    Done,
+    /// Nothing to do; outputs not written (or forwarded from inputs) — the reason is reported.
+    Skipped(String),
+}
+
+/// A node kind. Implementations must be deterministic: the same inputs and params
+/// must give byte-identical outputs (that is what makes early cutoff work).
+pub trait Node: Send + Sync {
+    fn spec(&self) -> NodeSpec;
+    fn run(&self, ctx: &mut Context) -> Result<Outcome>;
+}
+
+/// An input as the node sees it.
+#[derive(Debug, Clone)]
+pub enum InputValue {
+    /// One artifact: its folder.
+    One(PathBuf),
+    /// A collection: a folder with one sub-folder per item, plus the items in order.
+    Items { dir: PathBuf, items: Vec<(String, PathBuf)> },
+}
+
+/// Receives progress from running nodes (the CLI draws bars from it).
+pub trait ProgressSink: Send + Sync {
+    fn progress(&self, job: &str, done: u64, total: u64, message: &str);
+}
+
+pub struct NoProgress;
+impl ProgressSink for NoProgress {
+    fn progress(&self, _: &str, _: u64, _: u64, _: &str) {}
+}
+
+/// Everything a running node may touch. Nodes write only into their output folders
+/// and their scratch folder; both live inside the cache's staging area.
+pub struct Context<'a> {
+    pub(crate) job: String,
+    pub(crate) item: Option<String>,
+    pub(crate) inputs: BTreeMap<String, InputValue>,
+    pub(crate) outputs: BTreeMap<String, PathBuf>,
+    pub(crate) forwarded: BTreeMap<String, String>,
+    pub(crate) params: &'a Params,
+    pub(crate) notes: Vec<(String, String)>,
+    pub(crate) warnings: Vec<String>,
+    pub(crate) threads: usize,
+    pub(crate) scratch: PathBuf,
+    pub(crate) progress: &'a dyn ProgressSink,
+    pub(crate) cancel: &'a AtomicBool,
+}
+
+impl<'a> Context<'a> {
+    /// The folder of a single-artifact input (or of the item, under fan-out).
+    pub fn input(&self, port: &str) -> Result<&Path> {
+        match self.inputs.get(port) {
+            Some(InputValue::One(p)) => Ok(p),
+            Some(InputValue::Items { .. }) => bail!("input `{port}` is a collection; use input_items"),
+            None => bail!("input `{port}` is not connected"),
+        }
+    }
+
+    /// `None` when an optional input is not wired.
+    pub fn input_opt(&self, port: &str) -> Option<&Path> {
+        match self.inputs.get(port) {
+            Some(InputValue::One(p)) => Some(p),
+            Some(InputValue::Items { dir, .. }) => Some(dir),
+            None => None,
+        }
+    }
+
+    /// The items of a collection input, in order: (item name, folder).
+    pub fn input_items(&self, port: &str) -> Result<&[(String, PathBuf)]> {
+        match self.inputs.get(port) {
+            Some(InputValue::Items { items, .. }) => Ok(items),
+            Some(InputValue::One(_)) => bail!("input `{port}` is a single artifact; use input"),
+            None => bail!("input `{port}` is not connected"),
+        }
+    }
+
+    /// The empty folder to write an output into. For a collection output (`[T]`),
+    /// write one sub-folder per item, named by the item.
+    pub fn output(&self, port: &str) -> Result<PathBuf> {
+        self.outputs.get(port).cloned().ok_or_else(|| anyhow!("node has no output `{port}`"))
+    }
+
+    /// Makes an output the very same artifact as an input (no copy), e.g. when a
+    /// node passes data through unchanged.
+    pub fn forward(&mut self, input: &str, output: &str) -> Result<()> {
+        if !self.inputs.contains_key(input) {
+            bail!("cannot forward: input `{input}` is not connected");
+        }
+        if !self.outputs.contains_key(output) {
+            bail!("cannot forward: no output `{output}`");
+        }
+        self.forwarded.insert(output.to_string(), input.to_string());
+        Ok(())
+    }
+
+    pub fn params(&self) -> &Params {
+        self.params
+    }
+
+    pub fn param<T: serde::de::DeserializeOwned>(&self, name: &str) -> Result<T> {
+        self.params.get(name)
+    }
+
+    /// The item name when the node runs once per item of a fanned-out input.
+    pub fn item(&self) -> Option<&str> {
+        self.item.as_deref()
+    }
+
+    /// Worker threads this run may use.
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// A private scratch folder, deleted after the run.
+    pub fn scratch(&self) -> &Path {
+        &self.scratch
+    }
+
+    /// A fact for the run report (e.g. `backend` = `cpu (no GPU adapter)`).
+    pub fn note(&mut self, key: &str, value: impl fmt::Display) {
+        self.notes.push((key.to_string(), value.to_string()));
+    }
+
+    pub fn warn(&mut self, message: impl fmt::Display) {
+        self.warnings.push(message.to_string());
+    }
+
+    pub fn progress(&self, done: u64, total: u64, message: &str) {
+        self.progress.progress(&self.job, done, total, message);
+    }
+
+    /// True once the run was interrupted; long loops should return early with an error.
+    pub fn cancelled(&self) -> bool {
+        self.cancel.load(Ordering::Relaxed)
+    }
+}

@@ -1,0 +1,455 @@
+//! Validation: graph declarations + registry → an executable plan (a checked DAG).
+
+use crate::diag::{Diagnostic, Diagnostics, did_you_mean, similar};
+use crate::graph::{GraphDecl, GraphSource, NodeDecl, parse_graph};
+use crate::node::TypeRef;
+use crate::params::{ParamType, Params};
+use crate::registry::{Registered, Registry};
+use crate::syntax::{self, Span};
+use crate::value::Value;
+use petgraph::algo::toposort;
+use petgraph::graph::{DiGraph, NodeIndex};
+use std::collections::{BTreeMap, HashMap};
+use std::path::PathBuf;
+
+/// `--set NODE.PARAM=VALUE`, parsed.
+#[derive(Debug, Clone)]
+pub struct Override {
+    pub node: String,
+    pub param: String,
+    pub value: Value,
+    pub text: String,
+}
+
+impl Override {
+    pub fn parse(arg: &str) -> Result<Override, Diagnostic> {
+        let text = format!("--set {arg}");
+        let (lhs, rhs) = arg
+            .split_once('=')
+            .ok_or_else(|| Diagnostic::argument(&text, "expected NODE.PARAM=VALUE"))?;
+        let (node, param) = lhs
+            .split_once('.')
+            .filter(|(n, p)| !n.is_empty() && !p.is_empty())
+            .ok_or_else(|| Diagnostic::argument(&text, "expected NODE.PARAM=VALUE"))?;
+        let value = syntax::parse(rhs)
+            .map_err(|e| Diagnostic::argument(&text, format!("value is not RON: {} (strings need quotes: \"...\")", e.message)))?
+            .to_value();
+        Ok(Override { node: node.into(), param: param.into(), value, text })
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct PlanInput {
+    pub port: String,
+    pub from: usize,
+    pub from_port: String,
+    pub each: bool,
+}
+
+#[derive(Clone)]
+pub struct PlanNode {
+    pub id: String,
+    pub kind: String,
+    pub reg: Registered,
+    pub params: Params,
+    /// Path params (absolute) whose content enters the cache key.
+    pub input_paths: Vec<(String, PathBuf)>,
+    pub inputs: Vec<PlanInput>,
+    /// Runs once per item of its `each` input.
+    pub fans_out: bool,
+    /// Output types as consumers see them (lifted to collections under fan-out).
+    pub outputs: BTreeMap<String, TypeRef>,
+}
+
+#[derive(Clone)]
+pub struct Plan {
+    pub source: GraphSource,
+    pub nodes: Vec<PlanNode>,
+    /// Topological order (indices into `nodes`).
+    pub order: Vec<usize>,
+    pub targets: Vec<usize>,
+    pub plugins: Vec<PathBuf>,
+}
+
+impl Plan {
+    pub fn index(&self, id: &str) -> Option<usize> {
+        self.nodes.iter().position(|n| n.id == id)
+    }
+
+    /// Indices of the targets and all their ancestors, in topological order.
+    pub fn needed(&self) -> Vec<usize> {
+        let mut need = vec![false; self.nodes.len()];
+        let mut stack: Vec<usize> = self.targets.clone();
+        while let Some(i) = stack.pop() {
+            if !need[i] {
+                need[i] = true;
+                stack.extend(self.nodes[i].inputs.iter().map(|inp| inp.from));
+            }
+        }
+        self.order.iter().copied().filter(|&i| need[i]).collect()
+    }
+}
+
+/// Reads only the `plugins` list (plugins must be loaded before kinds are checked).
+pub fn declared_plugins(source: &GraphSource) -> Result<Vec<(PathBuf, Span)>, Diagnostics> {
+    let decl = parse_graph(source)?;
+    Ok(decl.plugins.iter().map(|(p, s)| (source.dir().join(p), *s)).collect())
+}
+
+pub fn build_plan(
+    source: &GraphSource,
+    registry: &Registry,
+    overrides: &[Override],
+    targets: &[String],
+) -> Result<Plan, Diagnostics> {
+    let decl = parse_graph(source)?;
+    check(source, decl, registry, overrides, targets)
+}
+
+fn check(
+    src: &GraphSource,
+    decl: GraphDecl,
+    registry: &Registry,
+    overrides: &[Override],
+    cli_targets: &[String],
+) -> Result<Plan, Diagnostics> {
+    let mut diags = Vec::new();
+    let ids: HashMap<&str, usize> = decl.nodes.iter().enumerate().map(|(i, n)| (n.id.as_str(), i)).collect();
+
+    // Overrides must name a node and a param that exist.
+    for o in overrides {
+        match ids.get(o.node.as_str()) {
+            None => diags.push(Diagnostic::argument(
+                &o.text,
+                format!("no node `{}` in {}{}", o.node, src.path.display(), did_you_mean(&similar(&o.node, ids.keys().copied()))),
+            )),
+            Some(&i) => {
+                if let Some(reg) = registry.get(&decl.nodes[i].kind)
+                    && reg.spec.param_spec(&o.param).is_none()
+                {
+                    let names: Vec<&str> = reg.spec.params.iter().map(|p| p.name.as_str()).collect();
+                    diags.push(Diagnostic::argument(
+                        &o.text,
+                        format!("node `{}` ({}) has no param `{}`; it has {}", o.node, reg.spec.kind, o.param, list_or_none(&names)),
+                    ));
+                }
+            }
+        }
+    }
+
+    // Kinds and params.
+    let mut nodes: Vec<Option<PlanNode>> = Vec::new();
+    for n in &decl.nodes {
+        let Some(reg) = registry.get(&n.kind) else {
+            let hint = did_you_mean(&registry.similar_kinds(&n.kind));
+            diags.push(src.diag(
+                n.kind_span,
+                format!("unknown node kind {:?}{hint} (`objectsplat nodes` lists every kind)", n.kind),
+            ));
+            nodes.push(None);
+            continue;
+        };
+        match check_params(src, n, reg, overrides) {
+            Ok((params, input_paths)) => nodes.push(Some(PlanNode {
+                id: n.id.clone(),
+                kind: n.kind.clone(),
+                reg: reg.clone(),
+                params,
+                input_paths,
+                inputs: vec![],
+                fans_out: n.inputs.iter().any(|i| i.source.each),
+                outputs: BTreeMap::new(),
+            })),
+            Err(mut d) => {
+                diags.append(&mut d);
+                nodes.push(None);
+            }
+        }
+    }
+
+    // Wiring: ports exist, sources exist, required inputs present.
+    let mut dag = DiGraph::<usize, ()>::new();
+    let idx: Vec<NodeIndex> = (0..decl.nodes.len()).map(|i| dag.add_node(i)).collect();
+    for (i, n) in decl.nodes.iter().enumerate() {
+        let Some(spec) = nodes[i].as_ref().map(|p| p.reg.spec.clone()) else { continue };
+        let eachs: Vec<_> = n.inputs.iter().filter(|x| x.source.each).collect();
+        if eachs.len() > 1 {
+            diags.push(src.diag(eachs[1].source.span, format!("node {:?}: only one input may use each(...)", n.id)));
+        }
+        for inp in &n.inputs {
+            if spec.input_port(&inp.port).is_none() {
+                let names: Vec<&str> = spec.inputs.iter().map(|p| p.name.as_str()).collect();
+                diags.push(src.diag(
+                    inp.port_span,
+                    format!(
+                        "node {:?} ({}) has no input port `{}`{}; its inputs are {}",
+                        n.id,
+                        n.kind,
+                        inp.port,
+                        did_you_mean(&similar(&inp.port, names.iter().copied())),
+                        list_or_none(&names)
+                    ),
+                ));
+                continue;
+            }
+            let Some(&from) = ids.get(inp.source.node.as_str()) else {
+                diags.push(src.diag(
+                    inp.source.span,
+                    format!(
+                        "node {:?} input `{}` refers to node {:?}, which does not exist{}",
+                        n.id,
+                        inp.port,
+                        inp.source.node,
+                        did_you_mean(&similar(&inp.source.node, ids.keys().copied()))
+                    ),
+                ));
+                continue;
+            };
+            dag.add_edge(idx[from], idx[i], ());
+            if let Some(p) = nodes[i].as_mut() {
+                p.inputs.push(PlanInput {
+                    port: inp.port.clone(),
+                    from,
+                    from_port: inp.source.port.clone(),
+                    each: inp.source.each,
+                });
+            }
+        }
+        for port in spec.inputs.iter().filter(|p| !p.optional) {
+            if !n.inputs.iter().any(|x| x.port == port.name) {
+                diags.push(src.diag(
+                    n.span,
+                    format!(
+                        "node {:?} ({}) is missing required input `{}` (type {}); expected `inputs: ({}: \"node.port\")`",
+                        n.id, n.kind, port.name, port.ty, port.name
+                    ),
+                ));
+            }
+        }
+    }
+
+    // Cycles.
+    let order = match toposort(&dag, None) {
+        Ok(o) => o.into_iter().map(|ix| dag[ix]).collect::<Vec<_>>(),
+        Err(cycle) => {
+            let at = dag[cycle.node_id()];
+            let n = &decl.nodes[at];
+            diags.push(src.diag(n.id_span, format!("node {:?} is part of a cycle; a graph must be acyclic", n.id)));
+            return Err(Diagnostics(diags));
+        }
+    };
+
+    // Types, in topological order so sources' lifted output types are known.
+    for &i in &order {
+        let Some(node) = nodes[i].as_ref() else { continue };
+        let spec = node.reg.spec.clone();
+        let mut outputs = BTreeMap::new();
+        for out in &spec.outputs {
+            let ty = match (&out.ty, node.fans_out) {
+                (TypeRef::One(t), true) => TypeRef::List(t.clone()),
+                (TypeRef::List(_), true) => {
+                    diags.push(src.diag(
+                        decl.nodes[i].kind_span,
+                        format!(
+                            "node {:?} uses each(...) but its output `{}` is already a collection ({}); collections of collections are not supported",
+                            node.id, out.name, out.ty
+                        ),
+                    ));
+                    out.ty.clone()
+                }
+                (t, false) => t.clone(),
+            };
+            outputs.insert(out.name.clone(), ty);
+        }
+        for inp_decl in &decl.nodes[i].inputs {
+            let Some(port) = spec.input_port(&inp_decl.port) else { continue };
+            let Some(&from) = ids.get(inp_decl.source.node.as_str()) else { continue };
+            let Some(src_node) = nodes[from].as_ref() else { continue };
+            let Some(src_ty) = src_node.outputs.get(&inp_decl.source.port) else {
+                let names: Vec<&str> = src_node.outputs.keys().map(String::as_str).collect();
+                diags.push(src.diag(
+                    inp_decl.source.span,
+                    format!(
+                        "node {:?} ({}) has no output port `{}`{}; its outputs are {}",
+                        src_node.id,
+                        src_node.kind,
+                        inp_decl.source.port,
+                        did_you_mean(&similar(&inp_decl.source.port, names.iter().copied())),
+                        list_or_none(&names)
+                    ),
+                ));
+                continue;
+            };
+            let ok = match (&port.ty, inp_decl.source.each) {
+                (TypeRef::One(t), true) => *src_ty == TypeRef::List(t.clone()),
+                (TypeRef::List(_), true) => false,
+                (t, false) => src_ty == t,
+            };
+            if !ok {
+                let wanted = if inp_decl.source.each {
+                    format!("each(...) over a collection [{}]", port.ty.element())
+                } else {
+                    port.ty.to_string()
+                };
+                let mut hint = String::new();
+                if let (TypeRef::One(t), TypeRef::List(s), false) = (&port.ty, src_ty, inp_decl.source.each)
+                    && t == s
+                {
+                    hint = format!(
+                        "; to run once per item write each(\"{}.{}\")",
+                        inp_decl.source.node, inp_decl.source.port
+                    );
+                }
+                diags.push(src.diag(
+                    inp_decl.source.span,
+                    format!(
+                        "type mismatch: node {:?} input `{}` expects {wanted}, but \"{}.{}\" is {src_ty}{hint}",
+                        node.id, inp_decl.port, inp_decl.source.node, inp_decl.source.port
+                    ),
+                ));
+            }
+        }
+        if let Some(n) = nodes[i].as_mut() {
+            n.outputs = outputs;
+        }
+    }
+
+    // Targets: the command line wins over the graph's list; default = every sink.
+    let mut targets = Vec::new();
+    if !cli_targets.is_empty() {
+        for t in cli_targets {
+            match ids.get(t.as_str()) {
+                Some(&i) => targets.push(i),
+                None => diags.push(Diagnostic::argument(
+                    &format!("--target {t}"),
+                    format!("no node `{t}` in {}{}", src.path.display(), did_you_mean(&similar(t, ids.keys().copied()))),
+                )),
+            }
+        }
+    } else if !decl.targets.is_empty() {
+        for (t, span) in &decl.targets {
+            match ids.get(t.as_str()) {
+                Some(&i) => targets.push(i),
+                None => diags.push(src.diag(
+                    *span,
+                    format!("target {t:?} is not a node of this graph{}", did_you_mean(&similar(t, ids.keys().copied()))),
+                )),
+            }
+        }
+    } else {
+        targets = (0..decl.nodes.len()).filter(|&i| dag.neighbors(idx[i]).next().is_none()).collect();
+    }
+
+    if !diags.is_empty() {
+        return Err(Diagnostics(diags));
+    }
+    let nodes: Vec<PlanNode> = nodes.into_iter().map(|n| n.expect("every node checked without a diagnostic")).collect();
+    Ok(Plan {
+        source: src.clone(),
+        nodes,
+        order,
+        targets,
+        plugins: decl.plugins.iter().map(|(p, _)| src.dir().join(p)).collect(),
+    })
+}
+
+fn list_or_none(names: &[&str]) -> String {
+    if names.is_empty() { "none".into() } else { names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ") }
+}
+
+type CheckedParams = (Params, Vec<(String, PathBuf)>);
+
+fn check_params(
+    src: &GraphSource,
+    n: &NodeDecl,
+    reg: &Registered,
+    overrides: &[Override],
+) -> Result<CheckedParams, Vec<Diagnostic>> {
+    let spec = &reg.spec;
+    let mut diags = Vec::new();
+    let mut values = BTreeMap::new();
+    let mut input_paths = Vec::new();
+    for p in &n.params {
+        if spec.param_spec(&p.name).is_none() {
+            let names: Vec<&str> = spec.params.iter().map(|p| p.name.as_str()).collect();
+            diags.push(src.diag(
+                p.name_span,
+                format!(
+                    "node {:?} ({}) has no param `{}`{}; its params are {}",
+                    n.id,
+                    n.kind,
+                    p.name,
+                    did_you_mean(&similar(&p.name, names.iter().copied())),
+                    list_or_none(&names)
+                ),
+            ));
+        }
+    }
+    for ps in &spec.params {
+        let over = overrides.iter().rev().find(|o| o.node == n.id && o.param == ps.name);
+        let declared = n.params.iter().find(|p| p.name == ps.name);
+        let (value, report): (Value, Box<dyn Fn(String) -> Diagnostic>) = match (over, declared) {
+            (Some(o), _) => {
+                let text = o.text.clone();
+                (o.value.clone(), Box::new(move |m| Diagnostic::argument(&text, m)))
+            }
+            (None, Some(d)) => {
+                let span = d.value.span;
+                (d.value.to_value(), Box::new(move |m| src.diag(span, m)))
+            }
+            (None, None) => match &ps.default {
+                Some(def) => match syntax::parse(def) {
+                    Ok(v) => (v.to_value(), Box::new(|m| Diagnostic::argument("(default)", m))),
+                    Err(e) => {
+                        diags.push(src.diag(n.kind_span, format!("default of `{}` does not parse: {}", ps.name, e.message)));
+                        continue;
+                    }
+                },
+                None => {
+                    diags.push(src.diag(
+                        n.span,
+                        format!(
+                            "node {:?} ({}) is missing required param `{}` ({}); expected `params: ({}: ...)`",
+                            n.id,
+                            n.kind,
+                            ps.name,
+                            ps.ty.describe(),
+                            ps.name
+                        ),
+                    ));
+                    continue;
+                }
+            },
+        };
+        match ps.ty.check(&value) {
+            Ok(normalised) => {
+                let normalised = match (&ps.ty, &normalised) {
+                    (ParamType::Path, Value::Str(s)) | (ParamType::Optional(_), Value::Str(s))
+                        if is_path_type(&ps.ty) =>
+                    {
+                        let abs = src.dir().join(s);
+                        input_paths.push((ps.name.clone(), abs.clone()));
+                        Value::Str(abs.to_string_lossy().into_owned())
+                    }
+                    _ => normalised,
+                };
+                values.insert(ps.name.clone(), normalised);
+            }
+            Err(msg) => diags.push(report(format!(
+                "node {:?} param `{}`: {msg} (expected {})",
+                n.id,
+                ps.name,
+                ps.ty.describe()
+            ))),
+        }
+    }
+    if diags.is_empty() { Ok((Params::new(values), input_paths)) } else { Err(diags) }
+}
+
+fn is_path_type(t: &ParamType) -> bool {
+    match t {
+        ParamType::Path => true,
+        ParamType::Optional(inner) => is_path_type(inner),
+        _ => false,
+    }
+}

@@ -1,0 +1,123 @@
+//! The run report: what ran, what was cached, skipped or failed, and why.
+
+use serde::Serialize;
+use std::collections::BTreeMap;
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Status {
+    Ran,
+    Cached,
+    Skipped,
+    Failed,
+}
+
+impl Status {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            Status::Ran => "ran",
+            Status::Cached => "cached",
+            Status::Skipped => "skipped",
+            Status::Failed => "failed",
+        }
+    }
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct ItemReport {
+    pub name: String,
+    pub status: Status,
+    pub seconds: f64,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub reason: Option<String>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct NodeReport {
+    pub id: String,
+    pub kind: String,
+    pub status: Status,
+    pub seconds: f64,
+    pub reason: Option<String>,
+    pub items: Vec<ItemReport>,
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub notes: BTreeMap<String, String>,
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub warnings: Vec<String>,
+    /// Output digests by port (absent for failed nodes).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub outputs: BTreeMap<String, String>,
+}
+
+#[derive(Debug, Clone, Serialize)]
+pub struct RunReport {
+    pub graph: String,
+    pub ok: bool,
+    pub seconds: f64,
+    pub jobs: usize,
+    pub nodes: Vec<NodeReport>,
+    pub warnings: Vec<String>,
+    /// Where target outputs were written.
+    pub out: Option<String>,
+}
+
+impl RunReport {
+    pub fn node(&self, id: &str) -> Option<&NodeReport> {
+        self.nodes.iter().find(|n| n.id == id)
+    }
+
+    pub fn count(&self, status: Status) -> usize {
+        self.nodes.iter().filter(|n| n.status == status).count()
+    }
+
+    /// The first failure's message, for the one-line exit cause.
+    pub fn first_failure(&self) -> Option<String> {
+        self.nodes
+            .iter()
+            .find(|n| n.status == Status::Failed && !n.reason.as_deref().unwrap_or("").starts_with("upstream"))
+            .or_else(|| self.nodes.iter().find(|n| n.status == Status::Failed))
+            .map(|n| format!("node `{}` ({}) failed: {}", n.id, n.kind, n.reason.clone().unwrap_or_default()))
+    }
+
+    /// A human table for stderr.
+    pub fn render_table(&self) -> String {
+        let mut s = String::new();
+        let w = self.nodes.iter().map(|n| n.id.len()).max().unwrap_or(4).max(4);
+        for n in &self.nodes {
+            let items = if n.items.is_empty() {
+                String::new()
+            } else {
+                let mut counts: BTreeMap<&str, usize> = BTreeMap::new();
+                for i in &n.items {
+                    *counts.entry(i.status.as_str()).or_default() += 1;
+                }
+                let parts: Vec<String> = counts.iter().map(|(k, v)| format!("{v} {k}")).collect();
+                format!(" [{} items: {}]", n.items.len(), parts.join(", "))
+            };
+            let reason = n.reason.as_deref().map(|r| format!("  {}", first_line(r))).unwrap_or_default();
+            s.push_str(&format!("  {:<w$}  {:<7} {:>8.2}s{items}{reason}\n", n.id, n.status.as_str(), n.seconds));
+            for (k, v) in &n.notes {
+                s.push_str(&format!("  {:<w$}    {k}: {v}\n", ""));
+            }
+            for i in n.items.iter().filter(|i| i.status == Status::Failed || i.status == Status::Skipped) {
+                let r = i.reason.as_deref().map(first_line).unwrap_or("");
+                s.push_str(&format!("  {:<w$}    {} {}: {r}\n", "", i.name, i.status.as_str()));
+            }
+        }
+        s.push_str(&format!(
+            "{} nodes: {} ran, {} cached, {} skipped, {} failed in {:.2}s (-j {})\n",
+            self.nodes.len(),
+            self.count(Status::Ran),
+            self.count(Status::Cached),
+            self.count(Status::Skipped),
+            self.count(Status::Failed),
+            self.seconds,
+            self.jobs
+        ));
+        s
+    }
+}
+
+fn first_line(s: &str) -> &str {
+    s.lines().next().unwrap_or("")
+}

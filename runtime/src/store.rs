@@ -1,0 +1,374 @@
+//! The content-addressed cache on disk.
+//!
+//! ```text
+//! <cache>/blobs/<aa>/<hash>          file contents, named by their blake3 hash (immutable)
+//! <cache>/trees/<aa>/<digest>.json   artifact manifests: a folder (paths → blobs) or a
+//!                                    collection (item names → artifact digests); the
+//!                                    digest is the blake3 hash of the manifest bytes
+//! <cache>/actions/<aa>/<key>.json    one record per node run (or item run), keyed by
+//!                                    the run's cache key; carries its own checksum
+//! <cache>/heads/<graph>/<node>.json  the last key each node of each graph ran with (for `explain`)
+//! <cache>/locks/<key>.lock           held while a key is being computed (cross-process)
+//! <cache>/tmp/<pid>-<n>/             staging; renamed into place, never read across processes
+//! ```
+//!
+//! Every write is temp-file + rename, so a crash leaves either nothing or a whole
+//! entry. Every read is verified against its name; a corrupt entry is reported,
+//! deleted and recomputed, never served.
+
+use anyhow::{Context as _, Result, anyhow, bail};
+use serde::{Deserialize, Serialize};
+use std::collections::{BTreeMap, HashSet};
+use std::fs;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicU64, Ordering};
+
+pub type Digest = String;
+
+/// A stored artifact: one folder, or a collection of named items.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "lowercase")]
+pub enum Manifest {
+    Folder { ty: String, files: Vec<FileEntry> },
+    Collection { ty: String, items: Vec<(String, Digest)> },
+}
+
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct FileEntry {
+    pub path: String,
+    pub blob: String,
+    pub size: u64,
+}
+
+/// What a cached run produced.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ActionRecord {
+    pub key: String,
+    pub node: String,
+    pub kind: String,
+    pub version: String,
+    pub item: Option<String>,
+    pub params: String,
+    pub inputs: BTreeMap<String, Digest>,
+    pub outputs: BTreeMap<String, Digest>,
+    /// `ran` or `skipped`.
+    pub status: String,
+    pub reason: Option<String>,
+    pub seconds: f64,
+    pub notes: Vec<(String, String)>,
+}
+
+#[derive(Serialize, Deserialize)]
+struct Sealed<T> {
+    checksum: String,
+    body: T,
+}
+
+pub struct Store {
+    root: PathBuf,
+    tmp: PathBuf,
+    counter: AtomicU64,
+    /// Blobs verified by this process (each is read once at most).
+    verified: Mutex<HashSet<String>>,
+    /// Kept open: its lock tells other processes this staging area is alive.
+    _tmp_lock: fs::File,
+}
+
+#[derive(Debug, thiserror::Error)]
+#[error("cache entry {what} is corrupt: {detail}")]
+pub struct Corrupt {
+    pub what: String,
+    pub detail: String,
+}
+
+fn hex2(h: &str) -> &str {
+    &h[..2.min(h.len())]
+}
+
+fn hash_bytes(bytes: &[u8]) -> String {
+    blake3::hash(bytes).to_hex().to_string()
+}
+
+impl Store {
+    pub fn open(root: &Path) -> Result<Store> {
+        for d in ["blobs", "trees", "actions", "heads", "locks", "tmp"] {
+            fs::create_dir_all(root.join(d)).with_context(|| format!("{}: cannot create cache folder", root.join(d).display()))?;
+        }
+        let root = root.canonicalize().with_context(|| format!("{}: cannot resolve", root.display()))?;
+        Self::clean_stale_staging(&root.join("tmp"));
+        let tmp = root.join("tmp").join(format!("{}-{}", std::process::id(), unique_suffix()));
+        fs::create_dir_all(&tmp)?;
+        let lock = fs::File::create(tmp.with_extension("lock"))?;
+        lock.lock()?;
+        Ok(Store { root, tmp, counter: AtomicU64::new(0), verified: Mutex::new(HashSet::new()), _tmp_lock: lock })
+    }
+
+    /// Removes staging folders whose process is gone (their lock is free).
+    fn clean_stale_staging(tmp_root: &Path) {
+        let Ok(entries) = fs::read_dir(tmp_root) else { return };
+        for e in entries.flatten() {
+            let p = e.path();
+            if p.extension().is_some_and(|x| x == "lock") {
+                if let Ok(f) = fs::File::open(&p)
+                    && f.try_lock().is_ok()
+                {
+                    let _ = fs::remove_dir_all(p.with_extension(""));
+                    let _ = fs::remove_file(&p);
+                }
+            }
+        }
+    }
+
+    pub fn root(&self) -> &Path {
+        &self.root
+    }
+
+    /// A fresh empty staging folder (inside the cache, same filesystem as the CAS).
+    pub fn staging(&self, label: &str) -> Result<PathBuf> {
+        let n = self.counter.fetch_add(1, Ordering::Relaxed);
+        let safe: String = label.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).take(40).collect();
+        let p = self.tmp.join(format!("{n}-{safe}"));
+        fs::create_dir_all(&p)?;
+        Ok(p)
+    }
+
+    fn blob_path(&self, hash: &str) -> PathBuf {
+        self.root.join("blobs").join(hex2(hash)).join(hash)
+    }
+
+    fn tree_path(&self, digest: &str) -> PathBuf {
+        self.root.join("trees").join(hex2(digest)).join(format!("{digest}.json"))
+    }
+
+    fn action_path(&self, key: &str) -> PathBuf {
+        self.root.join("actions").join(hex2(key)).join(format!("{key}.json"))
+    }
+
+    /// Writes bytes to `dest` atomically (temp file in the staging area, then rename).
+    fn write_atomic(&self, dest: &Path, bytes: &[u8]) -> Result<()> {
+        let n = self.counter.fetch_add(1, Ordering::Relaxed);
+        let tmp = self.tmp.join(format!("w{n}"));
+        {
+            let mut f = fs::File::create(&tmp)?;
+            f.write_all(bytes)?;
+            f.sync_data()?;
+        }
+        if let Some(parent) = dest.parent() {
+            fs::create_dir_all(parent)?;
+        }
+        fs::rename(&tmp, dest).with_context(|| format!("{}: cannot write", dest.display()))
+    }
+
+    /// Moves the files of a finished output folder into the CAS and records a folder manifest.
+    pub fn ingest_folder(&self, ty: &str, dir: &Path) -> Result<Digest> {
+        let mut files = Vec::new();
+        collect_files(dir, dir, &mut files)?;
+        files.sort();
+        let mut entries = Vec::with_capacity(files.len());
+        for rel in files {
+            let path = dir.join(&rel);
+            let bytes = fs::read(&path).with_context(|| format!("{}: cannot read output", path.display()))?;
+            let hash = hash_bytes(&bytes);
+            let dest = self.blob_path(&hash);
+            if !dest.exists() {
+                fs::create_dir_all(dest.parent().expect("blob paths have a parent"))?;
+                // Same filesystem: an atomic move. A concurrent writer of the same hash
+                // writes the same bytes, so whichever rename lands last is fine.
+                fs::rename(&path, &dest).or_else(|_| self.write_atomic(&dest, &bytes))?;
+            }
+            entries.push(FileEntry { path: rel, blob: hash, size: bytes.len() as u64 });
+        }
+        self.put_manifest(&Manifest::Folder { ty: ty.to_string(), files: entries })
+    }
+
+    pub fn put_manifest(&self, m: &Manifest) -> Result<Digest> {
+        let bytes = serde_json::to_vec(m)?;
+        let digest = hash_bytes(&bytes);
+        let path = self.tree_path(&digest);
+        if !path.exists() {
+            self.write_atomic(&path, &bytes)?;
+        }
+        Ok(digest)
+    }
+
+    /// Reads and verifies a manifest; `Ok(None)` if absent.
+    pub fn manifest(&self, digest: &str) -> Result<Option<Manifest>, Corrupt> {
+        let path = self.tree_path(digest);
+        let Ok(bytes) = fs::read(&path) else { return Ok(None) };
+        if hash_bytes(&bytes) != digest {
+            let _ = fs::remove_file(&path);
+            return Err(Corrupt { what: format!("manifest {}", short(digest)), detail: "checksum mismatch".into() });
+        }
+        serde_json::from_slice(&bytes)
+            .map(Some)
+            .map_err(|e| Corrupt { what: format!("manifest {}", short(digest)), detail: e.to_string() })
+    }
+
+    /// True if the artifact and everything it refers to is present (not verified).
+    pub fn has_artifact(&self, digest: &str) -> bool {
+        match self.manifest(digest) {
+            Ok(Some(Manifest::Folder { files, .. })) => files.iter().all(|f| self.blob_path(&f.blob).exists()),
+            Ok(Some(Manifest::Collection { items, .. })) => items.iter().all(|(_, d)| self.has_artifact(d)),
+            _ => false,
+        }
+    }
+
+    fn verify_blob(&self, hash: &str) -> Result<(), Corrupt> {
+        if self.verified.lock().map(|v| v.contains(hash)).unwrap_or(false) {
+            return Ok(());
+        }
+        let path = self.blob_path(hash);
+        let bytes = fs::read(&path).map_err(|e| Corrupt { what: format!("blob {}", short(hash)), detail: e.to_string() })?;
+        if hash_bytes(&bytes) != hash {
+            let _ = fs::remove_file(&path);
+            return Err(Corrupt { what: format!("blob {}", short(hash)), detail: "checksum mismatch (file changed on disk)".into() });
+        }
+        if let Ok(mut v) = self.verified.lock() {
+            v.insert(hash.to_string());
+        }
+        Ok(())
+    }
+
+    /// Lays out an artifact as a folder at `dest` (hard links to verified blobs;
+    /// copies when `copy` is set, for folders users may edit). Collections become one
+    /// sub-folder per item. Returns the items for a collection.
+    pub fn materialize(&self, digest: &str, dest: &Path, copy: bool) -> Result<Option<Vec<(String, PathBuf)>>> {
+        let m = self.manifest(digest)?.ok_or_else(|| anyhow!(Corrupt { what: format!("artifact {}", short(digest)), detail: "missing".into() }))?;
+        fs::create_dir_all(dest)?;
+        match m {
+            Manifest::Folder { files, .. } => {
+                for f in files {
+                    self.verify_blob(&f.blob)?;
+                    let target = dest.join(&f.path);
+                    if let Some(parent) = target.parent() {
+                        fs::create_dir_all(parent)?;
+                    }
+                    let _ = fs::remove_file(&target);
+                    let src = self.blob_path(&f.blob);
+                    if copy || fs::hard_link(&src, &target).is_err() {
+                        fs::copy(&src, &target).with_context(|| format!("{}: cannot write", target.display()))?;
+                    }
+                }
+                Ok(None)
+            }
+            Manifest::Collection { items, .. } => {
+                let mut out = Vec::new();
+                for (name, d) in items {
+                    let sub = dest.join(&name);
+                    self.materialize(&d, &sub, copy)?;
+                    out.push((name, sub));
+                }
+                Ok(Some(out))
+            }
+        }
+    }
+
+    /// Deletes an artifact's manifest so producers of it are recomputed.
+    pub fn forget_artifact(&self, digest: &str) {
+        let _ = fs::remove_file(self.tree_path(digest));
+    }
+
+    pub fn put_action(&self, rec: &ActionRecord) -> Result<()> {
+        let body = serde_json::to_value(rec)?;
+        let checksum = hash_bytes(body.to_string().as_bytes());
+        let bytes = serde_json::to_vec_pretty(&Sealed { checksum, body })?;
+        self.write_atomic(&self.action_path(&rec.key), &bytes)
+    }
+
+    /// `Ok(None)` = no record; `Err` = a record that fails its checksum (deleted).
+    pub fn action(&self, key: &str) -> Result<Option<ActionRecord>, Corrupt> {
+        let path = self.action_path(key);
+        let Ok(bytes) = fs::read(&path) else { return Ok(None) };
+        let bad = |detail: String| {
+            let _ = fs::remove_file(&path);
+            Corrupt { what: format!("action record {}", short(key)), detail }
+        };
+        let sealed: Sealed<serde_json::Value> = serde_json::from_slice(&bytes).map_err(|e| bad(e.to_string()))?;
+        if hash_bytes(sealed.body.to_string().as_bytes()) != sealed.checksum {
+            return Err(bad("checksum mismatch".into()));
+        }
+        serde_json::from_value(sealed.body).map(Some).map_err(|e| bad(e.to_string()))
+    }
+
+    fn head_path(&self, graph: &Path, node: &str) -> PathBuf {
+        let g = hash_bytes(graph.to_string_lossy().as_bytes());
+        self.root.join("heads").join(&g[..16]).join(format!("{node}.json"))
+    }
+
+    /// Remembers the key a node last ran with (per item), for `explain`.
+    pub fn set_head(&self, graph: &Path, node: &str, keys: &BTreeMap<String, String>) -> Result<()> {
+        self.write_atomic(&self.head_path(graph, node), &serde_json::to_vec(keys)?)
+    }
+
+    pub fn head(&self, graph: &Path, node: &str) -> Option<BTreeMap<String, String>> {
+        fs::read(self.head_path(graph, node)).ok().and_then(|b| serde_json::from_slice(&b).ok())
+    }
+
+    /// An exclusive cross-process lock on a key while it is computed.
+    pub fn lock_key(&self, key: &str) -> Result<fs::File> {
+        let f = fs::OpenOptions::new()
+            .create(true)
+            .truncate(false)
+            .write(true)
+            .open(self.root.join("locks").join(format!("{}.lock", hex2(key))))?;
+        f.lock()?;
+        Ok(f)
+    }
+
+    /// Content fingerprint of an input file or folder named by a path param.
+    /// Files are hashed by content; folders by the (path, size, mtime) of every file,
+    /// so a multi-gigabyte dataset folder is not read on every run.
+    pub fn fingerprint(path: &Path) -> Result<String> {
+        let meta = fs::metadata(path).with_context(|| format!("{}: no such file or folder", path.display()))?;
+        if meta.is_file() {
+            let mut h = blake3::Hasher::new();
+            h.update_reader(fs::File::open(path)?).with_context(|| format!("{}: cannot read", path.display()))?;
+            return Ok(format!("file:{}", h.finalize().to_hex()));
+        }
+        let mut files = Vec::new();
+        collect_files(path, path, &mut files)?;
+        files.sort();
+        let mut h = blake3::Hasher::new();
+        for rel in files {
+            let m = fs::metadata(path.join(&rel))?;
+            let mtime = m.modified().ok().and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok()).map_or(0, |d| d.as_nanos());
+            h.update(format!("{rel}\0{}\0{mtime}\n", m.len()).as_bytes());
+        }
+        Ok(format!("dir:{}", h.finalize().to_hex()))
+    }
+}
+
+impl Drop for Store {
+    fn drop(&mut self) {
+        let _ = fs::remove_dir_all(&self.tmp);
+        let _ = fs::remove_file(self.tmp.with_extension("lock"));
+    }
+}
+
+fn unique_suffix() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
+}
+
+pub fn short(h: &str) -> &str {
+    &h[..12.min(h.len())]
+}
+
+fn collect_files(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
+    for e in fs::read_dir(dir).with_context(|| format!("{}: cannot list", dir.display()))? {
+        let e = e?;
+        let p = e.path();
+        let ft = e.file_type()?;
+        if ft.is_dir() {
+            collect_files(root, &p, out)?;
+        } else if ft.is_file() {
+            let rel = p.strip_prefix(root).expect("walked below root");
+            let rel = rel.to_str().ok_or_else(|| anyhow!("{}: file name is not UTF-8", p.display()))?;
+            out.push(rel.replace('\\', "/"));
+        } else if ft.is_symlink() {
+            bail!("{}: outputs must be plain files, not links", p.display());
+        }
+    }
+    Ok(())
+}

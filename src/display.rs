@@ -1,0 +1,150 @@
+//! Terminal output: progress bars while running, the graph as text or dot, the catalogue.
+
+use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
+use objectsplat_runtime::exec::Observer;
+use objectsplat_runtime::plan::Plan;
+use objectsplat_runtime::registry::Origin;
+use objectsplat_runtime::report::Status;
+use objectsplat_runtime::{ProgressSink, Registry};
+use std::collections::HashMap;
+use std::io::IsTerminal;
+use std::sync::Mutex;
+use std::time::Duration;
+
+/// Progress bars on a terminal; one line per finished job otherwise.
+pub struct Display {
+    multi: MultiProgress,
+    bars: Mutex<HashMap<String, ProgressBar>>,
+    tty: bool,
+}
+
+impl Display {
+    pub fn new() -> Display {
+        let tty = std::io::stderr().is_terminal();
+        let multi = MultiProgress::with_draw_target(if tty { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() });
+        Display { multi, bars: Mutex::new(HashMap::new()), tty }
+    }
+
+    pub fn finish(&self) {
+        let _ = self.multi.clear();
+    }
+}
+
+impl ProgressSink for Display {
+    fn progress(&self, job: &str, done: u64, total: u64, message: &str) {
+        if let Ok(bars) = self.bars.lock()
+            && let Some(bar) = bars.get(job)
+        {
+            if bar.length() != Some(total) {
+                bar.set_length(total);
+                bar.set_style(
+                    ProgressStyle::with_template("{prefix:>24} [{bar:30}] {pos}/{len} {msg} ({eta})")
+                        .unwrap_or_else(|_| ProgressStyle::default_bar())
+                        .progress_chars("=> "),
+                );
+            }
+            bar.set_position(done);
+            bar.set_message(message.to_string());
+        }
+    }
+}
+
+impl Observer for Display {
+    fn job_started(&self, job: &str) {
+        let bar = self.multi.add(ProgressBar::new_spinner());
+        bar.set_style(ProgressStyle::with_template("{prefix:>24} {spinner} {msg} {elapsed}").unwrap_or_else(|_| ProgressStyle::default_spinner()));
+        bar.set_prefix(job.to_string());
+        bar.enable_steady_tick(Duration::from_millis(120));
+        if let Ok(mut bars) = self.bars.lock() {
+            bars.insert(job.to_string(), bar);
+        }
+    }
+
+    fn job_finished(&self, job: &str, status: Status, seconds: f64) {
+        if let Ok(mut bars) = self.bars.lock()
+            && let Some(bar) = bars.remove(job)
+        {
+            bar.finish_and_clear();
+            self.multi.remove(&bar);
+        }
+        let line = format!("{:>24} {} in {seconds:.2}s", job, status.as_str());
+        if self.tty {
+            let _ = self.multi.println(line);
+        } else {
+            eprintln!("{line}");
+        }
+    }
+
+    fn warning(&self, message: &str) {
+        if self.tty {
+            let _ = self.multi.println(message);
+        } else {
+            eprintln!("{message}");
+        }
+    }
+}
+
+pub fn to_dot(plan: &Plan) -> String {
+    let mut s = String::from("digraph objectsplat {\n  rankdir=LR;\n  node [shape=box, fontname=\"Helvetica\"];\n");
+    for n in &plan.nodes {
+        let style = if plan.targets.iter().any(|&t| plan.nodes[t].id == n.id) { ", style=bold" } else { "" };
+        s.push_str(&format!("  \"{}\" [label=\"{}\\n({})\"{style}];\n", n.id, n.id, n.kind));
+    }
+    for n in &plan.nodes {
+        for inp in &n.inputs {
+            let label = if inp.each { format!("each {}→{}", inp.from_port, inp.port) } else { format!("{}→{}", inp.from_port, inp.port) };
+            let style = if inp.each { ", style=dashed" } else { "" };
+            s.push_str(&format!("  \"{}\" -> \"{}\" [label=\"{label}\"{style}];\n", plan.nodes[inp.from].id, n.id));
+        }
+    }
+    s.push_str("}\n");
+    s
+}
+
+pub fn to_text(plan: &Plan) -> String {
+    let mut s = String::new();
+    for &i in &plan.order {
+        let n = &plan.nodes[i];
+        let ins: Vec<String> = n
+            .inputs
+            .iter()
+            .map(|inp| {
+                let r = format!("{}.{}", plan.nodes[inp.from].id, inp.from_port);
+                if inp.each { format!("{}: each({r})", inp.port) } else { format!("{}: {r}", inp.port) }
+            })
+            .collect();
+        s.push_str(&format!("{} ({}) <- {}\n", n.id, n.kind, if ins.is_empty() { "-".into() } else { ins.join(", ") }));
+    }
+    s
+}
+
+pub fn catalogue(reg: &Registry) -> String {
+    let mut s = String::new();
+    for r in reg.kinds() {
+        let spec = &r.spec;
+        let origin = match &r.origin {
+            Origin::Builtin => String::new(),
+            Origin::Plugin { path, .. } => format!("  [plugin {path}]"),
+        };
+        s.push_str(&format!("{} (v{}){origin}\n", spec.kind, spec.version));
+        if !spec.doc.is_empty() {
+            s.push_str(&format!("    {}\n", spec.doc));
+        }
+        for p in &spec.inputs {
+            let opt = if p.optional { ", optional" } else { "" };
+            s.push_str(&format!("    in  {}: {}{opt}  {}\n", p.name, p.ty, p.doc));
+        }
+        for p in &spec.outputs {
+            s.push_str(&format!("    out {}: {}  {}\n", p.name, p.ty, p.doc));
+        }
+        for p in &spec.params {
+            let def = p.default.as_deref().map(|d| format!(" = {d}")).unwrap_or_else(|| " (required)".into());
+            s.push_str(&format!("    param {}: {}{def}  {}\n", p.name, p.ty, p.doc));
+        }
+    }
+    s.push_str("\ntypes:\n");
+    for t in reg.types() {
+        s.push_str(&format!("  {}: {}\n", t.name, t.doc));
+    }
+    s
+}
