@@ -21,8 +21,16 @@ pub struct Display {
 impl Display {
     pub fn new() -> Display {
         let tty = std::io::stderr().is_terminal();
-        let multi = MultiProgress::with_draw_target(if tty { ProgressDrawTarget::stderr() } else { ProgressDrawTarget::hidden() });
-        Display { multi, bars: Mutex::new(HashMap::new()), tty }
+        let multi = MultiProgress::with_draw_target(if tty {
+            ProgressDrawTarget::stderr()
+        } else {
+            ProgressDrawTarget::hidden()
+        });
+        Display {
+            multi,
+            bars: Mutex::new(HashMap::new()),
+            tty,
+        }
     }
 
     pub fn finish(&self) {
@@ -38,9 +46,11 @@ impl ProgressSink for Display {
             if bar.length() != Some(total) {
                 bar.set_length(total);
                 bar.set_style(
-                    ProgressStyle::with_template("{prefix:>24} [{bar:30}] {pos}/{len} {msg} ({eta})")
-                        .unwrap_or_else(|_| ProgressStyle::default_bar())
-                        .progress_chars("=> "),
+                    ProgressStyle::with_template(
+                        "{prefix:>24} [{bar:30}] {pos}/{len} {msg} ({eta})",
+                    )
+                    .unwrap_or_else(|_| ProgressStyle::default_bar())
+                    .progress_chars("=> "),
                 );
             }
             bar.set_position(done);
@@ -52,7 +62,10 @@ impl ProgressSink for Display {
 impl Observer for Display {
     fn job_started(&self, job: &str) {
         let bar = self.multi.add(ProgressBar::new_spinner());
-        bar.set_style(ProgressStyle::with_template("{prefix:>24} {spinner} {msg} {elapsed}").unwrap_or_else(|_| ProgressStyle::default_spinner()));
+        bar.set_style(
+            ProgressStyle::with_template("{prefix:>24} {spinner} {msg} {elapsed}")
+                .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+        );
         bar.set_prefix(job.to_string());
         bar.enable_steady_tick(Duration::from_millis(120));
         if let Ok(mut bars) = self.bars.lock() {
@@ -85,16 +98,32 @@ impl Observer for Display {
 }
 
 pub fn to_dot(plan: &Plan) -> String {
-    let mut s = String::from("digraph objectsplat {\n  rankdir=LR;\n  node [shape=box, fontname=\"Helvetica\"];\n");
+    let mut s = String::from(
+        "digraph objectsplat {\n  rankdir=LR;\n  node [shape=box, fontname=\"Helvetica\"];\n",
+    );
     for n in &plan.nodes {
-        let style = if plan.targets.iter().any(|&t| plan.nodes[t].id == n.id) { ", style=bold" } else { "" };
-        s.push_str(&format!("  \"{}\" [label=\"{}\\n({})\"{style}];\n", n.id, n.id, n.kind));
+        let style = if plan.targets.iter().any(|&t| plan.nodes[t].id == n.id) {
+            ", style=bold"
+        } else {
+            ""
+        };
+        s.push_str(&format!(
+            "  \"{}\" [label=\"{}\\n({})\"{style}];\n",
+            n.id, n.id, n.kind
+        ));
     }
     for n in &plan.nodes {
         for inp in &n.inputs {
-            let label = if inp.each { format!("each {}→{}", inp.from_port, inp.port) } else { format!("{}→{}", inp.from_port, inp.port) };
+            let label = if inp.each {
+                format!("each {}→{}", inp.from_port, inp.port)
+            } else {
+                format!("{}→{}", inp.from_port, inp.port)
+            };
             let style = if inp.each { ", style=dashed" } else { "" };
-            s.push_str(&format!("  \"{}\" -> \"{}\" [label=\"{label}\"{style}];\n", plan.nodes[inp.from].id, n.id));
+            s.push_str(&format!(
+                "  \"{}\" -> \"{}\" [label=\"{label}\"{style}];\n",
+                plan.nodes[inp.from].id, n.id
+            ));
         }
     }
     s.push_str("}\n");
@@ -110,10 +139,23 @@ pub fn to_text(plan: &Plan) -> String {
             .iter()
             .map(|inp| {
                 let r = format!("{}.{}", plan.nodes[inp.from].id, inp.from_port);
-                if inp.each { format!("{}: each({r})", inp.port) } else { format!("{}: {r}", inp.port) }
+                if inp.each {
+                    format!("{}: each({r})", inp.port)
+                } else {
+                    format!("{}: {r}", inp.port)
+                }
             })
             .collect();
-        s.push_str(&format!("{} ({}) <- {}\n", n.id, n.kind, if ins.is_empty() { "-".into() } else { ins.join(", ") }));
+        s.push_str(&format!(
+            "{} ({}) <- {}\n",
+            n.id,
+            n.kind,
+            if ins.is_empty() {
+                "-".into()
+            } else {
+                ins.join(", ")
+            }
+        ));
     }
     s
 }
@@ -138,7 +180,11 @@ pub fn catalogue(reg: &Registry) -> String {
             s.push_str(&format!("    out {}: {}  {}\n", p.name, p.ty, p.doc));
         }
         for p in &spec.params {
-            let def = p.default.as_deref().map(|d| format!(" = {d}")).unwrap_or_else(|| " (required)".into());
+            let def = p
+                .default
+                .as_deref()
+                .map(|d| format!(" = {d}"))
+                .unwrap_or_else(|| " (required)".into());
             s.push_str(&format!("    param {}: {}{def}  {}\n", p.name, p.ty, p.doc));
         }
     }

@@ -15,7 +15,11 @@ use std::process::ExitCode;
 use std::sync::Arc;
 
 #[derive(Parser)]
-#[command(name = "objectsplat", version, about = "Object-decomposed mesh splatting as a cached dataflow graph")]
+#[command(
+    name = "objectsplat",
+    version,
+    about = "Object-decomposed mesh splatting as a cached dataflow graph"
+)]
 struct Cli {
     #[command(subcommand)]
     command: Command,
@@ -100,13 +104,19 @@ fn main() -> ExitCode {
 fn registry_with(plugins: &[PathBuf]) -> Result<Registry> {
     let mut reg = objectsplat_nodes::builtin_registry();
     for p in plugins {
-        objectsplat_runtime::plugin::load(&mut reg, p).map_err(|e| anyhow!("plugin {}: {e}", p.display()))?;
+        objectsplat_runtime::plugin::load(&mut reg, p)
+            .map_err(|e| anyhow!("plugin {}: {e}", p.display()))?;
     }
     Ok(reg)
 }
 
 /// Registry with the command line's plugins and the graph's own `plugins: [...]`.
-fn load_plan(graph: &Path, plugins: &[PathBuf], sets: &[String], targets: &[String]) -> Result<Plan> {
+fn load_plan(
+    graph: &Path,
+    plugins: &[PathBuf],
+    sets: &[String],
+    targets: &[String],
+) -> Result<Plan> {
     let source = GraphSource::read(graph)?;
     let mut libs: Vec<PathBuf> = plugins.to_vec();
     for (p, _) in plan::declared_plugins(&source)? {
@@ -115,44 +125,99 @@ fn load_plan(graph: &Path, plugins: &[PathBuf], sets: &[String], targets: &[Stri
         }
     }
     let reg = registry_with(&libs)?;
-    let overrides = sets.iter().map(|s| Override::parse(s)).collect::<Result<Vec<_>, _>>().map_err(|d| Diagnostics(vec![d]))?;
+    let overrides = sets
+        .iter()
+        .map(|s| Override::parse(s))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|d| Diagnostics(vec![d]))?;
     Ok(plan::build_plan(&source, &reg, &overrides, targets)?)
 }
 
 fn dispatch(cli: Cli) -> Result<ExitCode> {
     match cli.command {
-        Command::Run { graph, cache, out, targets, sets, plugins, json, jobs } => {
+        Command::Run {
+            graph,
+            cache,
+            out,
+            targets,
+            sets,
+            plugins,
+            json,
+            jobs,
+        } => {
             let plan = load_plan(&graph, &plugins, &sets, &targets)?;
             let store = Store::open(&cache)?;
             let out = out.unwrap_or_else(|| PathBuf::from("out").join(plan.source.name()));
-            let jobs = jobs.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get())).max(1);
+            let jobs = jobs
+                .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+                .max(1);
             let observer = Arc::new(display::Display::new());
-            let report = exec::run(&plan, &store, &RunOptions { jobs, out_dir: Some(out.clone()), observer: observer.clone() })?;
+            let report = exec::run(
+                &plan,
+                &store,
+                &RunOptions {
+                    jobs,
+                    out_dir: Some(out.clone()),
+                    observer: observer.clone(),
+                },
+            )?;
             observer.finish();
             eprint!("{}", report.render_table());
             if let Some(path) = json {
                 let text = serde_json::to_string_pretty(&report)?;
-                std::fs::write(&path, text).with_context(|| format!("{}: cannot write report", path.display()))?;
+                std::fs::write(&path, text)
+                    .with_context(|| format!("{}: cannot write report", path.display()))?;
             }
             if report.ok {
                 eprintln!("outputs in {}", out.display());
                 Ok(ExitCode::SUCCESS)
             } else {
-                eprintln!("error: {}", report.first_failure().unwrap_or_else(|| "the run failed".into()));
+                eprintln!(
+                    "error: {}",
+                    report
+                        .first_failure()
+                        .unwrap_or_else(|| "the run failed".into())
+                );
                 Ok(ExitCode::FAILURE)
             }
         }
-        Command::Check { graph, plugins, sets } => {
+        Command::Check {
+            graph,
+            plugins,
+            sets,
+        } => {
             let plan = load_plan(&graph, &plugins, &sets, &[])?;
-            println!("{}: ok ({} nodes, targets: {})", graph.display(), plan.nodes.len(), target_names(&plan));
+            println!(
+                "{}: ok ({} nodes, targets: {})",
+                graph.display(),
+                plan.nodes.len(),
+                target_names(&plan)
+            );
             Ok(ExitCode::SUCCESS)
         }
-        Command::Graph { graph, dot, plugins } => {
+        Command::Graph {
+            graph,
+            dot,
+            plugins,
+        } => {
             let plan = load_plan(&graph, &plugins, &[], &[])?;
-            print!("{}", if dot { display::to_dot(&plan) } else { display::to_text(&plan) });
+            print!(
+                "{}",
+                if dot {
+                    display::to_dot(&plan)
+                } else {
+                    display::to_text(&plan)
+                }
+            );
             Ok(ExitCode::SUCCESS)
         }
-        Command::Explain { graph, node, cache, sets, plugins } => {
+        Command::Explain {
+            graph,
+            node,
+            cache,
+            sets,
+            plugins,
+        } => {
             let plan = load_plan(&graph, &plugins, &sets, &[])?;
             let store = Store::open(&cache)?;
             println!("{}", exec::explain(&plan, &store, &node)?);
@@ -167,5 +232,9 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
 }
 
 fn target_names(plan: &Plan) -> String {
-    plan.targets.iter().map(|&t| plan.nodes[t].id.as_str()).collect::<Vec<_>>().join(", ")
+    plan.targets
+        .iter()
+        .map(|&t| plan.nodes[t].id.as_str())
+        .collect::<Vec<_>>()
+        .join(", ")
 }

@@ -7,7 +7,11 @@ use std::path::{Path, PathBuf};
 /// Where a diagnostic points.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Location {
-    File { path: PathBuf, line: usize, column: usize },
+    File {
+        path: PathBuf,
+        line: usize,
+        column: usize,
+    },
     /// A command-line argument such as `--set train.seed=3`.
     Argument(String),
 }
@@ -24,31 +28,44 @@ impl Diagnostic {
     pub fn at(path: &Path, src: &str, span: Span, message: impl Into<String>) -> Diagnostic {
         let (line, column) = line_col(src, span.start);
         let text = src.lines().nth(line - 1).unwrap_or("");
-        let width = if span.end > span.start {
-            src[span.start.min(src.len())..span.end.min(src.len())].lines().next().map_or(1, |l| l.chars().count()).max(1)
-        } else {
-            1
-        };
+        let start = src.floor_char_boundary(span.start.min(src.len()));
+        let end = src.floor_char_boundary(span.end.min(src.len())).max(start);
+        let width = src[start..end]
+            .lines()
+            .next()
+            .map_or(1, |l| l.chars().count())
+            .max(1);
+        let room = text.chars().count().saturating_sub(column - 1).max(1);
         let snippet = format!(
             "{line:>5} | {text}\n      | {}{}",
-            " ".repeat(column.saturating_sub(1)),
-            "^".repeat(width.min(text.chars().count().saturating_sub(column - 1).max(1)))
+            " ".repeat(column - 1),
+            "^".repeat(width.min(room))
         );
         Diagnostic {
-            location: Location::File { path: path.to_path_buf(), line, column },
+            location: Location::File {
+                path: path.to_path_buf(),
+                line,
+                column,
+            },
             message: message.into(),
             snippet: Some(snippet),
         }
     }
 
     pub fn argument(arg: &str, message: impl Into<String>) -> Diagnostic {
-        Diagnostic { location: Location::Argument(arg.to_string()), message: message.into(), snippet: None }
+        Diagnostic {
+            location: Location::Argument(arg.to_string()),
+            message: message.into(),
+            snippet: None,
+        }
     }
 
     /// `file:line:column: message` (or `argument ...: message`), one line.
     pub fn headline(&self) -> String {
         match &self.location {
-            Location::File { path, line, column } => format!("{}:{line}:{column}: {}", path.display(), self.message),
+            Location::File { path, line, column } => {
+                format!("{}:{line}:{column}: {}", path.display(), self.message)
+            }
             Location::Argument(a) => format!("{a}: {}", self.message),
         }
     }
@@ -86,7 +103,7 @@ impl std::error::Error for Diagnostics {}
 pub fn similar<'a>(word: &str, candidates: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
     let mut scored: Vec<(usize, &str)> = candidates
         .map(|c| (edit_distance(word, c), c))
-        .filter(|(d, c)| *d <= (word.len().max(c.len()) / 3).max(1))
+        .filter(|(d, c)| *d <= (word.len().max(c.len()) + 2) / 3)
         .collect();
     scored.sort();
     scored.into_iter().take(3).map(|(_, c)| c).collect()
@@ -98,7 +115,9 @@ fn edit_distance(a: &str, b: &str) -> usize {
     for (i, ca) in a.chars().enumerate() {
         let mut cur = vec![i + 1; b.len() + 1];
         for (j, cb) in b.iter().enumerate() {
-            cur[j + 1] = (prev[j] + usize::from(ca != *cb)).min(prev[j + 1] + 1).min(cur[j] + 1);
+            cur[j + 1] = (prev[j] + usize::from(ca != *cb))
+                .min(prev[j + 1] + 1)
+                .min(cur[j] + 1);
         }
         prev = cur;
     }
@@ -110,6 +129,12 @@ pub fn did_you_mean(options: &[&str]) -> String {
     match options {
         [] => String::new(),
         [one] => format!("; did you mean `{one}`?"),
-        many => format!("; did you mean one of {}?", many.iter().map(|s| format!("`{s}`")).collect::<Vec<_>>().join(", ")),
+        many => format!(
+            "; did you mean one of {}?",
+            many.iter()
+                .map(|s| format!("`{s}`"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
     }
 }

@@ -83,13 +83,17 @@ struct NodeState {
 pub fn run(plan: &Plan, store: &Store, opts: &RunOptions) -> Result<RunReport> {
     let start = Instant::now();
     let mut warnings = Vec::new();
-    // A corrupt cache entry found mid-run is deleted; the next pass recomputes it.
-    for _pass in 0..4 {
+    // A corrupt cache entry found mid-run is deleted; the next pass recomputes it. Every
+    // such pass deletes at least one entry, so this terminates; the cap guards against a
+    // disk that corrupts what we write.
+    for _pass in 0..1000 {
         let (mut report, corrupt) = run_pass(plan, store, opts, &mut warnings)?;
         if corrupt {
             continue;
         }
-        if report.ok && let Some(out) = &opts.out_dir {
+        if report.ok
+            && let Some(out) = &opts.out_dir
+        {
             match materialize_targets(plan, store, &report, out) {
                 Ok(()) => report.out = Some(out.display().to_string()),
                 Err(e) if e.downcast_ref::<Corrupt>().is_some() => {
@@ -105,20 +109,31 @@ pub fn run(plan: &Plan, store: &Store, opts: &RunOptions) -> Result<RunReport> {
         report.warnings = warnings;
         return Ok(report);
     }
-    Err(anyhow!("the cache keeps returning corrupt entries; delete {} and run again", store.root().display()))
+    Err(anyhow!(
+        "the cache keeps returning corrupt entries ({}); delete {} and run again",
+        warnings.join("; "),
+        store.root().display()
+    ))
 }
 
 fn params_key(plan: &Plan, i: usize) -> Result<String> {
     let n = &plan.nodes[i];
     let mut params = n.params.clone();
     for (name, path) in &n.input_paths {
-        let fp = Store::fingerprint(path).with_context(|| format!("node `{}` param `{name}`", n.id))?;
+        let fp =
+            Store::fingerprint(path).with_context(|| format!("node `{}` param `{name}`", n.id))?;
         params.values.insert(name.clone(), crate::Value::Str(fp));
     }
     Ok(params.canonical())
 }
 
-fn compute_key(kind: &str, version: &str, params: &str, inputs: &BTreeMap<String, Digest>, item: Option<&(String, Digest)>) -> String {
+fn compute_key(
+    kind: &str,
+    version: &str,
+    params: &str,
+    inputs: &BTreeMap<String, Digest>,
+    item: Option<&(String, Digest)>,
+) -> String {
     let mut h = blake3::Hasher::new();
     h.update(b"objectsplat-key-v1\0");
     for part in [kind, version, params] {
@@ -134,9 +149,15 @@ fn compute_key(kind: &str, version: &str, params: &str, inputs: &BTreeMap<String
     h.finalize().to_hex().to_string()
 }
 
-fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<String>) -> Result<(RunReport, bool)> {
+fn run_pass(
+    plan: &Plan,
+    store: &Store,
+    opts: &RunOptions,
+    warnings: &mut Vec<String>,
+) -> Result<(RunReport, bool)> {
     let needed = plan.needed();
-    let mut state: BTreeMap<usize, NodeState> = needed.iter().map(|&i| (i, NodeState::default())).collect();
+    let mut state: BTreeMap<usize, NodeState> =
+        needed.iter().map(|&i| (i, NodeState::default())).collect();
     let jobs = opts.jobs.max(1);
     let active = AtomicUsize::new(0);
     let cancel = AtomicBool::new(false);
@@ -170,7 +191,11 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
                     continue;
                 }
                 let node = &plan.nodes[i];
-                if !node.inputs.iter().all(|inp| state[&inp.from].status.is_some()) {
+                if !node
+                    .inputs
+                    .iter()
+                    .all(|inp| state[&inp.from].status.is_some())
+                {
                     continue;
                 }
                 dispatched[i] = true;
@@ -181,9 +206,15 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
                 let mut inputs = BTreeMap::new();
                 for inp in &node.inputs {
                     let up = &state[&inp.from];
-                    match (up.status, up.outputs.as_ref().and_then(|o| o.get(&inp.from_port))) {
+                    match (
+                        up.status,
+                        up.outputs.as_ref().and_then(|o| o.get(&inp.from_port)),
+                    ) {
                         (Some(Status::Failed), _) => {
-                            blocked = Some((Status::Failed, format!("upstream `{}` failed", plan.nodes[inp.from].id)));
+                            blocked = Some((
+                                Status::Failed,
+                                format!("upstream `{}` failed", plan.nodes[inp.from].id),
+                            ));
                             break;
                         }
                         (_, Some(d)) => {
@@ -193,7 +224,10 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
                             let why = up.reason.clone().unwrap_or_default();
                             blocked = Some((
                                 Status::Skipped,
-                                format!("upstream `{}` skipped ({why}), so `{}` has no value", plan.nodes[inp.from].id, inp.from_port),
+                                format!(
+                                    "upstream `{}` skipped ({why}), so `{}` has no value",
+                                    plan.nodes[inp.from].id, inp.from_port
+                                ),
                             ));
                             break;
                         }
@@ -205,7 +239,9 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
                     st.reason = Some(reason);
                     continue;
                 }
-                let pk = pkeys.entry(i).or_insert_with(|| params_key(plan, i).map_err(|e| format!("{e:#}")));
+                let pk = pkeys
+                    .entry(i)
+                    .or_insert_with(|| params_key(plan, i).map_err(|e| format!("{e:#}")));
                 let pk = match pk {
                     Ok(k) => k.clone(),
                     Err(e) => {
@@ -221,10 +257,15 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
                     Some(e) => {
                         let d = inputs.remove(&e.port).expect("each input resolved above");
                         match store.manifest(&d) {
-                            Ok(Some(Manifest::Collection { items, .. })) => items.into_iter().map(Some).collect(),
+                            Ok(Some(Manifest::Collection { items, .. })) => {
+                                items.into_iter().map(Some).collect()
+                            }
                             Ok(_) => {
                                 st.status = Some(Status::Failed);
-                                st.reason = Some(format!("input `{}` is not a collection in the cache", e.port));
+                                st.reason = Some(format!(
+                                    "input `{}` is not a collection in the cache",
+                                    e.port
+                                ));
                                 continue;
                             }
                             Err(c) => {
@@ -233,7 +274,8 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
                                 warnings.push(msg);
                                 corrupt_seen = true;
                                 st.status = Some(Status::Failed);
-                                st.reason = Some("corrupt cache entry (recomputed next pass)".into());
+                                st.reason =
+                                    Some("corrupt cache entry (recomputed next pass)".into());
                                 continue;
                             }
                         }
@@ -243,7 +285,8 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
                 for item in items {
                     let key = compute_key(kind, version, &pk, &inputs, item.as_ref());
                     let item_name = item.as_ref().map(|(n, _)| n.clone());
-                    st.keys.insert(item_name.clone().unwrap_or_default(), key.clone());
+                    st.keys
+                        .insert(item_name.clone().unwrap_or_default(), key.clone());
                     let label = match &item_name {
                         Some(n) => format!("{}[{n}]", node.id),
                         None => node.id.clone(),
@@ -260,7 +303,14 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
                             st.pending += 1;
                             in_flight += 1;
                             job_tx
-                                .send(Job { node: i, item: item.clone(), key, params_key: pk.clone(), inputs: job_inputs, label })
+                                .send(Job {
+                                    node: i,
+                                    item: item.clone(),
+                                    key,
+                                    params_key: pk.clone(),
+                                    inputs: job_inputs,
+                                    label,
+                                })
                                 .map_err(|_| anyhow!("worker threads stopped"))?;
                         }
                         Err(c) => {
@@ -274,7 +324,14 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
                             st.pending += 1;
                             in_flight += 1;
                             job_tx
-                                .send(Job { node: i, item: item.clone(), key, params_key: pk.clone(), inputs: job_inputs, label })
+                                .send(Job {
+                                    node: i,
+                                    item: item.clone(),
+                                    key,
+                                    params_key: pk.clone(),
+                                    inputs: job_inputs,
+                                    label,
+                                })
                                 .map_err(|_| anyhow!("worker threads stopped"))?;
                         }
                     }
@@ -286,9 +343,13 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
             if in_flight == 0 {
                 break;
             }
-            let out = res_rx.recv().map_err(|_| anyhow!("worker threads stopped"))?;
+            let out = res_rx
+                .recv()
+                .map_err(|_| anyhow!("worker threads stopped"))?;
             in_flight -= 1;
-            let st = state.get_mut(&out.node).expect("jobs belong to needed nodes");
+            let st = state
+                .get_mut(&out.node)
+                .expect("jobs belong to needed nodes");
             st.pending -= 1;
             if let Err(JobError::Corrupt(_)) = &out.result {
                 corrupt_seen = true;
@@ -317,7 +378,10 @@ fn run_pass(plan: &Plan, store: &Store, opts: &RunOptions, warnings: &mut Vec<St
     warnings.extend(warn_lock.into_inner().unwrap_or_default());
     for &i in &needed {
         let st = &state[&i];
-        if st.status == Some(Status::Ran) || st.status == Some(Status::Cached) || st.status == Some(Status::Skipped) {
+        if st.status == Some(Status::Ran)
+            || st.status == Some(Status::Cached)
+            || st.status == Some(Status::Skipped)
+        {
             let _ = store.set_head(&plan.source.path, &plan.nodes[i].id, &st.keys);
         }
     }
@@ -373,9 +437,15 @@ fn record_item(
     st.warnings.extend(warnings);
     let (rec, status, reason) = match result {
         Ok(rec) => {
-            let status = if rec.status == "skipped" && status == Status::Ran { Status::Skipped } else { status };
+            let status = if rec.status == "skipped" && status == Status::Ran {
+                Status::Skipped
+            } else {
+                status
+            };
             let reason = match (status, &rec.reason) {
-                (Status::Cached, Some(r)) if rec.status == "skipped" => Some(format!("skipped: {r}")),
+                (Status::Cached, Some(r)) if rec.status == "skipped" => {
+                    Some(format!("skipped: {r}"))
+                }
                 (_, r) => r.clone(),
             };
             for (k, v) in &rec.notes {
@@ -387,7 +457,16 @@ fn record_item(
     };
     match item {
         Some(name) => {
-            st.items.push((name.clone(), rec, ItemReport { name, status, seconds, reason }));
+            st.items.push((
+                name.clone(),
+                rec,
+                ItemReport {
+                    name,
+                    status,
+                    seconds,
+                    reason,
+                },
+            ));
         }
         None => {
             st.status = Some(status);
@@ -412,11 +491,26 @@ fn finish_node(plan: &Plan, store: &Store, i: usize, st: &mut NodeState, fans_ou
     }
     // Assemble collection outputs from the items, in input order.
     let node = &plan.nodes[i];
-    let failed: Vec<&str> = st.items.iter().filter(|(_, _, r)| r.status == Status::Failed).map(|(n, _, _)| n.as_str()).collect();
+    let failed: Vec<&str> = st
+        .items
+        .iter()
+        .filter(|(_, _, r)| r.status == Status::Failed)
+        .map(|(n, _, _)| n.as_str())
+        .collect();
     if !failed.is_empty() {
         st.status = Some(Status::Failed);
-        let first = st.items.iter().find(|(_, _, r)| r.status == Status::Failed).and_then(|(_, _, r)| r.reason.clone());
-        st.reason = Some(format!("{} of {} items failed ({}): {}", failed.len(), st.items.len(), failed.join(", "), first.unwrap_or_default()));
+        let first = st
+            .items
+            .iter()
+            .find(|(_, _, r)| r.status == Status::Failed)
+            .and_then(|(_, _, r)| r.reason.clone());
+        st.reason = Some(format!(
+            "{} of {} items failed ({}): {}",
+            failed.len(),
+            st.items.len(),
+            failed.join(", "),
+            first.unwrap_or_default()
+        ));
         return;
     }
     let mut outputs = BTreeMap::new();
@@ -424,9 +518,16 @@ fn finish_node(plan: &Plan, store: &Store, i: usize, st: &mut NodeState, fans_ou
         let items: Vec<(String, Digest)> = st
             .items
             .iter()
-            .filter_map(|(name, rec, _)| rec.as_ref().and_then(|r| r.outputs.get(port)).map(|d| (name.clone(), d.clone())))
+            .filter_map(|(name, rec, _)| {
+                rec.as_ref()
+                    .and_then(|r| r.outputs.get(port))
+                    .map(|d| (name.clone(), d.clone()))
+            })
             .collect();
-        match store.put_manifest(&Manifest::Collection { ty: ty.element().to_string(), items }) {
+        match store.put_manifest(&Manifest::Collection {
+            ty: ty.element().to_string(),
+            items,
+        }) {
             Ok(d) => {
                 outputs.insert(port.clone(), d);
             }
@@ -446,7 +547,11 @@ fn finish_node(plan: &Plan, store: &Store, i: usize, st: &mut NodeState, fans_ou
     } else {
         Status::Ran
     });
-    let skipped = st.items.iter().filter(|(_, _, r)| r.status == Status::Skipped).count();
+    let skipped = st
+        .items
+        .iter()
+        .filter(|(_, _, r)| r.status == Status::Skipped)
+        .count();
     if skipped > 0 && st.status != Some(Status::Skipped) {
         st.reason = Some(format!("{skipped} of {} items skipped", st.items.len()));
     } else if st.status == Some(Status::Skipped) {
@@ -454,7 +559,15 @@ fn finish_node(plan: &Plan, store: &Store, i: usize, st: &mut NodeState, fans_ou
     }
 }
 
-fn execute(plan: &Plan, store: &Store, opts: &RunOptions, job: Job, active: &AtomicUsize, jobs: usize, cancel: &AtomicBool) -> JobOutcome {
+fn execute(
+    plan: &Plan,
+    store: &Store,
+    opts: &RunOptions,
+    job: Job,
+    active: &AtomicUsize,
+    jobs: usize,
+    cancel: &AtomicBool,
+) -> JobOutcome {
     let t0 = Instant::now();
     opts.observer.job_started(&job.label);
     let running = active.fetch_add(1, Ordering::SeqCst) + 1;
@@ -465,7 +578,13 @@ fn execute(plan: &Plan, store: &Store, opts: &RunOptions, job: Job, active: &Ato
     let seconds = t0.elapsed().as_secs_f64();
     let (result, status) = match result {
         Ok((rec, hit)) => {
-            let status = if hit { Status::Cached } else if rec.status == "skipped" { Status::Skipped } else { Status::Ran };
+            let status = if hit {
+                Status::Cached
+            } else if rec.status == "skipped" {
+                Status::Skipped
+            } else {
+                Status::Ran
+            };
             (Ok(rec), status)
         }
         Err(e) => {
@@ -479,7 +598,14 @@ fn execute(plan: &Plan, store: &Store, opts: &RunOptions, job: Job, active: &Ato
         }
     };
     opts.observer.job_finished(&job.label, status, seconds);
-    JobOutcome { node: job.node, item: job.item.map(|(n, _)| n), result, status, seconds, warnings }
+    JobOutcome {
+        node: job.node,
+        item: job.item.map(|(n, _)| n),
+        result,
+        status,
+        seconds,
+        warnings,
+    }
 }
 
 fn execute_inner(
@@ -533,20 +659,24 @@ fn execute_inner(
             cancel,
         };
         let t0 = Instant::now();
-        let outcome = catch_unwind(AssertUnwindSafe(|| node.reg.node.run(&mut ctx))).unwrap_or_else(|p| {
-            let msg = p
-                .downcast_ref::<String>()
-                .cloned()
-                .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
-                .unwrap_or_else(|| "unknown panic".into());
-            Err(anyhow!("node panicked: {msg}"))
-        })?;
+        let outcome = catch_unwind(AssertUnwindSafe(|| node.reg.node.run(&mut ctx)))
+            .unwrap_or_else(|p| {
+                let msg = p
+                    .downcast_ref::<String>()
+                    .cloned()
+                    .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
+                    .unwrap_or_else(|| "unknown panic".into());
+                Err(anyhow!("node panicked: {msg}"))
+            })?;
         let seconds = t0.elapsed().as_secs_f64();
         warnings.extend(ctx.warnings.iter().map(|w| format!("{}: {w}", job.label)));
         let mut out_digests = BTreeMap::new();
         for o in &spec.outputs {
             if let Some(inp) = ctx.forwarded.get(&o.name) {
-                let d = job.inputs.get(inp).ok_or_else(|| anyhow!("forwarded input `{inp}` has no value"))?;
+                let d = job
+                    .inputs
+                    .get(inp)
+                    .ok_or_else(|| anyhow!("forwarded input `{inp}` has no value"))?;
                 out_digests.insert(o.name.clone(), d.clone());
                 continue;
             }
@@ -574,7 +704,10 @@ fn execute_inner(
                     for n in names {
                         items.push((n.clone(), store.ingest_folder(t, &dir.join(&n))?));
                     }
-                    store.put_manifest(&Manifest::Collection { ty: t.clone(), items })?
+                    store.put_manifest(&Manifest::Collection {
+                        ty: t.clone(),
+                        items,
+                    })?
                 }
             };
             out_digests.insert(o.name.clone(), digest);
@@ -611,7 +744,8 @@ fn materialize_targets(plan: &Plan, store: &Store, report: &RunReport, out: &Pat
         for (port, digest) in &n.outputs {
             let dest = out.join(id).join(port);
             if dest.exists() {
-                std::fs::remove_dir_all(&dest).with_context(|| format!("{}: cannot replace", dest.display()))?;
+                std::fs::remove_dir_all(&dest)
+                    .with_context(|| format!("{}: cannot replace", dest.display()))?;
             }
             store.materialize(digest, &dest, true).map_err(|e| {
                 if e.downcast_ref::<Corrupt>().is_some() {
@@ -626,7 +760,9 @@ fn materialize_targets(plan: &Plan, store: &Store, report: &RunReport, out: &Pat
 
 /// Why each needed node would (re)run, without running anything.
 pub fn explain(plan: &Plan, store: &Store, target: &str) -> Result<String> {
-    let t = plan.index(target).ok_or_else(|| anyhow!("no node `{target}` in {}", plan.source.path.display()))?;
+    let t = plan
+        .index(target)
+        .ok_or_else(|| anyhow!("no node `{target}` in {}", plan.source.path.display()))?;
     let mut sub = plan.clone();
     sub.targets = vec![t];
     let mut known: BTreeMap<usize, Option<BTreeMap<String, Digest>>> = BTreeMap::new();
@@ -636,7 +772,12 @@ pub fn explain(plan: &Plan, store: &Store, target: &str) -> Result<String> {
         let mut inputs = BTreeMap::new();
         let mut unknown_up = None;
         for inp in &node.inputs {
-            match known.get(&inp.from).cloned().flatten().and_then(|o| o.get(&inp.from_port).cloned()) {
+            match known
+                .get(&inp.from)
+                .cloned()
+                .flatten()
+                .and_then(|o| o.get(&inp.from_port).cloned())
+            {
                 Some(d) => {
                     inputs.insert(inp.port.clone(), d);
                 }
@@ -644,7 +785,10 @@ pub fn explain(plan: &Plan, store: &Store, target: &str) -> Result<String> {
             }
         }
         if let Some(up) = unknown_up {
-            lines.push(format!("{}: will run if `{up}` produces new outputs (its inputs are not cached yet)", node.id));
+            lines.push(format!(
+                "{}: will run if `{up}` produces new outputs (its inputs are not cached yet)",
+                node.id
+            ));
             known.insert(i, None);
             continue;
         }
@@ -653,7 +797,11 @@ pub fn explain(plan: &Plan, store: &Store, target: &str) -> Result<String> {
         let each = node.inputs.iter().find(|x| x.each);
         let items: Vec<Option<(String, Digest)>> = match each {
             None => vec![None],
-            Some(e) => match store.manifest(&inputs.remove(&e.port).unwrap_or_default()).ok().flatten() {
+            Some(e) => match store
+                .manifest(&inputs.remove(&e.port).unwrap_or_default())
+                .ok()
+                .flatten()
+            {
                 Some(Manifest::Collection { items, .. }) => items.into_iter().map(Some).collect(),
                 _ => vec![],
             },
@@ -680,22 +828,36 @@ pub fn explain(plan: &Plan, store: &Store, target: &str) -> Result<String> {
                         None => "it has never run with this graph".to_string(),
                         Some(prev) => diff_reason(&prev, spec, &pk, &inputs),
                     };
-                    reasons.push(if name.is_empty() { why } else { format!("item `{name}`: {why}") });
+                    reasons.push(if name.is_empty() {
+                        why
+                    } else {
+                        format!("item `{name}`: {why}")
+                    });
                 }
             }
         }
         if reasons.is_empty() {
-            lines.push(format!("{}: cached ({} run{})", node.id, hits.max(1), if hits == 1 { "" } else { "s" }));
+            lines.push(format!(
+                "{}: cached ({} run{})",
+                node.id,
+                hits.max(1),
+                if hits == 1 { "" } else { "s" }
+            ));
             let outs = outputs.unwrap_or_default();
             let resolved: BTreeMap<String, Digest> = if each.is_some() {
                 outs.into_iter()
                     .filter_map(|(p, items)| {
                         let ty = node.outputs.get(&p)?.element().to_string();
-                        store.put_manifest(&Manifest::Collection { ty, items }).ok().map(|d| (p, d))
+                        store
+                            .put_manifest(&Manifest::Collection { ty, items })
+                            .ok()
+                            .map(|d| (p, d))
                     })
                     .collect()
             } else {
-                outs.into_iter().filter_map(|(p, mut v)| v.pop().map(|(_, d)| (p, d))).collect()
+                outs.into_iter()
+                    .filter_map(|(p, mut v)| v.pop().map(|(_, d)| (p, d)))
+                    .collect()
             };
             known.insert(i, Some(resolved));
         } else {
@@ -706,20 +868,39 @@ pub fn explain(plan: &Plan, store: &Store, target: &str) -> Result<String> {
     Ok(lines.join("\n"))
 }
 
-fn diff_reason(prev: &ActionRecord, spec: &crate::NodeSpec, params: &str, inputs: &BTreeMap<String, Digest>) -> String {
+fn diff_reason(
+    prev: &ActionRecord,
+    spec: &crate::NodeSpec,
+    params: &str,
+    inputs: &BTreeMap<String, Digest>,
+) -> String {
     let mut why = Vec::new();
     if prev.version != spec.version {
-        why.push(format!("code version changed ({} → {})", prev.version, spec.version));
+        why.push(format!(
+            "code version changed ({} → {})",
+            prev.version, spec.version
+        ));
     }
     if prev.params != params {
-        why.push(format!("params changed (was {}, now {})", prev.params, params));
+        why.push(format!(
+            "params changed (was {}, now {})",
+            prev.params, params
+        ));
     }
     for (port, d) in inputs {
         match prev.inputs.get(port) {
             Some(p) if p == d => {}
-            Some(p) => why.push(format!("input `{port}` changed ({} → {})", short(p), short(d))),
+            Some(p) => why.push(format!(
+                "input `{port}` changed ({} → {})",
+                short(p),
+                short(d)
+            )),
             None => why.push(format!("input `{port}` is new")),
         }
     }
-    if why.is_empty() { "its cached outputs are missing or were corrupt".into() } else { why.join(", ") }
+    if why.is_empty() {
+        "its cached outputs are missing or were corrupt".into()
+    } else {
+        why.join(", ")
+    }
 }

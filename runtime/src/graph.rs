@@ -24,9 +24,15 @@ pub struct GraphSource {
 impl GraphSource {
     pub fn read(path: &Path) -> Result<GraphSource, Diagnostics> {
         let text = std::fs::read_to_string(path).map_err(|e| {
-            Diagnostics(vec![Diagnostic::argument(&path.display().to_string(), format!("cannot read graph file: {e}"))])
+            Diagnostics(vec![Diagnostic::argument(
+                &path.display().to_string(),
+                format!("cannot read graph file: {e}"),
+            )])
         })?;
-        Ok(GraphSource { path: path.to_path_buf(), text })
+        Ok(GraphSource {
+            path: path.to_path_buf(),
+            text,
+        })
     }
 
     pub fn diag(&self, span: Span, message: impl Into<String>) -> Diagnostic {
@@ -43,7 +49,10 @@ impl GraphSource {
 
     /// The graph's name: its file stem (`graphs/demo.ron` → `demo`).
     pub fn name(&self) -> String {
-        self.path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "graph".into())
+        self.path
+            .file_stem()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "graph".into())
     }
 }
 
@@ -90,7 +99,13 @@ pub struct GraphDecl {
 
 pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
     let root = syntax::parse(&src.text).map_err(|e| {
-        Diagnostics(vec![src.diag(Span { start: e.offset, end: e.offset + 1 }, format!("syntax error: {}", e.message))])
+        Diagnostics(vec![src.diag(
+            Span {
+                start: e.offset,
+                end: e.offset + 1,
+            },
+            format!("syntax error: {}", e.message),
+        )])
     })?;
     let mut diags = Vec::new();
     let fields = match &root.kind {
@@ -99,11 +114,18 @@ pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
         _ => {
             return Err(Diagnostics(vec![src.diag(
                 root.span,
-                format!("expected the graph as a struct `(nodes: {{...}}, targets: [...])`, found {}", root.shape()),
+                format!(
+                    "expected the graph as a struct `(nodes: {{...}}, targets: [...])`, found {}",
+                    root.shape()
+                ),
             )]));
         }
     };
-    let mut graph = GraphDecl { nodes: vec![], targets: vec![], plugins: vec![] };
+    let mut graph = GraphDecl {
+        nodes: vec![],
+        targets: vec![],
+        plugins: vec![],
+    };
     let mut saw_nodes = false;
     for (name, name_span, value) in fields {
         match name.as_str() {
@@ -115,7 +137,10 @@ pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
                             match parse_node(src, k, v) {
                                 Ok(n) => {
                                     if graph.nodes.iter().any(|o| o.id == n.id) {
-                                        diags.push(src.diag(k.span, format!("node id {:?} is defined twice", n.id)));
+                                        diags.push(src.diag(
+                                            k.span,
+                                            format!("node id {:?} is defined twice", n.id),
+                                        ));
                                     } else {
                                         graph.nodes.push(n);
                                     }
@@ -126,7 +151,10 @@ pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
                     }
                     _ => diags.push(src.diag(
                         value.span,
-                        format!("expected `nodes` to be a map {{\"id\": (kind: ...), ...}}, found {}", value.shape()),
+                        format!(
+                            "expected `nodes` to be a map {{\"id\": (kind: ...), ...}}, found {}",
+                            value.shape()
+                        ),
                     )),
                 }
             }
@@ -147,9 +175,16 @@ pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
         }
     }
     if !saw_nodes {
-        diags.push(src.diag(root.span, "the graph has no `nodes` field; expected `(nodes: {...})`"));
+        diags.push(src.diag(
+            root.span,
+            "the graph has no `nodes` field; expected `(nodes: {...})`",
+        ));
     }
-    if diags.is_empty() { Ok(graph) } else { Err(Diagnostics(diags)) }
+    if diags.is_empty() {
+        Ok(graph)
+    } else {
+        Err(Diagnostics(diags))
+    }
 }
 
 fn string_list(v: &Spanned) -> Result<Vec<(String, Span)>, (Span, String)> {
@@ -161,12 +196,18 @@ fn string_list(v: &Spanned) -> Result<Vec<(String, Span)>, (Span, String)> {
                 _ => Err((i.span, format!("expected a string, found {}", i.shape()))),
             })
             .collect(),
-        _ => Err((v.span, format!("expected a list of strings, found {}", v.shape()))),
+        _ => Err((
+            v.span,
+            format!("expected a list of strings, found {}", v.shape()),
+        )),
     }
 }
 
 fn valid_id(id: &str) -> bool {
-    !id.is_empty() && id.chars().all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
+    !id.is_empty()
+        && id
+            .chars()
+            .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-')
 }
 
 fn parse_node(src: &GraphSource, key: &Spanned, v: &Spanned) -> Result<NodeDecl, Vec<Diagnostic>> {
@@ -178,12 +219,20 @@ fn parse_node(src: &GraphSource, key: &Spanned, v: &Spanned) -> Result<NodeDecl,
                 format!("node id {s:?} must be non-empty and made of letters, digits, `_` and `-`"),
             )]);
         }
-        _ => return Err(vec![src.diag(key.span, format!("expected a node id string, found {}", key.shape()))]),
+        _ => {
+            return Err(vec![src.diag(
+                key.span,
+                format!("expected a node id string, found {}", key.shape()),
+            )]);
+        }
     };
     let SKind::Struct(_, fields) = &v.kind else {
         return Err(vec![src.diag(
             v.span,
-            format!("node {id:?}: expected `(kind: \"...\", params: (...), inputs: (...))`, found {}", v.shape()),
+            format!(
+                "node {id:?}: expected `(kind: \"...\", params: (...), inputs: (...))`, found {}",
+                v.shape()
+            ),
         )]);
     };
     let mut diags = Vec::new();
@@ -232,28 +281,51 @@ fn parse_node(src: &GraphSource, key: &Spanned, v: &Spanned) -> Result<NodeDecl,
         }
     }
     let Some((kind, kind_span)) = kind else {
-        diags.push(src.diag(v.span, format!("node {id:?} has no `kind`; expected `kind: \"<node kind>\"`")));
+        diags.push(src.diag(
+            v.span,
+            format!("node {id:?} has no `kind`; expected `kind: \"<node kind>\"`"),
+        ));
         return Err(diags);
     };
     if !diags.is_empty() {
         return Err(diags);
     }
-    Ok(NodeDecl { id, id_span: key.span, kind, kind_span, params, inputs, span: v.span })
+    Ok(NodeDecl {
+        id,
+        id_span: key.span,
+        kind,
+        kind_span,
+        params,
+        inputs,
+        span: v.span,
+    })
 }
 
 fn parse_ref(v: &Spanned) -> Result<PortRef, String> {
     let (text, each) = match &v.kind {
         SKind::Str(s) => (s.as_str(), false),
-        SKind::Tuple(Some(name), items) if name == "each" && items.len() == 1 => match &items[0].kind {
-            SKind::Str(s) => (s.as_str(), true),
-            _ => return Err("expected each(\"node.port\")".into()),
-        },
-        _ => return Err(format!("expected \"node.port\" or each(\"node.port\"), found {}", v.shape())),
+        SKind::Tuple(Some(name), items) if name == "each" && items.len() == 1 => {
+            match &items[0].kind {
+                SKind::Str(s) => (s.as_str(), true),
+                _ => return Err("expected each(\"node.port\")".into()),
+            }
+        }
+        _ => {
+            return Err(format!(
+                "expected \"node.port\" or each(\"node.port\"), found {}",
+                v.shape()
+            ));
+        }
     };
     match text.split_once('.') {
-        Some((n, p)) if valid_id(n) && !p.is_empty() && !p.contains('.') => {
-            Ok(PortRef { node: n.to_string(), port: p.to_string(), each, span: v.span })
-        }
-        _ => Err(format!("{text:?} is not a port reference; expected \"node.port\"")),
+        Some((n, p)) if valid_id(n) && !p.is_empty() && !p.contains('.') => Ok(PortRef {
+            node: n.to_string(),
+            port: p.to_string(),
+            each,
+            span: v.span,
+        }),
+        _ => Err(format!(
+            "{text:?} is not a port reference; expected \"node.port\""
+        )),
     }
 }

@@ -21,7 +21,8 @@ pub enum TypeRef {
 impl TypeRef {
     pub fn parse(text: &str) -> Result<TypeRef, String> {
         let t = text.trim();
-        let valid = |n: &str| !n.is_empty() && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
+        let valid =
+            |n: &str| !n.is_empty() && n.chars().all(|c| c.is_ascii_alphanumeric() || c == '_');
         if let Some(inner) = t.strip_prefix('[').and_then(|r| r.strip_suffix(']')) {
             if valid(inner) {
                 return Ok(TypeRef::List(inner.to_string()));
@@ -29,7 +30,9 @@ impl TypeRef {
         } else if valid(t) {
             return Ok(TypeRef::One(t.to_string()));
         }
-        Err(format!("`{t}` is not a type; expected a name like Image or a collection like [Component]"))
+        Err(format!(
+            "`{t}` is not a type; expected a name like Image or a collection like [Component]"
+        ))
     }
 
     pub fn element(&self) -> &str {
@@ -92,8 +95,14 @@ impl NodeSpec {
     fn port(name: &str, ty: &str, optional: bool, doc: &str) -> PortSpec {
         // Built-in specs are written by us; a typo in a type is a programming error
         // caught by the registry tests, so fall back to a name the registry rejects.
-        let ty = TypeRef::parse(ty).unwrap_or_else(|_| TypeRef::One(format!("invalid type `{ty}`")));
-        PortSpec { name: name.into(), ty, optional, doc: doc.into() }
+        let ty =
+            TypeRef::parse(ty).unwrap_or_else(|_| TypeRef::One(format!("invalid type `{ty}`")));
+        PortSpec {
+            name: name.into(),
+            ty,
+            optional,
+            doc: doc.into(),
+        }
     }
 
     pub fn input(mut self, name: &str, ty: &str, doc: &str) -> Self {
@@ -113,7 +122,12 @@ impl NodeSpec {
 
     /// A parameter with a default given as RON text (`None` = required).
     pub fn param(mut self, name: &str, ty: ParamType, default: Option<&str>, doc: &str) -> Self {
-        self.params.push(ParamSpec { name: name.into(), ty, default: default.map(str::to_string), doc: doc.into() });
+        self.params.push(ParamSpec {
+            name: name.into(),
+            ty,
+            default: default.map(str::to_string),
+            doc: doc.into(),
+        });
         self
     }
 
@@ -151,7 +165,10 @@ pub enum InputValue {
     /// One artifact: its folder.
     One(PathBuf),
     /// A collection: a folder with one sub-folder per item, plus the items in order.
-    Items { dir: PathBuf, items: Vec<(String, PathBuf)> },
+    Items {
+        dir: PathBuf,
+        items: Vec<(String, PathBuf)>,
+    },
 }
 
 /// Receives progress from running nodes (the CLI draws bars from it).
@@ -186,7 +203,9 @@ impl<'a> Context<'a> {
     pub fn input(&self, port: &str) -> Result<&Path> {
         match self.inputs.get(port) {
             Some(InputValue::One(p)) => Ok(p),
-            Some(InputValue::Items { .. }) => bail!("input `{port}` is a collection; use input_items"),
+            Some(InputValue::Items { .. }) => {
+                bail!("input `{port}` is a collection; use input_items")
+            }
             None => bail!("input `{port}` is not connected"),
         }
     }
@@ -212,7 +231,10 @@ impl<'a> Context<'a> {
     /// The empty folder to write an output into. For a collection output (`[T]`),
     /// write one sub-folder per item, named by the item.
     pub fn output(&self, port: &str) -> Result<PathBuf> {
-        self.outputs.get(port).cloned().ok_or_else(|| anyhow!("node has no output `{port}`"))
+        self.outputs
+            .get(port)
+            .cloned()
+            .ok_or_else(|| anyhow!("node has no output `{port}`"))
     }
 
     /// Makes an output the very same artifact as an input (no copy), e.g. when a

@@ -11,8 +11,14 @@ use std::fmt;
 #[derive(Debug, Clone, PartialEq)]
 pub enum ParamType {
     Bool,
-    Int { min: Option<i64>, max: Option<i64> },
-    Float { min: Option<f64>, max: Option<f64> },
+    Int {
+        min: Option<i64>,
+        max: Option<i64>,
+    },
+    Float {
+        min: Option<f64>,
+        max: Option<f64>,
+    },
     Str,
     /// One of a fixed set of strings.
     Enum(Vec<String>),
@@ -28,19 +34,34 @@ pub enum ParamType {
 
 impl ParamType {
     pub fn int() -> Self {
-        ParamType::Int { min: None, max: None }
+        ParamType::Int {
+            min: None,
+            max: None,
+        }
     }
     pub fn int_range(min: i64, max: i64) -> Self {
-        ParamType::Int { min: Some(min), max: Some(max) }
+        ParamType::Int {
+            min: Some(min),
+            max: Some(max),
+        }
     }
     pub fn float() -> Self {
-        ParamType::Float { min: None, max: None }
+        ParamType::Float {
+            min: None,
+            max: None,
+        }
     }
     pub fn float_range(min: f64, max: f64) -> Self {
-        ParamType::Float { min: Some(min), max: Some(max) }
+        ParamType::Float {
+            min: Some(min),
+            max: Some(max),
+        }
     }
     pub fn non_negative() -> Self {
-        ParamType::Float { min: Some(0.0), max: None }
+        ParamType::Float {
+            min: Some(0.0),
+            max: None,
+        }
     }
     pub fn enumeration(options: &[&str]) -> Self {
         ParamType::Enum(options.iter().map(|s| s.to_string()).collect())
@@ -53,7 +74,7 @@ impl ParamType {
     }
 
     /// Checks `v` against the type and returns its normalised form (ints widened
-    /// to floats where a float is expected, `Some(x)` unwrapped to `x` under Optional).
+    /// to floats where a float is expected, a bare value under Optional wrapped in `Some`).
     pub fn check(&self, v: &Value) -> Result<Value, String> {
         match (self, v) {
             (ParamType::Bool, Value::Bool(_)) => Ok(v.clone()),
@@ -96,9 +117,12 @@ impl ParamType {
                 let p = std::path::Path::new(s);
                 if s.is_empty()
                     || p.is_absolute()
-                    || p.components().any(|c| !matches!(c, std::path::Component::Normal(_)))
+                    || p.components()
+                        .any(|c| !matches!(c, std::path::Component::Normal(_)))
                 {
-                    Err(format!("{s:?} must be a relative path inside the output folder (no `..`, not absolute)"))
+                    Err(format!(
+                        "{s:?} must be a relative path inside the output folder (no `..`, not absolute)"
+                    ))
                 } else {
                     Ok(v.clone())
                 }
@@ -110,12 +134,19 @@ impl ParamType {
                 .collect::<Result<Vec<_>, _>>()
                 .map(Value::List),
             (ParamType::Optional(_), Value::Ident(n)) if n == "None" => Ok(v.clone()),
-            (ParamType::Optional(inner), Value::Tuple(Some(n), items)) if n == "Some" && items.len() == 1 => {
-                inner.check(&items[0])
+            (ParamType::Optional(inner), Value::Tuple(Some(n), items))
+                if n == "Some" && items.len() == 1 =>
+            {
+                Ok(some(inner.check(&items[0])?))
             }
-            (ParamType::Optional(inner), other) => inner.check(other),
+            // A bare value where an option is expected means `Some(value)`.
+            (ParamType::Optional(inner), other) => Ok(some(inner.check(other)?)),
             (ParamType::Ron(_), _) => Ok(v.clone()),
-            (expected, found) => Err(format!("expected {}, found {}", expected.describe(), found.shape())),
+            (expected, found) => Err(format!(
+                "expected {}, found {}",
+                expected.describe(),
+                found.shape()
+            )),
         }
     }
 
@@ -174,11 +205,21 @@ impl ParamType {
     }
 }
 
+fn some(v: Value) -> Value {
+    Value::Tuple(Some("Some".into()), vec![v])
+}
+
 fn parse_range<T: std::str::FromStr>(r: &str) -> Result<(Option<T>, Option<T>), String> {
-    let (a, b) = r.split_once("..").ok_or_else(|| format!("expected MIN..MAX, found `{r}`"))?;
+    let (a, b) = r
+        .split_once("..")
+        .ok_or_else(|| format!("expected MIN..MAX, found `{r}`"))?;
     let p = |s: &str| -> Result<Option<T>, String> {
         let s = s.trim();
-        if s.is_empty() { Ok(None) } else { s.parse().map(Some).map_err(|_| format!("bad bound `{s}`")) }
+        if s.is_empty() {
+            Ok(None)
+        } else {
+            s.parse().map(Some).map_err(|_| format!("bad bound `{s}`"))
+        }
     };
     Ok((p(a)?, p(b)?))
 }
@@ -188,13 +229,29 @@ impl fmt::Display for ParamType {
         let bound = |v: Option<String>| v.unwrap_or_default();
         match self {
             ParamType::Bool => write!(f, "bool"),
-            ParamType::Int { min: None, max: None } => write!(f, "int"),
+            ParamType::Int {
+                min: None,
+                max: None,
+            } => write!(f, "int"),
             ParamType::Int { min, max } => {
-                write!(f, "int({}..{})", bound(min.map(|v| v.to_string())), bound(max.map(|v| v.to_string())))
+                write!(
+                    f,
+                    "int({}..{})",
+                    bound(min.map(|v| v.to_string())),
+                    bound(max.map(|v| v.to_string()))
+                )
             }
-            ParamType::Float { min: None, max: None } => write!(f, "float"),
+            ParamType::Float {
+                min: None,
+                max: None,
+            } => write!(f, "float"),
             ParamType::Float { min, max } => {
-                write!(f, "float({}..{})", bound(min.map(|v| v.to_string())), bound(max.map(|v| v.to_string())))
+                write!(
+                    f,
+                    "float({}..{})",
+                    bound(min.map(|v| v.to_string())),
+                    bound(max.map(|v| v.to_string()))
+                )
             }
             ParamType::Str => write!(f, "string"),
             ParamType::Enum(o) => write!(f, "enum({})", o.join("|")),
@@ -224,11 +281,17 @@ fn range_suffix<T: fmt::Display>(min: &Option<T>, max: &Option<T>) -> String {
 }
 
 fn strip_article(s: &str) -> &str {
-    s.strip_prefix("an ").or_else(|| s.strip_prefix("a ")).unwrap_or(s)
+    s.strip_prefix("an ")
+        .or_else(|| s.strip_prefix("a "))
+        .unwrap_or(s)
 }
 
 fn quoted_list(options: &[String]) -> String {
-    options.iter().map(|o| format!("{o:?}")).collect::<Vec<_>>().join(", ")
+    options
+        .iter()
+        .map(|o| format!("{o:?}"))
+        .collect::<Vec<_>>()
+        .join(", ")
 }
 
 /// One declared parameter.
@@ -260,13 +323,24 @@ impl Params {
     /// validated against the schema, so an error here means the schema and the
     /// requested type disagree — reported as a node failure, never a panic.
     pub fn get<T: DeserializeOwned>(&self, name: &str) -> anyhow::Result<T> {
-        let v = self.values.get(name).ok_or_else(|| anyhow::anyhow!("parameter `{name}` is not declared"))?;
-        v.deserialize().map_err(|e| anyhow::anyhow!("parameter `{name}` = {v}: {e}"))
+        let v = self
+            .values
+            .get(name)
+            .ok_or_else(|| anyhow::anyhow!("parameter `{name}` is not declared"))?;
+        v.deserialize()
+            .map_err(|e| anyhow::anyhow!("parameter `{name}` = {v}: {e}"))
     }
 
     /// Canonical text of all parameters (sorted), used in cache keys.
     pub fn canonical(&self) -> String {
-        Value::Struct(None, self.values.iter().map(|(k, v)| (k.clone(), v.clone())).collect()).to_ron()
+        Value::Struct(
+            None,
+            self.values
+                .iter()
+                .map(|(k, v)| (k.clone(), v.clone()))
+                .collect(),
+        )
+        .to_ron()
     }
 
     pub fn iter(&self) -> impl Iterator<Item = (&String, &Value)> {
@@ -282,9 +356,22 @@ mod tests {
     fn types_check_normalise_and_roundtrip_their_text() {
         let f = ParamType::float_range(0.0, 1.0);
         assert_eq!(f.check(&Value::Int(1)).unwrap(), Value::Float(1.0));
-        assert!(f.check(&Value::Float(2.0)).unwrap_err().contains("out of range"));
-        assert!(ParamType::Bool.check(&Value::Int(1)).unwrap_err().contains("expected a bool"));
-        assert!(ParamType::RelPath.check(&Value::Str("../x".into())).is_err());
+        assert!(
+            f.check(&Value::Float(2.0))
+                .unwrap_err()
+                .contains("out of range")
+        );
+        assert!(
+            ParamType::Bool
+                .check(&Value::Int(1))
+                .unwrap_err()
+                .contains("expected a bool")
+        );
+        assert!(
+            ParamType::RelPath
+                .check(&Value::Str("../x".into()))
+                .is_err()
+        );
         for t in [
             "bool",
             "int(1..)",

@@ -32,9 +32,22 @@ impl Override {
             .filter(|(n, p)| !n.is_empty() && !p.is_empty())
             .ok_or_else(|| Diagnostic::argument(&text, "expected NODE.PARAM=VALUE"))?;
         let value = syntax::parse(rhs)
-            .map_err(|e| Diagnostic::argument(&text, format!("value is not RON: {} (strings need quotes: \"...\")", e.message)))?
+            .map_err(|e| {
+                Diagnostic::argument(
+                    &text,
+                    format!(
+                        "value is not RON: {} (strings need quotes: \"...\")",
+                        e.message
+                    ),
+                )
+            })?
             .to_value();
-        Ok(Override { node: node.into(), param: param.into(), value, text })
+        Ok(Override {
+            node: node.into(),
+            param: param.into(),
+            value,
+            text,
+        })
     }
 }
 
@@ -93,7 +106,11 @@ impl Plan {
 /// Reads only the `plugins` list (plugins must be loaded before kinds are checked).
 pub fn declared_plugins(source: &GraphSource) -> Result<Vec<(PathBuf, Span)>, Diagnostics> {
     let decl = parse_graph(source)?;
-    Ok(decl.plugins.iter().map(|(p, s)| (source.dir().join(p), *s)).collect())
+    Ok(decl
+        .plugins
+        .iter()
+        .map(|(p, s)| (source.dir().join(p), *s))
+        .collect())
 }
 
 pub fn build_plan(
@@ -114,23 +131,40 @@ fn check(
     cli_targets: &[String],
 ) -> Result<Plan, Diagnostics> {
     let mut diags = Vec::new();
-    let ids: HashMap<&str, usize> = decl.nodes.iter().enumerate().map(|(i, n)| (n.id.as_str(), i)).collect();
+    let ids: HashMap<&str, usize> = decl
+        .nodes
+        .iter()
+        .enumerate()
+        .map(|(i, n)| (n.id.as_str(), i))
+        .collect();
 
     // Overrides must name a node and a param that exist.
     for o in overrides {
         match ids.get(o.node.as_str()) {
             None => diags.push(Diagnostic::argument(
                 &o.text,
-                format!("no node `{}` in {}{}", o.node, src.path.display(), did_you_mean(&similar(&o.node, ids.keys().copied()))),
+                format!(
+                    "no node `{}` in {}{}",
+                    o.node,
+                    src.path.display(),
+                    did_you_mean(&similar(&o.node, ids.keys().copied()))
+                ),
             )),
             Some(&i) => {
                 if let Some(reg) = registry.get(&decl.nodes[i].kind)
                     && reg.spec.param_spec(&o.param).is_none()
                 {
-                    let names: Vec<&str> = reg.spec.params.iter().map(|p| p.name.as_str()).collect();
+                    let names: Vec<&str> =
+                        reg.spec.params.iter().map(|p| p.name.as_str()).collect();
                     diags.push(Diagnostic::argument(
                         &o.text,
-                        format!("node `{}` ({}) has no param `{}`; it has {}", o.node, reg.spec.kind, o.param, list_or_none(&names)),
+                        format!(
+                            "node `{}` ({}) has no param `{}`; it has {}",
+                            o.node,
+                            reg.spec.kind,
+                            o.param,
+                            list_or_none(&names)
+                        ),
                     ));
                 }
             }
@@ -144,7 +178,10 @@ fn check(
             let hint = did_you_mean(&registry.similar_kinds(&n.kind));
             diags.push(src.diag(
                 n.kind_span,
-                format!("unknown node kind {:?}{hint} (`objectsplat nodes` lists every kind)", n.kind),
+                format!(
+                    "unknown node kind {:?}{hint} (`objectsplat nodes` lists every kind)",
+                    n.kind
+                ),
             ));
             nodes.push(None);
             continue;
@@ -171,10 +208,15 @@ fn check(
     let mut dag = DiGraph::<usize, ()>::new();
     let idx: Vec<NodeIndex> = (0..decl.nodes.len()).map(|i| dag.add_node(i)).collect();
     for (i, n) in decl.nodes.iter().enumerate() {
-        let Some(spec) = nodes[i].as_ref().map(|p| p.reg.spec.clone()) else { continue };
+        let Some(spec) = nodes[i].as_ref().map(|p| p.reg.spec.clone()) else {
+            continue;
+        };
         let eachs: Vec<_> = n.inputs.iter().filter(|x| x.source.each).collect();
         if eachs.len() > 1 {
-            diags.push(src.diag(eachs[1].source.span, format!("node {:?}: only one input may use each(...)", n.id)));
+            diags.push(src.diag(
+                eachs[1].source.span,
+                format!("node {:?}: only one input may use each(...)", n.id),
+            ));
         }
         for inp in &n.inputs {
             if spec.input_port(&inp.port).is_none() {
@@ -234,14 +276,22 @@ fn check(
         Err(cycle) => {
             let at = dag[cycle.node_id()];
             let n = &decl.nodes[at];
-            diags.push(src.diag(n.id_span, format!("node {:?} is part of a cycle; a graph must be acyclic", n.id)));
+            diags.push(src.diag(
+                n.id_span,
+                format!(
+                    "node {:?} is part of a cycle; a graph must be acyclic",
+                    n.id
+                ),
+            ));
             return Err(Diagnostics(diags));
         }
     };
 
     // Types, in topological order so sources' lifted output types are known.
     for &i in &order {
-        let Some(node) = nodes[i].as_ref() else { continue };
+        let Some(node) = nodes[i].as_ref() else {
+            continue;
+        };
         let spec = node.reg.spec.clone();
         let mut outputs = BTreeMap::new();
         for out in &spec.outputs {
@@ -262,9 +312,15 @@ fn check(
             outputs.insert(out.name.clone(), ty);
         }
         for inp_decl in &decl.nodes[i].inputs {
-            let Some(port) = spec.input_port(&inp_decl.port) else { continue };
-            let Some(&from) = ids.get(inp_decl.source.node.as_str()) else { continue };
-            let Some(src_node) = nodes[from].as_ref() else { continue };
+            let Some(port) = spec.input_port(&inp_decl.port) else {
+                continue;
+            };
+            let Some(&from) = ids.get(inp_decl.source.node.as_str()) else {
+                continue;
+            };
+            let Some(src_node) = nodes[from].as_ref() else {
+                continue;
+            };
             let Some(src_ty) = src_node.outputs.get(&inp_decl.source.port) else {
                 let names: Vec<&str> = src_node.outputs.keys().map(String::as_str).collect();
                 diags.push(src.diag(
@@ -292,7 +348,8 @@ fn check(
                     port.ty.to_string()
                 };
                 let mut hint = String::new();
-                if let (TypeRef::One(t), TypeRef::List(s), false) = (&port.ty, src_ty, inp_decl.source.each)
+                if let (TypeRef::One(t), TypeRef::List(s), false) =
+                    (&port.ty, src_ty, inp_decl.source.each)
                     && t == s
                 {
                     hint = format!(
@@ -322,7 +379,11 @@ fn check(
                 Some(&i) => targets.push(i),
                 None => diags.push(Diagnostic::argument(
                     &format!("--target {t}"),
-                    format!("no node `{t}` in {}{}", src.path.display(), did_you_mean(&similar(t, ids.keys().copied()))),
+                    format!(
+                        "no node `{t}` in {}{}",
+                        src.path.display(),
+                        did_you_mean(&similar(t, ids.keys().copied()))
+                    ),
                 )),
             }
         }
@@ -332,29 +393,49 @@ fn check(
                 Some(&i) => targets.push(i),
                 None => diags.push(src.diag(
                     *span,
-                    format!("target {t:?} is not a node of this graph{}", did_you_mean(&similar(t, ids.keys().copied()))),
+                    format!(
+                        "target {t:?} is not a node of this graph{}",
+                        did_you_mean(&similar(t, ids.keys().copied()))
+                    ),
                 )),
             }
         }
     } else {
-        targets = (0..decl.nodes.len()).filter(|&i| dag.neighbors(idx[i]).next().is_none()).collect();
+        targets = (0..decl.nodes.len())
+            .filter(|&i| dag.neighbors(idx[i]).next().is_none())
+            .collect();
     }
 
     if !diags.is_empty() {
         return Err(Diagnostics(diags));
     }
-    let nodes: Vec<PlanNode> = nodes.into_iter().map(|n| n.expect("every node checked without a diagnostic")).collect();
+    let nodes: Vec<PlanNode> = nodes
+        .into_iter()
+        .map(|n| n.expect("every node checked without a diagnostic"))
+        .collect();
     Ok(Plan {
         source: src.clone(),
         nodes,
         order,
         targets,
-        plugins: decl.plugins.iter().map(|(p, _)| src.dir().join(p)).collect(),
+        plugins: decl
+            .plugins
+            .iter()
+            .map(|(p, _)| src.dir().join(p))
+            .collect(),
     })
 }
 
 fn list_or_none(names: &[&str]) -> String {
-    if names.is_empty() { "none".into() } else { names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ") }
+    if names.is_empty() {
+        "none".into()
+    } else {
+        names
+            .iter()
+            .map(|n| format!("`{n}`"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
 }
 
 type CheckedParams = (Params, Vec<(String, PathBuf)>);
@@ -386,12 +467,18 @@ fn check_params(
         }
     }
     for ps in &spec.params {
-        let over = overrides.iter().rev().find(|o| o.node == n.id && o.param == ps.name);
+        let over = overrides
+            .iter()
+            .rev()
+            .find(|o| o.node == n.id && o.param == ps.name);
         let declared = n.params.iter().find(|p| p.name == ps.name);
         let (value, report): (Value, Box<dyn Fn(String) -> Diagnostic>) = match (over, declared) {
             (Some(o), _) => {
                 let text = o.text.clone();
-                (o.value.clone(), Box::new(move |m| Diagnostic::argument(&text, m)))
+                (
+                    o.value.clone(),
+                    Box::new(move |m| Diagnostic::argument(&text, m)),
+                )
             }
             (None, Some(d)) => {
                 let span = d.value.span;
@@ -399,9 +486,15 @@ fn check_params(
             }
             (None, None) => match &ps.default {
                 Some(def) => match syntax::parse(def) {
-                    Ok(v) => (v.to_value(), Box::new(|m| Diagnostic::argument("(default)", m))),
+                    Ok(v) => (
+                        v.to_value(),
+                        Box::new(|m| Diagnostic::argument("(default)", m)),
+                    ),
                     Err(e) => {
-                        diags.push(src.diag(n.kind_span, format!("default of `{}` does not parse: {}", ps.name, e.message)));
+                        diags.push(src.diag(
+                            n.kind_span,
+                            format!("default of `{}` does not parse: {}", ps.name, e.message),
+                        ));
                         continue;
                     }
                 },
@@ -423,15 +516,10 @@ fn check_params(
         };
         match ps.ty.check(&value) {
             Ok(normalised) => {
-                let normalised = match (&ps.ty, &normalised) {
-                    (ParamType::Path, Value::Str(s)) | (ParamType::Optional(_), Value::Str(s))
-                        if is_path_type(&ps.ty) =>
-                    {
-                        let abs = src.dir().join(s);
-                        input_paths.push((ps.name.clone(), abs.clone()));
-                        Value::Str(abs.to_string_lossy().into_owned())
-                    }
-                    _ => normalised,
+                let normalised = if is_path_type(&ps.ty) {
+                    resolve_paths(normalised, &src.dir(), &ps.name, &mut input_paths)
+                } else {
+                    normalised
                 };
                 values.insert(ps.name.clone(), normalised);
             }
@@ -443,7 +531,32 @@ fn check_params(
             ))),
         }
     }
-    if diags.is_empty() { Ok((Params::new(values), input_paths)) } else { Err(diags) }
+    if diags.is_empty() {
+        Ok((Params::new(values), input_paths))
+    } else {
+        Err(diags)
+    }
+}
+
+/// Makes graph-relative path params absolute and records them for fingerprinting.
+fn resolve_paths(
+    v: Value,
+    dir: &std::path::Path,
+    name: &str,
+    out: &mut Vec<(String, PathBuf)>,
+) -> Value {
+    match v {
+        Value::Str(s) => {
+            let abs = dir.join(&s);
+            out.push((name.to_string(), abs.clone()));
+            Value::Str(abs.to_string_lossy().into_owned())
+        }
+        Value::Tuple(Some(n), mut items) if n == "Some" && items.len() == 1 => {
+            let inner = resolve_paths(items.remove(0), dir, name, out);
+            Value::Tuple(Some(n), vec![inner])
+        }
+        other => other,
+    }
 }
 
 fn is_path_type(t: &ParamType) -> bool {

@@ -5,5 +5,8 @@ use std::path::Path;
 
 /// Loads a plugin library and registers its node kinds.
 pub fn load(_reg: &mut Registry, path: &Path) -> Result<(), String> {
-    Err(format!("{}: this build cannot load plugins yet", path.display()))
+    Err(format!(
+        "{}: this build cannot load plugins yet",
+        path.display()
+    ))
 }

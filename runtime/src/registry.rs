@@ -39,7 +39,13 @@ impl Registry {
     }
 
     pub fn add_type(&mut self, name: &str, doc: &str) {
-        self.types.insert(name.to_string(), TypeInfo { name: name.to_string(), doc: doc.to_string() });
+        self.types.insert(
+            name.to_string(),
+            TypeInfo {
+                name: name.to_string(),
+                doc: doc.to_string(),
+            },
+        );
     }
 
     pub fn has_type(&self, name: &str) -> bool {
@@ -63,22 +69,31 @@ impl Registry {
                 Origin::Builtin => "a built-in node".to_string(),
                 Origin::Plugin { path, .. } => format!("a node of plugin {path}"),
             };
-            return Err(format!("node kind `{}` is already defined by {whose}", spec.kind));
+            return Err(format!(
+                "node kind `{}` is already defined by {whose}",
+                spec.kind
+            ));
         }
         self.check_spec(&spec)?;
-        self.nodes.insert(spec.kind.clone(), Registered { spec, node, origin });
+        self.nodes
+            .insert(spec.kind.clone(), Registered { spec, node, origin });
         Ok(())
     }
 
     fn check_spec(&self, spec: &NodeSpec) -> Result<(), String> {
         let k = &spec.kind;
         if k.is_empty() || !k.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-            return Err(format!("node kind `{k}` must be made of letters, digits and `_`"));
+            return Err(format!(
+                "node kind `{k}` must be made of letters, digits and `_`"
+            ));
         }
         let mut seen = std::collections::HashSet::new();
         for p in spec.inputs.iter().chain(&spec.outputs) {
             if !self.types.contains_key(p.ty.element()) {
-                return Err(format!("node `{k}` port `{}` has unknown type `{}`", p.name, p.ty));
+                return Err(format!(
+                    "node `{k}` port `{}` has unknown type `{}`",
+                    p.name, p.ty
+                ));
             }
         }
         for p in &spec.inputs {
@@ -97,9 +112,12 @@ impl Registry {
             }
             if let Some(d) = &p.default {
                 let v = crate::syntax::parse(d)
-                    .map_err(|e| format!("node `{k}` param `{}` default {d:?}: {}", p.name, e.message))?
+                    .map_err(|e| {
+                        format!("node `{k}` param `{}` default {d:?}: {}", p.name, e.message)
+                    })?
                     .to_value();
-                check_default(&p.ty, &v).map_err(|e| format!("node `{k}` param `{}` default {d}: {e}", p.name))?;
+                check_default(&p.ty, &v)
+                    .map_err(|e| format!("node `{k}` param `{}` default {d}: {e}", p.name))?;
             }
         }
         Ok(())

@@ -74,15 +74,31 @@ impl RunReport {
     pub fn first_failure(&self) -> Option<String> {
         self.nodes
             .iter()
-            .find(|n| n.status == Status::Failed && !n.reason.as_deref().unwrap_or("").starts_with("upstream"))
+            .find(|n| {
+                n.status == Status::Failed
+                    && !n.reason.as_deref().unwrap_or("").starts_with("upstream")
+            })
             .or_else(|| self.nodes.iter().find(|n| n.status == Status::Failed))
-            .map(|n| format!("node `{}` ({}) failed: {}", n.id, n.kind, n.reason.clone().unwrap_or_default()))
+            .map(|n| {
+                format!(
+                    "node `{}` ({}) failed: {}",
+                    n.id,
+                    n.kind,
+                    n.reason.clone().unwrap_or_default()
+                )
+            })
     }
 
     /// A human table for stderr.
     pub fn render_table(&self) -> String {
         let mut s = String::new();
-        let w = self.nodes.iter().map(|n| n.id.len()).max().unwrap_or(4).max(4);
+        let w = self
+            .nodes
+            .iter()
+            .map(|n| n.id.len())
+            .max()
+            .unwrap_or(4)
+            .max(4);
         for n in &self.nodes {
             let items = if n.items.is_empty() {
                 String::new()
@@ -94,14 +110,32 @@ impl RunReport {
                 let parts: Vec<String> = counts.iter().map(|(k, v)| format!("{v} {k}")).collect();
                 format!(" [{} items: {}]", n.items.len(), parts.join(", "))
             };
-            let reason = n.reason.as_deref().map(|r| format!("  {}", first_line(r))).unwrap_or_default();
-            s.push_str(&format!("  {:<w$}  {:<7} {:>8.2}s{items}{reason}\n", n.id, n.status.as_str(), n.seconds));
+            let reason = n
+                .reason
+                .as_deref()
+                .map(|r| format!("  {}", first_line(r)))
+                .unwrap_or_default();
+            s.push_str(&format!(
+                "  {:<w$}  {:<7} {:>8.2}s{items}{reason}\n",
+                n.id,
+                n.status.as_str(),
+                n.seconds
+            ));
             for (k, v) in &n.notes {
                 s.push_str(&format!("  {:<w$}    {k}: {v}\n", ""));
             }
-            for i in n.items.iter().filter(|i| i.status == Status::Failed || i.status == Status::Skipped) {
+            for i in n
+                .items
+                .iter()
+                .filter(|i| i.status == Status::Failed || i.status == Status::Skipped)
+            {
                 let r = i.reason.as_deref().map(first_line).unwrap_or("");
-                s.push_str(&format!("  {:<w$}    {} {}: {r}\n", "", i.name, i.status.as_str()));
+                s.push_str(&format!(
+                    "  {:<w$}    {} {}: {r}\n",
+                    "",
+                    i.name,
+                    i.status.as_str()
+                ));
             }
         }
         s.push_str(&format!(

@@ -31,8 +31,14 @@ pub type Digest = String;
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase")]
 pub enum Manifest {
-    Folder { ty: String, files: Vec<FileEntry> },
-    Collection { ty: String, items: Vec<(String, Digest)> },
+    Folder {
+        ty: String,
+        files: Vec<FileEntry>,
+    },
+    Collection {
+        ty: String,
+        items: Vec<(String, Digest)>,
+    },
 }
 
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
@@ -94,20 +100,34 @@ fn hash_bytes(bytes: &[u8]) -> String {
 impl Store {
     pub fn open(root: &Path) -> Result<Store> {
         for d in ["blobs", "trees", "actions", "heads", "locks", "tmp"] {
-            fs::create_dir_all(root.join(d)).with_context(|| format!("{}: cannot create cache folder", root.join(d).display()))?;
+            fs::create_dir_all(root.join(d)).with_context(|| {
+                format!("{}: cannot create cache folder", root.join(d).display())
+            })?;
         }
-        let root = root.canonicalize().with_context(|| format!("{}: cannot resolve", root.display()))?;
+        let root = root
+            .canonicalize()
+            .with_context(|| format!("{}: cannot resolve", root.display()))?;
         Self::clean_stale_staging(&root.join("tmp"));
-        let tmp = root.join("tmp").join(format!("{}-{}", std::process::id(), unique_suffix()));
+        let tmp = root
+            .join("tmp")
+            .join(format!("{}-{}", std::process::id(), unique_suffix()));
         fs::create_dir_all(&tmp)?;
         let lock = fs::File::create(tmp.with_extension("lock"))?;
         lock.lock()?;
-        Ok(Store { root, tmp, counter: AtomicU64::new(0), verified: Mutex::new(HashSet::new()), _tmp_lock: lock })
+        Ok(Store {
+            root,
+            tmp,
+            counter: AtomicU64::new(0),
+            verified: Mutex::new(HashSet::new()),
+            _tmp_lock: lock,
+        })
     }
 
     /// Removes staging folders whose process is gone (their lock is free).
     fn clean_stale_staging(tmp_root: &Path) {
-        let Ok(entries) = fs::read_dir(tmp_root) else { return };
+        let Ok(entries) = fs::read_dir(tmp_root) else {
+            return;
+        };
         for e in entries.flatten() {
             let p = e.path();
             if p.extension().is_some_and(|x| x == "lock") {
@@ -128,7 +148,11 @@ impl Store {
     /// A fresh empty staging folder (inside the cache, same filesystem as the CAS).
     pub fn staging(&self, label: &str) -> Result<PathBuf> {
         let n = self.counter.fetch_add(1, Ordering::Relaxed);
-        let safe: String = label.chars().map(|c| if c.is_ascii_alphanumeric() { c } else { '_' }).take(40).collect();
+        let safe: String = label
+            .chars()
+            .map(|c| if c.is_ascii_alphanumeric() { c } else { '_' })
+            .take(40)
+            .collect();
         let p = self.tmp.join(format!("{n}-{safe}"));
         fs::create_dir_all(&p)?;
         Ok(p)
@@ -139,11 +163,17 @@ impl Store {
     }
 
     fn tree_path(&self, digest: &str) -> PathBuf {
-        self.root.join("trees").join(hex2(digest)).join(format!("{digest}.json"))
+        self.root
+            .join("trees")
+            .join(hex2(digest))
+            .join(format!("{digest}.json"))
     }
 
     fn action_path(&self, key: &str) -> PathBuf {
-        self.root.join("actions").join(hex2(key)).join(format!("{key}.json"))
+        self.root
+            .join("actions")
+            .join(hex2(key))
+            .join(format!("{key}.json"))
     }
 
     /// Writes bytes to `dest` atomically (temp file in the staging area, then rename).
@@ -152,8 +182,10 @@ impl Store {
         let tmp = self.tmp.join(format!("w{n}"));
         {
             let mut f = fs::File::create(&tmp)?;
+            // No fsync: rename makes the entry appear whole or not at all, which is what a
+            // killed process needs; after a power loss a torn entry fails its checksum and
+            // is recomputed.
             f.write_all(bytes)?;
-            f.sync_data()?;
         }
         if let Some(parent) = dest.parent() {
             fs::create_dir_all(parent)?;
@@ -169,7 +201,8 @@ impl Store {
         let mut entries = Vec::with_capacity(files.len());
         for rel in files {
             let path = dir.join(&rel);
-            let bytes = fs::read(&path).with_context(|| format!("{}: cannot read output", path.display()))?;
+            let bytes = fs::read(&path)
+                .with_context(|| format!("{}: cannot read output", path.display()))?;
             let hash = hash_bytes(&bytes);
             let dest = self.blob_path(&hash);
             if !dest.exists() {
@@ -178,9 +211,16 @@ impl Store {
                 // writes the same bytes, so whichever rename lands last is fine.
                 fs::rename(&path, &dest).or_else(|_| self.write_atomic(&dest, &bytes))?;
             }
-            entries.push(FileEntry { path: rel, blob: hash, size: bytes.len() as u64 });
+            entries.push(FileEntry {
+                path: rel,
+                blob: hash,
+                size: bytes.len() as u64,
+            });
         }
-        self.put_manifest(&Manifest::Folder { ty: ty.to_string(), files: entries })
+        self.put_manifest(&Manifest::Folder {
+            ty: ty.to_string(),
+            files: entries,
+        })
     }
 
     pub fn put_manifest(&self, m: &Manifest) -> Result<Digest> {
@@ -196,34 +236,57 @@ impl Store {
     /// Reads and verifies a manifest; `Ok(None)` if absent.
     pub fn manifest(&self, digest: &str) -> Result<Option<Manifest>, Corrupt> {
         let path = self.tree_path(digest);
-        let Ok(bytes) = fs::read(&path) else { return Ok(None) };
+        let Ok(bytes) = fs::read(&path) else {
+            return Ok(None);
+        };
         if hash_bytes(&bytes) != digest {
             let _ = fs::remove_file(&path);
-            return Err(Corrupt { what: format!("manifest {}", short(digest)), detail: "checksum mismatch".into() });
+            return Err(Corrupt {
+                what: format!("manifest {}", short(digest)),
+                detail: "checksum mismatch".into(),
+            });
         }
         serde_json::from_slice(&bytes)
             .map(Some)
-            .map_err(|e| Corrupt { what: format!("manifest {}", short(digest)), detail: e.to_string() })
+            .map_err(|e| Corrupt {
+                what: format!("manifest {}", short(digest)),
+                detail: e.to_string(),
+            })
     }
 
     /// True if the artifact and everything it refers to is present (not verified).
     pub fn has_artifact(&self, digest: &str) -> bool {
         match self.manifest(digest) {
-            Ok(Some(Manifest::Folder { files, .. })) => files.iter().all(|f| self.blob_path(&f.blob).exists()),
-            Ok(Some(Manifest::Collection { items, .. })) => items.iter().all(|(_, d)| self.has_artifact(d)),
+            Ok(Some(Manifest::Folder { files, .. })) => {
+                files.iter().all(|f| self.blob_path(&f.blob).exists())
+            }
+            Ok(Some(Manifest::Collection { items, .. })) => {
+                items.iter().all(|(_, d)| self.has_artifact(d))
+            }
             _ => false,
         }
     }
 
     fn verify_blob(&self, hash: &str) -> Result<(), Corrupt> {
-        if self.verified.lock().map(|v| v.contains(hash)).unwrap_or(false) {
+        if self
+            .verified
+            .lock()
+            .map(|v| v.contains(hash))
+            .unwrap_or(false)
+        {
             return Ok(());
         }
         let path = self.blob_path(hash);
-        let bytes = fs::read(&path).map_err(|e| Corrupt { what: format!("blob {}", short(hash)), detail: e.to_string() })?;
+        let bytes = fs::read(&path).map_err(|e| Corrupt {
+            what: format!("blob {}", short(hash)),
+            detail: e.to_string(),
+        })?;
         if hash_bytes(&bytes) != hash {
             let _ = fs::remove_file(&path);
-            return Err(Corrupt { what: format!("blob {}", short(hash)), detail: "checksum mismatch (file changed on disk)".into() });
+            return Err(Corrupt {
+                what: format!("blob {}", short(hash)),
+                detail: "checksum mismatch (file changed on disk)".into(),
+            });
         }
         if let Ok(mut v) = self.verified.lock() {
             v.insert(hash.to_string());
@@ -234,8 +297,18 @@ impl Store {
     /// Lays out an artifact as a folder at `dest` (hard links to verified blobs;
     /// copies when `copy` is set, for folders users may edit). Collections become one
     /// sub-folder per item. Returns the items for a collection.
-    pub fn materialize(&self, digest: &str, dest: &Path, copy: bool) -> Result<Option<Vec<(String, PathBuf)>>> {
-        let m = self.manifest(digest)?.ok_or_else(|| anyhow!(Corrupt { what: format!("artifact {}", short(digest)), detail: "missing".into() }))?;
+    pub fn materialize(
+        &self,
+        digest: &str,
+        dest: &Path,
+        copy: bool,
+    ) -> Result<Option<Vec<(String, PathBuf)>>> {
+        let m = self.manifest(digest)?.ok_or_else(|| {
+            anyhow!(Corrupt {
+                what: format!("artifact {}", short(digest)),
+                detail: "missing".into()
+            })
+        })?;
         fs::create_dir_all(dest)?;
         match m {
             Manifest::Folder { files, .. } => {
@@ -248,7 +321,8 @@ impl Store {
                     let _ = fs::remove_file(&target);
                     let src = self.blob_path(&f.blob);
                     if copy || fs::hard_link(&src, &target).is_err() {
-                        fs::copy(&src, &target).with_context(|| format!("{}: cannot write", target.display()))?;
+                        fs::copy(&src, &target)
+                            .with_context(|| format!("{}: cannot write", target.display()))?;
                     }
                 }
                 Ok(None)
@@ -280,30 +354,53 @@ impl Store {
     /// `Ok(None)` = no record; `Err` = a record that fails its checksum (deleted).
     pub fn action(&self, key: &str) -> Result<Option<ActionRecord>, Corrupt> {
         let path = self.action_path(key);
-        let Ok(bytes) = fs::read(&path) else { return Ok(None) };
+        let Ok(bytes) = fs::read(&path) else {
+            return Ok(None);
+        };
         let bad = |detail: String| {
             let _ = fs::remove_file(&path);
-            Corrupt { what: format!("action record {}", short(key)), detail }
+            Corrupt {
+                what: format!("action record {}", short(key)),
+                detail,
+            }
         };
-        let sealed: Sealed<serde_json::Value> = serde_json::from_slice(&bytes).map_err(|e| bad(e.to_string()))?;
+        let sealed: Sealed<serde_json::Value> =
+            serde_json::from_slice(&bytes).map_err(|e| bad(e.to_string()))?;
         if hash_bytes(sealed.body.to_string().as_bytes()) != sealed.checksum {
             return Err(bad("checksum mismatch".into()));
         }
-        serde_json::from_value(sealed.body).map(Some).map_err(|e| bad(e.to_string()))
+        serde_json::from_value(sealed.body)
+            .map(Some)
+            .map_err(|e| bad(e.to_string()))
     }
 
     fn head_path(&self, graph: &Path, node: &str) -> PathBuf {
         let g = hash_bytes(graph.to_string_lossy().as_bytes());
-        self.root.join("heads").join(&g[..16]).join(format!("{node}.json"))
+        self.root
+            .join("heads")
+            .join(&g[..16])
+            .join(format!("{node}.json"))
     }
 
     /// Remembers the key a node last ran with (per item), for `explain`.
-    pub fn set_head(&self, graph: &Path, node: &str, keys: &BTreeMap<String, String>) -> Result<()> {
-        self.write_atomic(&self.head_path(graph, node), &serde_json::to_vec(keys)?)
+    pub fn set_head(
+        &self,
+        graph: &Path,
+        node: &str,
+        keys: &BTreeMap<String, String>,
+    ) -> Result<()> {
+        let path = self.head_path(graph, node);
+        let bytes = serde_json::to_vec(keys)?;
+        if fs::read(&path).is_ok_and(|old| old == bytes) {
+            return Ok(());
+        }
+        self.write_atomic(&path, &bytes)
     }
 
     pub fn head(&self, graph: &Path, node: &str) -> Option<BTreeMap<String, String>> {
-        fs::read(self.head_path(graph, node)).ok().and_then(|b| serde_json::from_slice(&b).ok())
+        fs::read(self.head_path(graph, node))
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok())
     }
 
     /// An exclusive cross-process lock on a key while it is computed.
@@ -321,10 +418,12 @@ impl Store {
     /// Files are hashed by content; folders by the (path, size, mtime) of every file,
     /// so a multi-gigabyte dataset folder is not read on every run.
     pub fn fingerprint(path: &Path) -> Result<String> {
-        let meta = fs::metadata(path).with_context(|| format!("{}: no such file or folder", path.display()))?;
+        let meta = fs::metadata(path)
+            .with_context(|| format!("{}: no such file or folder", path.display()))?;
         if meta.is_file() {
             let mut h = blake3::Hasher::new();
-            h.update_reader(fs::File::open(path)?).with_context(|| format!("{}: cannot read", path.display()))?;
+            h.update_reader(fs::File::open(path)?)
+                .with_context(|| format!("{}: cannot read", path.display()))?;
             return Ok(format!("file:{}", h.finalize().to_hex()));
         }
         let mut files = Vec::new();
@@ -333,7 +432,11 @@ impl Store {
         let mut h = blake3::Hasher::new();
         for rel in files {
             let m = fs::metadata(path.join(&rel))?;
-            let mtime = m.modified().ok().and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok()).map_or(0, |d| d.as_nanos());
+            let mtime = m
+                .modified()
+                .ok()
+                .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+                .map_or(0, |d| d.as_nanos());
             h.update(format!("{rel}\0{}\0{mtime}\n", m.len()).as_bytes());
         }
         Ok(format!("dir:{}", h.finalize().to_hex()))
@@ -348,7 +451,9 @@ impl Drop for Store {
 }
 
 fn unique_suffix() -> u64 {
-    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos() as u64)
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos() as u64)
 }
 
 pub fn short(h: &str) -> &str {
@@ -364,7 +469,9 @@ fn collect_files(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
             collect_files(root, &p, out)?;
         } else if ft.is_file() {
             let rel = p.strip_prefix(root).expect("walked below root");
-            let rel = rel.to_str().ok_or_else(|| anyhow!("{}: file name is not UTF-8", p.display()))?;
+            let rel = rel
+                .to_str()
+                .ok_or_else(|| anyhow!("{}: file name is not UTF-8", p.display()))?;
             out.push(rel.replace('\\', "/"));
         } else if ft.is_symlink() {
             bail!("{}: outputs must be plain files, not links", p.display());

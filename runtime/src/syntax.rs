@@ -49,11 +49,21 @@ impl Spanned {
             SKind::Str(s) => Value::Str(s.clone()),
             SKind::Char(c) => Value::Char(*c),
             SKind::List(items) => Value::List(items.iter().map(Spanned::to_value).collect()),
-            SKind::Map(e) => Value::Map(e.iter().map(|(k, v)| (k.to_value(), v.to_value())).collect()),
-            SKind::Tuple(n, items) => Value::Tuple(n.clone(), items.iter().map(Spanned::to_value).collect()),
-            SKind::Struct(n, fields) => {
-                Value::Struct(n.clone(), fields.iter().map(|(k, _, v)| (k.clone(), v.to_value())).collect())
+            SKind::Map(e) => Value::Map(
+                e.iter()
+                    .map(|(k, v)| (k.to_value(), v.to_value()))
+                    .collect(),
+            ),
+            SKind::Tuple(n, items) => {
+                Value::Tuple(n.clone(), items.iter().map(Spanned::to_value).collect())
             }
+            SKind::Struct(n, fields) => Value::Struct(
+                n.clone(),
+                fields
+                    .iter()
+                    .map(|(k, _, v)| (k.clone(), v.to_value()))
+                    .collect(),
+            ),
             SKind::Ident(s) => Value::Ident(s.clone()),
         }
     }
@@ -65,7 +75,12 @@ impl Spanned {
 
 /// Parses one RON value filling the whole input (comments and `#![enable(..)]` allowed).
 pub fn parse(src: &str) -> Result<Spanned, SyntaxError> {
-    let mut p = Parser { src, bytes: src.as_bytes(), pos: 0, depth: 0 };
+    let mut p = Parser {
+        src,
+        bytes: src.as_bytes(),
+        pos: 0,
+        depth: 0,
+    };
     p.skip_ws()?;
     while p.peek() == Some(b'#') {
         p.skip_attribute()?;
@@ -91,7 +106,10 @@ struct Parser<'a> {
 
 impl<'a> Parser<'a> {
     fn err(&self, message: impl Into<String>) -> SyntaxError {
-        SyntaxError { offset: self.pos, message: message.into() }
+        SyntaxError {
+            offset: self.pos,
+            message: message.into(),
+        }
     }
 
     fn peek(&self) -> Option<u8> {
@@ -124,7 +142,10 @@ impl<'a> Parser<'a> {
                     while depth > 0 {
                         match (self.peek(), self.bytes.get(self.pos + 1)) {
                             (None, _) => {
-                                return Err(SyntaxError { offset: start, message: "unterminated block comment".into() });
+                                return Err(SyntaxError {
+                                    offset: start,
+                                    message: "unterminated block comment".into(),
+                                });
                             }
                             (Some(b'*'), Some(b'/')) => {
                                 depth -= 1;
@@ -180,7 +201,9 @@ impl<'a> Parser<'a> {
         let kind = match self.peek() {
             None => return Err(self.err("expected a value, found end of file")),
             Some(b'"') => SKind::Str(self.string()?),
-            Some(b'r') if matches!(self.bytes.get(self.pos + 1), Some(b'"' | b'#')) => SKind::Str(self.raw_string()?),
+            Some(b'r') if matches!(self.bytes.get(self.pos + 1), Some(b'"' | b'#')) => {
+                SKind::Str(self.raw_string()?)
+            }
             Some(b'\'') => SKind::Char(self.char_lit()?),
             Some(b'[') => {
                 self.pos += 1;
@@ -199,7 +222,12 @@ impl<'a> Parser<'a> {
                             self.pos += 1;
                             break;
                         }
-                        _ => return Err(self.err(format!("expected `,` or `]` in list, found {}", self.describe_here()))),
+                        _ => {
+                            return Err(self.err(format!(
+                                "expected `,` or `]` in list, found {}",
+                                self.describe_here()
+                            )));
+                        }
                     }
                 }
                 SKind::List(items)
@@ -216,7 +244,10 @@ impl<'a> Parser<'a> {
                     let k = self.value()?;
                     self.skip_ws()?;
                     if self.peek() != Some(b':') {
-                        return Err(self.err(format!("expected `:` after map key, found {}", self.describe_here())));
+                        return Err(self.err(format!(
+                            "expected `:` after map key, found {}",
+                            self.describe_here()
+                        )));
                     }
                     self.pos += 1;
                     self.skip_ws()?;
@@ -229,13 +260,20 @@ impl<'a> Parser<'a> {
                             self.pos += 1;
                             break;
                         }
-                        _ => return Err(self.err(format!("expected `,` or `}}` in map, found {}", self.describe_here()))),
+                        _ => {
+                            return Err(self.err(format!(
+                                "expected `,` or `}}` in map, found {}",
+                                self.describe_here()
+                            )));
+                        }
                     }
                 }
                 SKind::Map(entries)
             }
             Some(b'(') => self.paren_body(None)?,
-            Some(c) if c == b'-' || c == b'+' || c == b'.' || c.is_ascii_digit() => self.number()?,
+            Some(c) if c == b'-' || c == b'+' || c == b'.' || c.is_ascii_digit() => {
+                self.number()?
+            }
             Some(c) if c.is_ascii_alphabetic() || c == b'_' => {
                 let ident = self.ident();
                 match ident.as_str() {
@@ -255,9 +293,17 @@ impl<'a> Parser<'a> {
                     }
                 }
             }
-            Some(_) => return Err(self.err(format!("expected a value, found {}", self.describe_here()))),
+            Some(_) => {
+                return Err(self.err(format!("expected a value, found {}", self.describe_here())));
+            }
         };
-        Ok(Spanned { span: Span { start, end: self.pos }, kind })
+        Ok(Spanned {
+            span: Span {
+                start,
+                end: self.pos,
+            },
+            kind,
+        })
     }
 
     fn ident(&mut self) -> String {
@@ -292,17 +338,32 @@ impl<'a> Parser<'a> {
                     break;
                 }
                 let kstart = self.pos;
-                if !self.peek().is_some_and(|c| c.is_ascii_alphabetic() || c == b'_') {
-                    return Err(self.err(format!("expected a field name, found {}", self.describe_here())));
+                if !self
+                    .peek()
+                    .is_some_and(|c| c.is_ascii_alphabetic() || c == b'_')
+                {
+                    return Err(self.err(format!(
+                        "expected a field name, found {}",
+                        self.describe_here()
+                    )));
                 }
                 let key = self.ident();
-                let kspan = Span { start: kstart, end: self.pos };
+                let kspan = Span {
+                    start: kstart,
+                    end: self.pos,
+                };
                 if fields.iter().any(|(k, _, _)| *k == key) {
-                    return Err(SyntaxError { offset: kstart, message: format!("field `{key}` appears twice") });
+                    return Err(SyntaxError {
+                        offset: kstart,
+                        message: format!("field `{key}` appears twice"),
+                    });
                 }
                 self.skip_ws()?;
                 if self.peek() != Some(b':') {
-                    return Err(self.err(format!("expected `:` after field `{key}`, found {}", self.describe_here())));
+                    return Err(self.err(format!(
+                        "expected `:` after field `{key}`, found {}",
+                        self.describe_here()
+                    )));
                 }
                 self.pos += 1;
                 self.skip_ws()?;
@@ -315,7 +376,12 @@ impl<'a> Parser<'a> {
                         self.pos += 1;
                         break;
                     }
-                    _ => return Err(self.err(format!("expected `,` or `)` after a field, found {}", self.describe_here()))),
+                    _ => {
+                        return Err(self.err(format!(
+                            "expected `,` or `)` after a field, found {}",
+                            self.describe_here()
+                        )));
+                    }
                 }
             }
             Ok(SKind::Struct(name, fields))
@@ -335,7 +401,12 @@ impl<'a> Parser<'a> {
                         self.pos += 1;
                         break;
                     }
-                    _ => return Err(self.err(format!("expected `,` or `)` in tuple, found {}", self.describe_here()))),
+                    _ => {
+                        return Err(self.err(format!(
+                            "expected `,` or `)` in tuple, found {}",
+                            self.describe_here()
+                        )));
+                    }
                 }
             }
             Ok(SKind::Tuple(name, items))
@@ -344,10 +415,18 @@ impl<'a> Parser<'a> {
 
     fn looks_like_field(&self) -> bool {
         let mut i = self.pos;
-        if !self.bytes.get(i).is_some_and(|c| c.is_ascii_alphabetic() || *c == b'_') {
+        if !self
+            .bytes
+            .get(i)
+            .is_some_and(|c| c.is_ascii_alphabetic() || *c == b'_')
+        {
             return false;
         }
-        while self.bytes.get(i).is_some_and(|c| c.is_ascii_alphanumeric() || *c == b'_') {
+        while self
+            .bytes
+            .get(i)
+            .is_some_and(|c| c.is_ascii_alphanumeric() || *c == b'_')
+        {
             i += 1;
         }
         while self.bytes.get(i).is_some_and(|c| c.is_ascii_whitespace()) {
@@ -371,13 +450,20 @@ impl<'a> Parser<'a> {
         };
         if self.src[self.pos..].starts_with("inf") {
             self.pos += 3;
-            return Ok(SKind::Float(if negative { f64::NEG_INFINITY } else { f64::INFINITY }));
+            return Ok(SKind::Float(if negative {
+                f64::NEG_INFINITY
+            } else {
+                f64::INFINITY
+            }));
         }
         if self.src[self.pos..].starts_with("NaN") {
             self.pos += 3;
             return Ok(SKind::Float(f64::NAN));
         }
-        if self.src[self.pos..].starts_with("0x") || self.src[self.pos..].starts_with("0b") || self.src[self.pos..].starts_with("0o") {
+        if self.src[self.pos..].starts_with("0x")
+            || self.src[self.pos..].starts_with("0b")
+            || self.src[self.pos..].starts_with("0o")
+        {
             let radix = match self.bytes[self.pos + 1] {
                 b'x' => 16,
                 b'b' => 2,
@@ -385,12 +471,20 @@ impl<'a> Parser<'a> {
             };
             self.pos += 2;
             let dstart = self.pos;
-            while self.peek().is_some_and(|c| c.is_ascii_alphanumeric() || c == b'_') {
+            while self
+                .peek()
+                .is_some_and(|c| c.is_ascii_alphanumeric() || c == b'_')
+            {
                 self.pos += 1;
             }
-            let digits: String = self.src[dstart..self.pos].chars().filter(|c| *c != '_').collect();
-            let v = i64::from_str_radix(&digits, radix)
-                .map_err(|_| SyntaxError { offset: start, message: format!("invalid integer `{}`", &self.src[start..self.pos]) })?;
+            let digits: String = self.src[dstart..self.pos]
+                .chars()
+                .filter(|c| *c != '_')
+                .collect();
+            let v = i64::from_str_radix(&digits, radix).map_err(|_| SyntaxError {
+                offset: start,
+                message: format!("invalid integer `{}`", &self.src[start..self.pos]),
+            })?;
             return Ok(SKind::Int(if negative { -v } else { v }));
         }
         let mut is_float = false;
@@ -411,19 +505,30 @@ impl<'a> Parser<'a> {
                 _ => break,
             }
         }
-        let text: String = self.src[start..self.pos].chars().filter(|c| *c != '_').collect();
+        let text: String = self.src[start..self.pos]
+            .chars()
+            .filter(|c| *c != '_')
+            .collect();
         if text.is_empty() || text == "-" || text == "+" {
-            return Err(SyntaxError { offset: start, message: "expected a number".into() });
+            return Err(SyntaxError {
+                offset: start,
+                message: "expected a number".into(),
+            });
         }
         if is_float {
             text.parse::<f64>()
                 .map(SKind::Float)
-                .map_err(|_| SyntaxError { offset: start, message: format!("invalid number `{text}`") })
+                .map_err(|_| SyntaxError {
+                    offset: start,
+                    message: format!("invalid number `{text}`"),
+                })
         } else {
-            text.parse::<i64>().map(SKind::Int).map_err(|_| SyntaxError {
-                offset: start,
-                message: format!("invalid integer `{text}` (integers must fit in 64 bits)"),
-            })
+            text.parse::<i64>()
+                .map(SKind::Int)
+                .map_err(|_| SyntaxError {
+                    offset: start,
+                    message: format!("invalid integer `{text}` (integers must fit in 64 bits)"),
+                })
         }
     }
 
@@ -448,14 +553,21 @@ impl<'a> Parser<'a> {
                 while self.peek().is_some_and(|c| c.is_ascii_hexdigit()) {
                     self.pos += 1;
                 }
-                let code = u32::from_str_radix(&self.src[s..self.pos], 16).ok().and_then(char::from_u32);
+                let code = u32::from_str_radix(&self.src[s..self.pos], 16)
+                    .ok()
+                    .and_then(char::from_u32);
                 if self.peek() != Some(b'}') {
                     return Err(self.err("expected `}` closing `\\u{...}`"));
                 }
                 self.pos += 1;
                 out.push(code.ok_or_else(|| self.err("invalid unicode escape"))?);
             }
-            _ => return Err(SyntaxError { offset: self.pos - 2, message: format!("unknown escape `\\{}`", c as char) }),
+            _ => {
+                return Err(SyntaxError {
+                    offset: self.pos - 2,
+                    message: format!("unknown escape `\\{}`", c as char),
+                });
+            }
         }
         Ok(())
     }
@@ -467,7 +579,10 @@ impl<'a> Parser<'a> {
         loop {
             let rest = &self.src[self.pos..];
             let Some(c) = rest.chars().next() else {
-                return Err(SyntaxError { offset: start, message: "unterminated string".into() });
+                return Err(SyntaxError {
+                    offset: start,
+                    message: "unterminated string".into(),
+                });
             };
             self.pos += c.len_utf8();
             match c {
@@ -497,7 +612,10 @@ impl<'a> Parser<'a> {
                 self.pos += i + close.len();
                 Ok(s)
             }
-            None => Err(SyntaxError { offset: start, message: "unterminated raw string".into() }),
+            None => Err(SyntaxError {
+                offset: start,
+                message: "unterminated raw string".into(),
+            }),
         }
     }
 
@@ -514,10 +632,18 @@ impl<'a> Parser<'a> {
                 self.pos += c.len_utf8();
                 s.push(c);
             }
-            None => return Err(SyntaxError { offset: start, message: "unterminated char".into() }),
+            None => {
+                return Err(SyntaxError {
+                    offset: start,
+                    message: "unterminated char".into(),
+                });
+            }
         }
         if self.peek() != Some(b'\'') {
-            return Err(SyntaxError { offset: start, message: "expected `'` closing a char".into() });
+            return Err(SyntaxError {
+                offset: start,
+                message: "expected `'` closing a char".into(),
+            });
         }
         self.pos += 1;
         // The escape wrote exactly one char.
@@ -530,7 +656,12 @@ pub fn line_col(src: &str, offset: usize) -> (usize, usize) {
     let offset = offset.min(src.len());
     let before = &src[..src.floor_char_boundary(offset)];
     let line = before.matches('\n').count() + 1;
-    let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
+    let col = before
+        .rsplit('\n')
+        .next()
+        .map(|l| l.chars().count())
+        .unwrap_or(0)
+        + 1;
     (line, col)
 }
 
@@ -542,7 +673,9 @@ mod tests {
     fn parses_graph_shaped_ron_with_spans() {
         let src = "// comment\n(\n  nodes: { \"a\": (kind: \"x\", params: (n: -3, f: 1e3, s: r#\"q\"#)) },\n  t: [each(\"a.b\"), None, Some(1)],\n)";
         let v = parse(src).unwrap();
-        let SKind::Struct(None, fields) = &v.kind else { panic!("{v:?}") };
+        let SKind::Struct(None, fields) = &v.kind else {
+            panic!("{v:?}")
+        };
         assert_eq!(fields[0].0, "nodes");
         assert_eq!(line_col(src, fields[0].1.start), (3, 3));
         assert_eq!(

@@ -30,7 +30,9 @@ pub fn run_node(
     item: Option<&str>,
 ) -> Result<NodeRun> {
     let spec = node.spec();
-    let parsed = syntax::parse(params).map_err(|e| anyhow!("params {params:?}: {}", e.message))?.to_value();
+    let parsed = syntax::parse(params)
+        .map_err(|e| anyhow!("params {params:?}: {}", e.message))?
+        .to_value();
     let given: Vec<(String, Value)> = match parsed {
         Value::Struct(_, f) => f,
         Value::Unit => vec![],
@@ -46,17 +48,24 @@ pub fn run_node(
         let v = match given.iter().find(|(k, _)| *k == ps.name) {
             Some((_, v)) => v.clone(),
             None => match &ps.default {
-                Some(d) => syntax::parse(d).map_err(|e| anyhow!("default of {}: {}", ps.name, e.message))?.to_value(),
+                Some(d) => syntax::parse(d)
+                    .map_err(|e| anyhow!("default of {}: {}", ps.name, e.message))?
+                    .to_value(),
                 None => bail!("required param `{}` missing", ps.name),
             },
         };
-        let v = ps.ty.check(&v).map_err(|e| anyhow!("param `{}`: {e}", ps.name))?;
+        let v = ps
+            .ty
+            .check(&v)
+            .map_err(|e| anyhow!("param `{}`: {e}", ps.name))?;
         values.insert(ps.name.clone(), v);
     }
     let params = Params::new(values);
     let mut input_map = BTreeMap::new();
     for (port, path) in inputs {
-        let ps = spec.input_port(port).ok_or_else(|| anyhow!("node {} has no input `{port}`", spec.kind))?;
+        let ps = spec
+            .input_port(port)
+            .ok_or_else(|| anyhow!("node {} has no input `{port}`", spec.kind))?;
         let value = if ps.ty.is_list() {
             let mut items: Vec<(String, PathBuf)> = std::fs::read_dir(path)
                 .with_context(|| format!("{}: cannot list collection", path.display()))?
@@ -65,7 +74,10 @@ pub fn run_node(
                 .map(|e| (e.file_name().to_string_lossy().into_owned(), e.path()))
                 .collect();
             items.sort();
-            InputValue::Items { dir: path.to_path_buf(), items }
+            InputValue::Items {
+                dir: path.to_path_buf(),
+                items,
+            }
         } else {
             InputValue::One(path.to_path_buf())
         };
@@ -101,5 +113,10 @@ pub fn run_node(
         }
     }
     let _ = std::fs::remove_dir_all(&scratch);
-    Ok(NodeRun { outcome, outputs, notes: ctx.notes, warnings: ctx.warnings })
+    Ok(NodeRun {
+        outcome,
+        outputs,
+        notes: ctx.notes,
+        warnings: ctx.warnings,
+    })
 }

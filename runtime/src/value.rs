@@ -88,7 +88,8 @@ impl Value {
                 out.push(']');
             }
             Value::Map(entries) => {
-                let mut sorted: Vec<(String, &Value)> = entries.iter().map(|(k, v)| (k.to_ron(), v)).collect();
+                let mut sorted: Vec<(String, &Value)> =
+                    entries.iter().map(|(k, v)| (k.to_ron(), v)).collect();
                 sorted.sort_by(|a, b| a.0.cmp(&b.0));
                 out.push('{');
                 for (i, (k, v)) in sorted.iter().enumerate() {
@@ -148,7 +149,11 @@ fn format_float(f: f64) -> String {
         if f > 0.0 { "inf".into() } else { "-inf".into() }
     } else {
         let s = format!("{f:?}");
-        if s.contains(['.', 'e', 'E']) { s } else { format!("{s}.0") }
+        if s.contains(['.', 'e', 'E']) {
+            s
+        } else {
+            format!("{s}.0")
+        }
     }
 }
 
@@ -184,7 +189,13 @@ mod tests {
     fn canonical_text_sorts_fields_and_roundtrips_through_ron() {
         let v = Value::Struct(
             None,
-            vec![("b".into(), Value::Float(1.0)), ("a".into(), Value::List(vec![Value::Int(1), Value::Float(1e-5)]))],
+            vec![
+                ("b".into(), Value::Float(1.0)),
+                (
+                    "a".into(),
+                    Value::List(vec![Value::Int(1), Value::Float(1e-5)]),
+                ),
+            ],
         );
         assert_eq!(v.to_ron(), "(a:[1,1e-5],b:1.0)");
         #[derive(serde::Deserialize, Debug, PartialEq)]
@@ -192,7 +203,13 @@ mod tests {
             a: Vec<f64>,
             b: f64,
         }
-        assert_eq!(v.deserialize::<S>().unwrap(), S { a: vec![1.0, 1e-5], b: 1.0 });
+        assert_eq!(
+            v.deserialize::<S>().unwrap(),
+            S {
+                a: vec![1.0, 1e-5],
+                b: 1.0
+            }
+        );
         let s = Value::Str("q\"\\\n".into());
         assert_eq!(s.deserialize::<String>().unwrap(), "q\"\\\n");
     }

@@ -21,8 +21,15 @@ impl Node for LoadImage {
         let img = Image::load(std::path::Path::new(&path))?;
         img.check_finite(&path)?;
         let out = ctx.output("image")?.join("image.png");
-        if is_16_bit(std::path::Path::new(&path)) { img.save_png16(&out)? } else { img.save_png8(&out)? }
-        ctx.note("size", format!("{}×{}×{}", img.width, img.height, img.channels));
+        if is_16_bit(std::path::Path::new(&path)) {
+            img.save_png16(&out)?
+        } else {
+            img.save_png8(&out)?
+        }
+        ctx.note(
+            "size",
+            format!("{}×{}×{}", img.width, img.height, img.channels),
+        );
         Ok(Outcome::Done)
     }
 }
@@ -47,7 +54,12 @@ impl Node for LoadMask {
         NodeSpec::new("load_mask", "1")
             .doc("Reads a mask image; a pixel is set where any channel is non-zero.")
             .output("mask", "Mask", "8-bit mask, 255 = set")
-            .param("path", ParamType::Path, None, "mask image file, relative to the graph file")
+            .param(
+                "path",
+                ParamType::Path,
+                None,
+                "mask image file, relative to the graph file",
+            )
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
@@ -58,7 +70,11 @@ impl Node for LoadMask {
             width: img.width,
             height: img.height,
             channels: 1,
-            data: img.data.chunks(c).map(|p| if p.iter().any(|&v| v > 0.0) { 1.0 } else { 0.0 }).collect(),
+            data: img
+                .data
+                .chunks(c)
+                .map(|p| if p.iter().any(|&v| v > 0.0) { 1.0 } else { 0.0 })
+                .collect(),
         };
         let set = mask.data.iter().filter(|&&v| v > 0.0).count();
         mask.save_png8(&ctx.output("mask")?.join("mask.png"))?;
@@ -92,7 +108,11 @@ impl Node for ResizeImage {
             h = ((h as u64 * mw as u64) / w as u64).max(1) as u32;
             w = mw;
         }
-        let out = if (w, h) == (img.width, img.height) { img } else { img.resize_area(w, h) };
+        let out = if (w, h) == (img.width, img.height) {
+            img
+        } else {
+            img.resize_area(w, h)
+        };
         out.save_png8(&ctx.output("image")?.join("image.png"))?;
         ctx.note("size", format!("{w}×{h}"));
         Ok(Outcome::Done)
@@ -131,7 +151,12 @@ impl Node for SaveImage {
 }
 
 pub fn register(reg: &mut Registry) {
-    for node in [Arc::new(LoadImage) as Arc<dyn Node>, Arc::new(LoadMask), Arc::new(ResizeImage), Arc::new(SaveImage)] {
+    for node in [
+        Arc::new(LoadImage) as Arc<dyn Node>,
+        Arc::new(LoadMask),
+        Arc::new(ResizeImage),
+        Arc::new(SaveImage),
+    ] {
         // Kinds here are unique by construction; a collision is a programming error the
         // catalogue test catches.
         reg.add_node(node).expect("built-in node kinds are unique");

@@ -27,8 +27,24 @@ impl Camera {
         DMat4::from_cols_array_2d(&self.world_to_camera).transpose()
     }
 
-    pub fn from_view(width: u32, height: u32, fx: f64, fy: f64, cx: f64, cy: f64, view: DMat4) -> Self {
-        Camera { width, height, fx, fy, cx, cy, world_to_camera: view.transpose().to_cols_array_2d() }
+    pub fn from_view(
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        cx: f64,
+        cy: f64,
+        view: DMat4,
+    ) -> Self {
+        Camera {
+            width,
+            height,
+            fx,
+            fy,
+            cx,
+            cy,
+            world_to_camera: view.transpose().to_cols_array_2d(),
+        }
     }
 
     /// Rotation part of world→camera.
@@ -57,11 +73,23 @@ impl Camera {
         if c.z <= 0.0 {
             return None;
         }
-        Some((self.fx * c.x / c.z + self.cx, self.fy * c.y / c.z + self.cy, c.z))
+        Some((
+            self.fx * c.x / c.z + self.cx,
+            self.fy * c.y / c.z + self.cy,
+            c.z,
+        ))
     }
 
     /// A camera at `eye` looking at `target`, with world `up` mapped to −y (image up).
-    pub fn look_at(width: u32, height: u32, fx: f64, fy: f64, eye: DVec3, target: DVec3, up: DVec3) -> Self {
+    pub fn look_at(
+        width: u32,
+        height: u32,
+        fx: f64,
+        fy: f64,
+        eye: DVec3,
+        target: DVec3,
+        up: DVec3,
+    ) -> Self {
         let z = (target - eye).normalize();
         let x = z.cross(up).normalize();
         let y = z.cross(x);
@@ -73,13 +101,24 @@ impl Camera {
             r.z_axis.extend(0.0),
             t.extend(1.0),
         );
-        Camera::from_view(width, height, fx, fy, width as f64 / 2.0, height as f64 / 2.0, view)
+        Camera::from_view(
+            width,
+            height,
+            fx,
+            fy,
+            width as f64 / 2.0,
+            height as f64 / 2.0,
+            view,
+        )
     }
 
     /// Checks that the numbers make a usable camera; the error says which one does not.
     pub fn validate(&self) -> Result<(), String> {
         if self.width == 0 || self.height == 0 {
-            return Err(format!("image size {}×{} is empty", self.width, self.height));
+            return Err(format!(
+                "image size {}×{} is empty",
+                self.width, self.height
+            ));
         }
         for (name, v) in [("fx", self.fx), ("fy", self.fy)] {
             if !v.is_finite() || v <= 0.0 {
@@ -91,18 +130,31 @@ impl Camera {
                 return Err(format!("{name} = {v} must be finite"));
             }
         }
-        if self.world_to_camera.iter().flatten().any(|v| !v.is_finite()) {
+        if self
+            .world_to_camera
+            .iter()
+            .flatten()
+            .any(|v| !v.is_finite())
+        {
             return Err("world_to_camera has a non-finite entry".into());
         }
         let r = self.rotation();
         let rtr = r.transpose() * r;
-        let err = (rtr - DMat3::IDENTITY).to_cols_array().iter().map(|v| v.abs()).fold(0.0, f64::max);
+        let err = (rtr - DMat3::IDENTITY)
+            .to_cols_array()
+            .iter()
+            .map(|v| v.abs())
+            .fold(0.0, f64::max);
         if err > 1e-6 || r.determinant() < 0.0 {
-            return Err(format!("world_to_camera rotation is not a proper rotation (|RᵀR − I| = {err:.2e})"));
+            return Err(format!(
+                "world_to_camera rotation is not a proper rotation (|RᵀR − I| = {err:.2e})"
+            ));
         }
         let last = self.world_to_camera[3];
         if last != [0.0, 0.0, 0.0, 1.0] {
-            return Err(format!("world_to_camera last row must be [0,0,0,1], got {last:?}"));
+            return Err(format!(
+                "world_to_camera last row must be [0,0,0,1], got {last:?}"
+            ));
         }
         Ok(())
     }
@@ -111,7 +163,15 @@ impl Camera {
     pub fn scaled(&self, width: u32, height: u32) -> Camera {
         let sx = width as f64 / self.width as f64;
         let sy = height as f64 / self.height as f64;
-        Camera { width, height, fx: self.fx * sx, fy: self.fy * sy, cx: self.cx * sx, cy: self.cy * sy, ..*self }
+        Camera {
+            width,
+            height,
+            fx: self.fx * sx,
+            fy: self.fy * sy,
+            cx: self.cx * sx,
+            cy: self.cy * sy,
+            ..*self
+        }
     }
 }
 
@@ -121,7 +181,15 @@ mod tests {
 
     #[test]
     fn look_at_projects_target_to_principal_point() {
-        let cam = Camera::look_at(64, 48, 50.0, 50.0, DVec3::new(1.0, 2.0, 3.0), DVec3::ZERO, DVec3::Z);
+        let cam = Camera::look_at(
+            64,
+            48,
+            50.0,
+            50.0,
+            DVec3::new(1.0, 2.0, 3.0),
+            DVec3::ZERO,
+            DVec3::Z,
+        );
         cam.validate().unwrap();
         let (u, v, z) = cam.project(DVec3::ZERO).unwrap();
         assert!((u - 32.0).abs() < 1e-9 && (v - 24.0).abs() < 1e-9);

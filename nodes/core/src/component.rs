@@ -45,7 +45,12 @@ impl ComponentInfo {
     }
 
     pub fn background() -> ComponentInfo {
-        ComponentInfo { name: "background".into(), kind: ComponentKind::Background, object_id: None, label: None }
+        ComponentInfo {
+            name: "background".into(),
+            kind: ComponentKind::Background,
+            object_id: None,
+            label: None,
+        }
     }
 }
 
@@ -53,7 +58,13 @@ impl ComponentInfo {
 pub fn object_item_name(id: u16, label: &str) -> String {
     let clean: String = label
         .chars()
-        .map(|c| if c.is_ascii_alphanumeric() { c.to_ascii_lowercase() } else { '_' })
+        .map(|c| {
+            if c.is_ascii_alphanumeric() {
+                c.to_ascii_lowercase()
+            } else {
+                '_'
+            }
+        })
         .collect();
     format!("obj_{id}_{clean}")
 }

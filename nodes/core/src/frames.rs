@@ -64,7 +64,12 @@ pub struct Frame {
 }
 
 impl Frame {
-    pub fn new(name: impl Into<String>, image: impl Into<String>, camera: &Camera, split: Split) -> Frame {
+    pub fn new(
+        name: impl Into<String>,
+        image: impl Into<String>,
+        camera: &Camera,
+        split: Split,
+    ) -> Frame {
         Frame {
             name: name.into(),
             image: image.into(),
@@ -102,18 +107,25 @@ pub struct Frames {
 impl Frames {
     pub fn read(dir: &Path) -> Result<Frames> {
         let path = dir.join(FRAMES_JSON);
-        let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-        let frames: Vec<Frame> =
-            serde_json::from_str(&text).with_context(|| format!("{}: not a valid frames list", path.display()))?;
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("{}: cannot read", path.display()))?;
+        let frames: Vec<Frame> = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a valid frames list", path.display()))?;
         let mut seen = std::collections::HashSet::new();
         for f in &frames {
             if !seen.insert(&f.name) {
                 bail!("{}: frame name {:?} appears twice", path.display(), f.name);
             }
-            f.camera().validate().map_err(|e| anyhow::anyhow!("{}: frame {:?}: {e}", path.display(), f.name))?;
-            check_relative(&f.image).with_context(|| format!("{}: frame {:?}", path.display(), f.name))?;
+            f.camera()
+                .validate()
+                .map_err(|e| anyhow::anyhow!("{}: frame {:?}: {e}", path.display(), f.name))?;
+            check_relative(&f.image)
+                .with_context(|| format!("{}: frame {:?}", path.display(), f.name))?;
         }
-        Ok(Frames { root: dir.to_path_buf(), frames })
+        Ok(Frames {
+            root: dir.to_path_buf(),
+            frames,
+        })
     }
 
     /// Writes `frames.json` into `dir` (the images must be written there by the caller).
@@ -152,7 +164,10 @@ impl Frames {
 /// Refuses absolute paths and paths that climb out of their folder.
 pub fn check_relative(path: &str) -> Result<()> {
     let p = Path::new(path);
-    if p.is_absolute() || p.components().any(|c| matches!(c, std::path::Component::ParentDir)) {
+    if p.is_absolute()
+        || p.components()
+            .any(|c| matches!(c, std::path::Component::ParentDir))
+    {
         bail!("path {path:?} must be relative and stay inside its folder");
     }
     Ok(())
@@ -160,7 +175,10 @@ pub fn check_relative(path: &str) -> Result<()> {
 
 /// The file stem used to name per-frame files (masks, renders) after a frame.
 pub fn frame_stem(name: &str) -> &str {
-    Path::new(name).file_stem().and_then(|s| s.to_str()).unwrap_or(name)
+    Path::new(name)
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or(name)
 }
 
 #[cfg(test)]
@@ -174,7 +192,11 @@ mod tests {
             let d = SplitPolicy::Dense.assign(n);
             assert!(s.iter().zip(&d).all(|(a, b)| a != b), "n={n}");
             let train = s.iter().filter(|x| **x == Split::Train).count();
-            let expected = if n < 8 { 1 } else { (0..n).filter(|i| i % 8 == 4).count() };
+            let expected = if n < 8 {
+                1
+            } else {
+                (0..n).filter(|i| i % 8 == 4).count()
+            };
             assert_eq!(train, expected, "n={n}");
         }
     }
@@ -182,7 +204,15 @@ mod tests {
     #[test]
     fn frames_roundtrip() {
         let dir = tempfile::tempdir().unwrap();
-        let cam = Camera::look_at(8, 6, 10.0, 10.0, glam::DVec3::new(0.0, -3.0, 1.0), glam::DVec3::ZERO, glam::DVec3::Z);
+        let cam = Camera::look_at(
+            8,
+            6,
+            10.0,
+            10.0,
+            glam::DVec3::new(0.0, -3.0, 1.0),
+            glam::DVec3::ZERO,
+            glam::DVec3::Z,
+        );
         let frames = vec![Frame::new("f0", "images/f0.png", &cam, Split::Train)];
         Frames::write_json(dir.path(), &frames).unwrap();
         let back = Frames::read(dir.path()).unwrap();

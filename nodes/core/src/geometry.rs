@@ -19,11 +19,23 @@ impl Mesh {
     /// Checks indices and finiteness; the error names the first offender.
     pub fn validate(&self) -> Result<(), String> {
         let n = self.positions.len();
-        if let Some(i) = self.positions.iter().position(|p| p.iter().any(|v| !v.is_finite())) {
+        if let Some(i) = self
+            .positions
+            .iter()
+            .position(|p| p.iter().any(|v| !v.is_finite()))
+        {
             return Err(format!("vertex {i} has a non-finite coordinate"));
         }
-        if let Some((i, f)) = self.faces.iter().enumerate().find(|(_, f)| f.iter().any(|&v| v as usize >= n)) {
-            return Err(format!("face {i} refers to vertex {:?} but there are only {n} vertices", f));
+        if let Some((i, f)) = self
+            .faces
+            .iter()
+            .enumerate()
+            .find(|(_, f)| f.iter().any(|&v| v as usize >= n))
+        {
+            return Err(format!(
+                "face {i} refers to vertex {:?} but there are only {n} vertices",
+                f
+            ));
         }
         for (name, len) in [
             ("colors", self.colors.as_ref().map(Vec::len)),

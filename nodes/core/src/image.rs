@@ -18,10 +18,20 @@ pub struct Image {
 
 impl Image {
     pub fn new(width: u32, height: u32, channels: u32) -> Self {
-        Image { width, height, channels, data: vec![0.0; (width * height * channels) as usize] }
+        Image {
+            width,
+            height,
+            channels,
+            data: vec![0.0; (width * height * channels) as usize],
+        }
     }
 
-    pub fn from_fn(width: u32, height: u32, channels: u32, f: impl Fn(u32, u32, u32) -> f32) -> Self {
+    pub fn from_fn(
+        width: u32,
+        height: u32,
+        channels: u32,
+        f: impl Fn(u32, u32, u32) -> f32,
+    ) -> Self {
         let mut img = Image::new(width, height, channels);
         for y in 0..height {
             for x in 0..width {
@@ -66,13 +76,30 @@ impl Image {
             D::ImageLumaA8(b) => (2, b.into_raw().iter().map(|&v| v as f32 / 255.0).collect()),
             D::ImageRgb8(b) => (3, b.into_raw().iter().map(|&v| v as f32 / 255.0).collect()),
             D::ImageRgba8(b) => (4, b.into_raw().iter().map(|&v| v as f32 / 255.0).collect()),
-            D::ImageLuma16(b) => (1, b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect()),
-            D::ImageLumaA16(b) => (2, b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect()),
-            D::ImageRgb16(b) => (3, b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect()),
-            D::ImageRgba16(b) => (4, b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect()),
+            D::ImageLuma16(b) => (
+                1,
+                b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect(),
+            ),
+            D::ImageLumaA16(b) => (
+                2,
+                b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect(),
+            ),
+            D::ImageRgb16(b) => (
+                3,
+                b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect(),
+            ),
+            D::ImageRgba16(b) => (
+                4,
+                b.into_raw().iter().map(|&v| v as f32 / 65535.0).collect(),
+            ),
             other => (4, other.to_rgba32f().into_raw()),
         };
-        Image { width: w, height: h, channels, data }
+        Image {
+            width: w,
+            height: h,
+            channels,
+            data,
+        }
     }
 
     /// The RGB part (grey is replicated, alpha dropped).
@@ -85,7 +112,10 @@ impl Image {
     }
 
     fn quantize<T: Copy>(&self, max: f32, conv: impl Fn(f32) -> T) -> Vec<T> {
-        self.data.iter().map(|&v| conv((v.clamp(0.0, 1.0) * max).round())).collect()
+        self.data
+            .iter()
+            .map(|&v| conv((v.clamp(0.0, 1.0) * max).round()))
+            .collect()
     }
 
     /// Saves as an 8-bit PNG (values clamped to [0, 1] and rounded).
@@ -98,13 +128,24 @@ impl Image {
             4 => image::ExtendedColorType::Rgba8,
             c => bail!("cannot save a {c}-channel image as PNG"),
         };
-        image::save_buffer_with_format(path, &raw, self.width, self.height, color, image::ImageFormat::Png)
-            .with_context(|| format!("{}: cannot write PNG", path.display()))
+        image::save_buffer_with_format(
+            path,
+            &raw,
+            self.width,
+            self.height,
+            color,
+            image::ImageFormat::Png,
+        )
+        .with_context(|| format!("{}: cannot write PNG", path.display()))
     }
 
     /// Saves as a 16-bit PNG.
     pub fn save_png16(&self, path: &Path) -> Result<()> {
-        let raw: Vec<u8> = self.quantize(65535.0, |v| v as u16).iter().flat_map(|v| v.to_ne_bytes()).collect();
+        let raw: Vec<u8> = self
+            .quantize(65535.0, |v| v as u16)
+            .iter()
+            .flat_map(|v| v.to_ne_bytes())
+            .collect();
         let color = match self.channels {
             1 => image::ExtendedColorType::L16,
             2 => image::ExtendedColorType::La16,
@@ -112,8 +153,15 @@ impl Image {
             4 => image::ExtendedColorType::Rgba16,
             c => bail!("cannot save a {c}-channel image as PNG"),
         };
-        image::save_buffer_with_format(path, &raw, self.width, self.height, color, image::ImageFormat::Png)
-            .with_context(|| format!("{}: cannot write PNG", path.display()))
+        image::save_buffer_with_format(
+            path,
+            &raw,
+            self.width,
+            self.height,
+            color,
+            image::ImageFormat::Png,
+        )
+        .with_context(|| format!("{}: cannot write PNG", path.display()))
     }
 
     /// Box-filter (area) downscale to `width`×`height`; exact for integer factors.
@@ -155,7 +203,11 @@ impl Image {
     pub fn check_finite(&self, what: &str) -> Result<()> {
         if let Some(i) = self.data.iter().position(|v| !v.is_finite()) {
             let p = i / self.channels as usize;
-            bail!("{what}: non-finite value at pixel ({}, {})", p % self.width as usize, p / self.width as usize);
+            bail!(
+                "{what}: non-finite value at pixel ({}, {})",
+                p % self.width as usize,
+                p / self.width as usize
+            );
         }
         Ok(())
     }
@@ -168,13 +220,20 @@ mod tests {
     #[test]
     fn png8_and_png16_roundtrip() {
         let dir = tempfile::tempdir().unwrap();
-        let img = Image::from_fn(7, 5, 3, |x, y, c| ((x * 31 + y * 17 + c * 5) % 256) as f32 / 255.0);
+        let img = Image::from_fn(7, 5, 3, |x, y, c| {
+            ((x * 31 + y * 17 + c * 5) % 256) as f32 / 255.0
+        });
         img.save_png8(&dir.path().join("a.png")).unwrap();
         assert_eq!(Image::load(&dir.path().join("a.png")).unwrap(), img);
         let img16 = Image::from_fn(3, 2, 1, |x, y, _| (x * 1000 + y * 7) as f32 / 65535.0);
         img16.save_png16(&dir.path().join("b.png")).unwrap();
         let back = Image::load(&dir.path().join("b.png")).unwrap();
-        assert!(back.data.iter().zip(&img16.data).all(|(a, b)| (a - b).abs() < 1e-7));
+        assert!(
+            back.data
+                .iter()
+                .zip(&img16.data)
+                .all(|(a, b)| (a - b).abs() < 1e-7)
+        );
     }
 
     #[test]

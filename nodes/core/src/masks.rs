@@ -24,7 +24,11 @@ pub struct IdMap {
 
 impl IdMap {
     pub fn new(width: u32, height: u32) -> IdMap {
-        IdMap { width, height, data: vec![NO_OBJECT; (width * height) as usize] }
+        IdMap {
+            width,
+            height,
+            data: vec![NO_OBJECT; (width * height) as usize],
+        }
     }
 
     #[inline]
@@ -42,9 +46,17 @@ impl IdMap {
         let data = match img {
             image::DynamicImage::ImageLuma16(b) => b.into_raw(),
             image::DynamicImage::ImageLuma8(b) => b.into_raw().into_iter().map(u16::from).collect(),
-            other => bail!("{}: expected a 16-bit grey id map, found {:?}", path.display(), other.color()),
+            other => bail!(
+                "{}: expected a 16-bit grey id map, found {:?}",
+                path.display(),
+                other.color()
+            ),
         };
-        Ok(IdMap { width, height, data })
+        Ok(IdMap {
+            width,
+            height,
+            data,
+        })
     }
 
     pub fn save(&self, path: &Path) -> Result<()> {
@@ -66,14 +78,22 @@ pub type ObjectLabels = BTreeMap<u16, String>;
 
 pub fn read_objects(dir: &Path) -> Result<ObjectLabels> {
     let path = dir.join(OBJECTS_JSON);
-    let text = std::fs::read_to_string(&path).with_context(|| format!("{}: cannot read", path.display()))?;
-    let raw: BTreeMap<String, String> =
-        serde_json::from_str(&text).with_context(|| format!("{}: expected {{\"id\": \"label\"}}", path.display()))?;
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let raw: BTreeMap<String, String> = serde_json::from_str(&text)
+        .with_context(|| format!("{}: expected {{\"id\": \"label\"}}", path.display()))?;
     let mut out = ObjectLabels::new();
     for (k, v) in raw {
-        let id: u16 = k.parse().ok().filter(|&id| id != NO_OBJECT && id != UNOWNED).with_context(|| {
-            format!("{}: object id {k:?} is not an integer in 1..=65534", path.display())
-        })?;
+        let id: u16 = k
+            .parse()
+            .ok()
+            .filter(|&id| id != NO_OBJECT && id != UNOWNED)
+            .with_context(|| {
+                format!(
+                    "{}: object id {k:?} is not an integer in 1..=65534",
+                    path.display()
+                )
+            })?;
         out.insert(id, v);
     }
     Ok(out)

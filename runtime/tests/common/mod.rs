@@ -1,0 +1,276 @@
+//! Test doubles: tiny numeric nodes whose runs are cheap and whose outputs are
+//! predictable, so tests can assert exactly which jobs executed (the "execution log").
+
+#![allow(dead_code)]
+
+use anyhow::{Result, bail};
+use objectsplat_runtime::exec::{self, RunOptions, Silent};
+use objectsplat_runtime::graph::GraphSource;
+use objectsplat_runtime::plan::{self, Override};
+use objectsplat_runtime::report::{RunReport, Status};
+use objectsplat_runtime::store::Store;
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+fn read_num(dir: &Path) -> Result<i64> {
+    Ok(std::fs::read_to_string(dir.join("value.txt"))?
+        .trim()
+        .parse()?)
+}
+
+fn write_num(dir: &Path, v: i64) -> Result<()> {
+    std::fs::write(dir.join("value.txt"), v.to_string())?;
+    Ok(())
+}
+
+struct Const;
+impl Node for Const {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("const", "1").output("out", "Num", "").param(
+            "value",
+            ParamType::int(),
+            Some("0"),
+            "",
+        )
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        write_num(&ctx.output("out")?, ctx.param("value")?)?;
+        Ok(Outcome::Done)
+    }
+}
+
+struct Add;
+impl Node for Add {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("add", "1")
+            .input("a", "Num", "")
+            .optional_input("b", "Num", "")
+            .output("out", "Num", "")
+            .param("offset", ParamType::int(), Some("0"), "")
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let a = read_num(ctx.input("a")?)?;
+        let b = match ctx.input_opt("b") {
+            Some(d) => read_num(d)?,
+            None => 0,
+        };
+        let off: i64 = ctx.param("offset")?;
+        write_num(&ctx.output("out")?, a + b + off)?;
+        Ok(Outcome::Done)
+    }
+}
+
+/// `a % modulus`: changing the modulus can leave the output unchanged (early cutoff).
+struct Modulo;
+impl Node for Modulo {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("modulo", "1")
+            .input("a", "Num", "")
+            .output("out", "Num", "")
+            .param(
+                "modulus",
+                ParamType::Int {
+                    min: Some(1),
+                    max: None,
+                },
+                Some("1000"),
+                "",
+            )
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let m: i64 = ctx.param("modulus")?;
+        write_num(&ctx.output("out")?, read_num(ctx.input("a")?)? % m)?;
+        Ok(Outcome::Done)
+    }
+}
+
+/// A collection: one item per value.
+struct Split;
+impl Node for Split {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("split", "1")
+            .output("items", "[Num]", "")
+            .param("values", ParamType::list(ParamType::int()), None, "")
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let values: Vec<i64> = ctx.param("values")?;
+        let out = ctx.output("items")?;
+        for (i, v) in values.iter().enumerate() {
+            let d = out.join(format!("item{i}"));
+            std::fs::create_dir_all(&d)?;
+            write_num(&d, *v)?;
+        }
+        Ok(Outcome::Done)
+    }
+}
+
+struct Double;
+impl Node for Double {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("double", "1")
+            .input("x", "Num", "")
+            .output("out", "Num", "")
+            .param("sleep_ms", ParamType::int(), Some("0"), "")
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ms: u64 = ctx.param("sleep_ms")?;
+        std::thread::sleep(std::time::Duration::from_millis(ms));
+        write_num(&ctx.output("out")?, 2 * read_num(ctx.input("x")?)?)?;
+        Ok(Outcome::Done)
+    }
+}
+
+struct Sum;
+impl Node for Sum {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("sum", "1")
+            .input("xs", "[Num]", "")
+            .output("out", "Num", "")
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let mut s = 0;
+        for (_, d) in ctx.input_items("xs")? {
+            s += read_num(d)?;
+        }
+        write_num(&ctx.output("out")?, s)?;
+        Ok(Outcome::Done)
+    }
+}
+
+/// Fails (error or panic) when told to; otherwise copies its input.
+struct Flaky;
+impl Node for Flaky {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("flaky", "1")
+            .input("a", "Num", "")
+            .output("out", "Num", "")
+            .param(
+                "mode",
+                ParamType::enumeration(&["ok", "error", "panic", "skip"]),
+                Some("\"ok\""),
+                "",
+            )
+            .param(
+                "flag_file",
+                ParamType::optional(ParamType::Str),
+                Some("None"),
+                "fail only while this file exists",
+            )
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let flag: Option<String> = ctx.param("flag_file")?;
+        let active = flag.map(|f| Path::new(&f).exists()).unwrap_or(true);
+        match (ctx.param::<String>("mode")?.as_str(), active) {
+            ("error", true) => bail!("flaky node failed on purpose"),
+            ("panic", true) => panic!("flaky node panicked on purpose"),
+            ("skip", true) => return Ok(Outcome::Skipped("nothing to do".into())),
+            _ => {}
+        }
+        write_num(&ctx.output("out")?, read_num(ctx.input("a")?)?)?;
+        Ok(Outcome::Done)
+    }
+}
+
+pub fn registry() -> Registry {
+    let mut reg = Registry::new();
+    reg.add_type("Num", "a folder with value.txt");
+    for n in [
+        Arc::new(Const) as Arc<dyn Node>,
+        Arc::new(Add),
+        Arc::new(Modulo),
+        Arc::new(Split),
+        Arc::new(Double),
+        Arc::new(Sum),
+        Arc::new(Flaky),
+    ] {
+        reg.add_node(n).unwrap();
+    }
+    reg
+}
+
+pub struct Workspace {
+    pub dir: tempfile::TempDir,
+}
+
+impl Workspace {
+    pub fn new() -> Workspace {
+        Workspace {
+            dir: tempfile::tempdir().unwrap(),
+        }
+    }
+    pub fn graph(&self, text: &str) -> PathBuf {
+        let p = self.dir.path().join("g.ron");
+        std::fs::write(&p, text).unwrap();
+        p
+    }
+    pub fn cache(&self) -> PathBuf {
+        self.dir.path().join("cache")
+    }
+    pub fn out(&self) -> PathBuf {
+        self.dir.path().join("out")
+    }
+    pub fn run(&self, sets: &[&str]) -> RunReport {
+        run_graph(
+            &self.dir.path().join("g.ron"),
+            &self.cache(),
+            Some(&self.out()),
+            sets,
+            2,
+        )
+    }
+    pub fn num(&self, node: &str, port: &str) -> i64 {
+        read_num(&self.out().join(node).join(port)).unwrap()
+    }
+}
+
+pub fn run_graph(
+    graph: &Path,
+    cache: &Path,
+    out: Option<&Path>,
+    sets: &[&str],
+    jobs: usize,
+) -> RunReport {
+    let src = GraphSource::read(graph).unwrap();
+    let overrides: Vec<Override> = sets.iter().map(|s| Override::parse(s).unwrap()).collect();
+    let plan =
+        plan::build_plan(&src, &registry(), &overrides, &[]).unwrap_or_else(|d| panic!("{d}"));
+    let store = Store::open(cache).unwrap();
+    exec::run(
+        &plan,
+        &store,
+        &RunOptions {
+            jobs,
+            out_dir: out.map(Path::to_path_buf),
+            observer: Arc::new(Silent),
+        },
+    )
+    .unwrap()
+}
+
+/// The execution log: every node or item that actually ran, sorted.
+pub fn ran(report: &RunReport) -> Vec<String> {
+    let mut v = Vec::new();
+    for n in &report.nodes {
+        if n.items.is_empty() {
+            if n.status == Status::Ran {
+                v.push(n.id.clone());
+            }
+        } else {
+            for i in &n.items {
+                if i.status == Status::Ran {
+                    v.push(format!("{}[{}]", n.id, i.name));
+                }
+            }
+        }
+    }
+    v.sort();
+    v
+}
+
+pub fn status(report: &RunReport, id: &str) -> Status {
+    report
+        .node(id)
+        .unwrap_or_else(|| panic!("no node {id} in report"))
+        .status
+}

@@ -1,0 +1,86 @@
+//! Paths in a graph resolve relative to the graph file; outputs stay inside OUT and the cache.
+
+mod common;
+use objectsplat_runtime::graph::GraphSource;
+use objectsplat_runtime::plan::build_plan;
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use std::sync::Arc;
+
+/// Reads a file named by a `path` param and copies its bytes out; writes a file at a `relpath`.
+struct Copy;
+impl Node for Copy {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("copy", "1")
+            .output("file", "Blob", "")
+            .param("from", ParamType::Path, None, "")
+            .param("to", ParamType::RelPath, Some("\"copy.txt\""), "")
+    }
+    fn run(&self, ctx: &mut Context) -> anyhow::Result<Outcome> {
+        let from: String = ctx.param("from")?;
+        let to: String = ctx.param("to")?;
+        std::fs::write(ctx.output("file")?.join(to), std::fs::read(from)?)?;
+        Ok(Outcome::Done)
+    }
+}
+
+fn registry() -> Registry {
+    let mut r = Registry::new();
+    r.add_type("Blob", "files");
+    r.add_node(Arc::new(Copy)).unwrap();
+    r
+}
+
+#[test]
+fn path_params_resolve_against_the_graph_folder_and_their_content_is_in_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::create_dir_all(dir.path().join("graphs/data")).unwrap();
+    std::fs::write(dir.path().join("graphs/data/in.txt"), "hello").unwrap();
+    let g = dir.path().join("graphs/g.ron");
+    std::fs::write(
+        &g,
+        r#"(nodes: { "c": (kind: "copy", params: (from: "data/in.txt")) })"#,
+    )
+    .unwrap();
+    let run = || {
+        let src = GraphSource::read(&g).unwrap();
+        let plan = build_plan(&src, &registry(), &[], &[]).unwrap();
+        let store = objectsplat_runtime::store::Store::open(&dir.path().join("cache")).unwrap();
+        let opts = objectsplat_runtime::exec::RunOptions {
+            jobs: 1,
+            out_dir: Some(dir.path().join("out")),
+            observer: Arc::new(objectsplat_runtime::exec::Silent),
+        };
+        objectsplat_runtime::exec::run(&plan, &store, &opts).unwrap()
+    };
+    // Run from another working directory: the path still resolves next to the graph.
+    let r = run();
+    assert!(r.ok, "{}", r.render_table());
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("out/c/file/copy.txt")).unwrap(),
+        "hello"
+    );
+    assert_eq!(common::ran(&run()), Vec::<String>::new());
+    std::fs::write(dir.path().join("graphs/data/in.txt"), "changed").unwrap();
+    assert_eq!(common::ran(&run()), ["c"]);
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("out/c/file/copy.txt")).unwrap(),
+        "changed"
+    );
+}
+
+#[test]
+fn output_paths_cannot_leave_the_output_folder() {
+    for bad in ["../escape.txt", "/tmp/escape.txt", "a/../../b.txt", ""] {
+        let src = GraphSource {
+            path: "g.ron".into(),
+            text: format!(
+                r#"(nodes: {{ "c": (kind: "copy", params: (from: "x", to: {bad:?})) }})"#
+            ),
+        };
+        let err = build_plan(&src, &registry(), &[], &[])
+            .err()
+            .expect("must be refused")
+            .to_string();
+        assert!(err.contains("param `to`"), "{bad}: {err}");
+    }
+}
