@@ -98,6 +98,7 @@ impl fmt::Display for Diagnostics {
 }
 
 impl std::error::Error for Diagnostics {}
+impl std::error::Error for Diagnostic {}
 
 /// Candidates within a small edit distance of `word`, closest first.
 pub fn similar<'a>(word: &str, candidates: impl Iterator<Item = &'a str>) -> Vec<&'a str> {

@@ -183,22 +183,27 @@ fn run_pass(
         }
         drop(res_tx);
         let mut in_flight = 0usize;
-        let mut dispatched: Vec<bool> = vec![false; plan.nodes.len()];
+        // Ready queue: a node is dispatched once every input edge's source has settled.
+        let mut waiting: Vec<usize> = plan.nodes.iter().map(|n| n.inputs.len()).collect();
+        let mut dependents: Vec<Vec<usize>> = vec![Vec::new(); plan.nodes.len()];
+        for &i in &needed {
+            for inp in &plan.nodes[i].inputs {
+                dependents[inp.from].push(i);
+            }
+        }
+        let mut ready: std::collections::VecDeque<usize> = needed.iter().copied().filter(|&i| waiting[i] == 0).collect();
+        let mut settle = |i: usize, ready: &mut std::collections::VecDeque<usize>| {
+            for &d in &dependents[i] {
+                waiting[d] -= 1;
+                if waiting[d] == 0 {
+                    ready.push_back(d);
+                }
+            }
+        };
         loop {
-            // Dispatch every node whose inputs are settled.
-            for &i in &needed {
-                if dispatched[i] {
-                    continue;
-                }
+            while let Some(i) = ready.pop_front() {
+                'node: {
                 let node = &plan.nodes[i];
-                if !node
-                    .inputs
-                    .iter()
-                    .all(|inp| state[&inp.from].status.is_some())
-                {
-                    continue;
-                }
-                dispatched[i] = true;
                 let st = state.get_mut(&i).expect("needed nodes have state");
                 st.started = Some(Instant::now());
                 // Upstream failures and skips propagate.
@@ -237,7 +242,7 @@ fn run_pass(
                 if let Some((status, reason)) = blocked {
                     st.status = Some(status);
                     st.reason = Some(reason);
-                    continue;
+                    break 'node;
                 }
                 let pk = pkeys
                     .entry(i)
@@ -247,7 +252,7 @@ fn run_pass(
                     Err(e) => {
                         st.status = Some(Status::Failed);
                         st.reason = Some(e.clone());
-                        continue;
+                        break 'node;
                     }
                 };
                 // Fan-out: one job per item of the `each` input.
@@ -266,7 +271,7 @@ fn run_pass(
                                     "input `{}` is not a collection in the cache",
                                     e.port
                                 ));
-                                continue;
+                                break 'node;
                             }
                             Err(c) => {
                                 let msg = format!("warning: {c}; recomputing");
@@ -276,7 +281,7 @@ fn run_pass(
                                 st.status = Some(Status::Failed);
                                 st.reason =
                                     Some("corrupt cache entry (recomputed next pass)".into());
-                                continue;
+                                break 'node;
                             }
                         }
                     }
@@ -339,6 +344,10 @@ fn run_pass(
                 if st.pending == 0 {
                     finish_node(plan, store, i, st, each.is_some());
                 }
+                            }
+                if state[&i].status.is_some() {
+                    settle(i, &mut ready);
+                }
             }
             if in_flight == 0 {
                 break;
@@ -368,6 +377,7 @@ fn run_pass(
             if st.pending == 0 {
                 let fans = plan.nodes[out.node].fans_out;
                 finish_node(plan, store, out.node, st, fans);
+                settle(out.node, &mut ready);
             }
         }
         drop(job_tx);
@@ -376,15 +386,12 @@ fn run_pass(
     .map_err(|_| anyhow!("a scheduler thread panicked"))??;
 
     warnings.extend(warn_lock.into_inner().unwrap_or_default());
-    for &i in &needed {
-        let st = &state[&i];
-        if st.status == Some(Status::Ran)
-            || st.status == Some(Status::Cached)
-            || st.status == Some(Status::Skipped)
-        {
-            let _ = store.set_head(&plan.source.path, &plan.nodes[i].id, &st.keys);
-        }
-    }
+    let heads = needed
+        .iter()
+        .filter(|i| matches!(state[i].status, Some(Status::Ran | Status::Cached | Status::Skipped)))
+        .map(|&i| (plan.nodes[i].id.clone(), state[&i].keys.clone()))
+        .collect();
+    let _ = store.set_heads(&plan.source.path, heads);
     let nodes: Vec<NodeReport> = needed
         .iter()
         .map(|&i| {

@@ -7,7 +7,7 @@
 //!                                    digest is the blake3 hash of the manifest bytes
 //! <cache>/actions/<aa>/<key>.json    one record per node run (or item run), keyed by
 //!                                    the run's cache key; carries its own checksum
-//! <cache>/heads/<graph>/<node>.json  the last key each node of each graph ran with (for `explain`)
+//! <cache>/heads/<graph>.json        the last keys each node of a graph ran with (for `explain`)
 //! <cache>/locks/<key>.lock           held while a key is being computed (cross-process)
 //! <cache>/tmp/<pid>-<n>/             staging; renamed into place, never read across processes
 //! ```
@@ -78,6 +78,8 @@ pub struct Store {
     counter: AtomicU64,
     /// Blobs verified by this process (each is read once at most).
     verified: Mutex<HashSet<String>>,
+    /// Fan-out folders known to exist (saves a failing mkdir per write).
+    made_dirs: Mutex<HashSet<PathBuf>>,
     /// Kept open: its lock tells other processes this staging area is alive.
     _tmp_lock: fs::File,
 }
@@ -119,6 +121,7 @@ impl Store {
             tmp,
             counter: AtomicU64::new(0),
             verified: Mutex::new(HashSet::new()),
+            made_dirs: Mutex::new(HashSet::new()),
             _tmp_lock: lock,
         })
     }
@@ -158,6 +161,18 @@ impl Store {
         Ok(p)
     }
 
+    fn ensure_parent(&self, path: &Path) -> Result<()> {
+        let Some(parent) = path.parent() else { return Ok(()) };
+        if self.made_dirs.lock().map(|d| d.contains(parent)).unwrap_or(false) {
+            return Ok(());
+        }
+        fs::create_dir_all(parent).with_context(|| format!("{}: cannot create", parent.display()))?;
+        if let Ok(mut d) = self.made_dirs.lock() {
+            d.insert(parent.to_path_buf());
+        }
+        Ok(())
+    }
+
     fn blob_path(&self, hash: &str) -> PathBuf {
         self.root.join("blobs").join(hex2(hash)).join(hash)
     }
@@ -187,9 +202,7 @@ impl Store {
             // is recomputed.
             f.write_all(bytes)?;
         }
-        if let Some(parent) = dest.parent() {
-            fs::create_dir_all(parent)?;
-        }
+        self.ensure_parent(dest)?;
         fs::rename(&tmp, dest).with_context(|| format!("{}: cannot write", dest.display()))
     }
 
@@ -206,7 +219,7 @@ impl Store {
             let hash = hash_bytes(&bytes);
             let dest = self.blob_path(&hash);
             if !dest.exists() {
-                fs::create_dir_all(dest.parent().expect("blob paths have a parent"))?;
+                self.ensure_parent(&dest)?;
                 // Same filesystem: an atomic move. A concurrent writer of the same hash
                 // writes the same bytes, so whichever rename lands last is fine.
                 fs::rename(&path, &dest).or_else(|_| self.write_atomic(&dest, &bytes))?;
@@ -374,33 +387,28 @@ impl Store {
             .map_err(|e| bad(e.to_string()))
     }
 
-    fn head_path(&self, graph: &Path, node: &str) -> PathBuf {
+    fn heads_path(&self, graph: &Path) -> PathBuf {
         let g = hash_bytes(graph.to_string_lossy().as_bytes());
-        self.root
-            .join("heads")
-            .join(&g[..16])
-            .join(format!("{node}.json"))
+        self.root.join("heads").join(format!("{}.json", &g[..16]))
     }
 
-    /// Remembers the key a node last ran with (per item), for `explain`.
-    pub fn set_head(
-        &self,
-        graph: &Path,
-        node: &str,
-        keys: &BTreeMap<String, String>,
-    ) -> Result<()> {
-        let path = self.head_path(graph, node);
-        let bytes = serde_json::to_vec(keys)?;
-        if fs::read(&path).is_ok_and(|old| old == bytes) {
+    fn read_heads(&self, graph: &Path) -> BTreeMap<String, BTreeMap<String, String>> {
+        fs::read(self.heads_path(graph)).ok().and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or_default()
+    }
+
+    /// Remembers the keys (per item) each node of a graph last ran with, for `explain`.
+    pub fn set_heads(&self, graph: &Path, heads: BTreeMap<String, BTreeMap<String, String>>) -> Result<()> {
+        let mut all = self.read_heads(graph);
+        let before = all.clone();
+        all.extend(heads);
+        if all == before {
             return Ok(());
         }
-        self.write_atomic(&path, &bytes)
+        self.write_atomic(&self.heads_path(graph), &serde_json::to_vec(&all)?)
     }
 
     pub fn head(&self, graph: &Path, node: &str) -> Option<BTreeMap<String, String>> {
-        fs::read(self.head_path(graph, node))
-            .ok()
-            .and_then(|b| serde_json::from_slice(&b).ok())
+        self.read_heads(graph).remove(node)
     }
 
     /// An exclusive cross-process lock on a key while it is computed.
