@@ -1,0 +1,195 @@
+//! The Metrics artifact: `metrics.json` and `metrics.csv` in a folder.
+//!
+//! `metrics.json` (top level = scene averages):
+//! - `psnr`, `ssim`, `lpips`: means over the test images; `lpips` is null when no
+//!   weights were given, and `lpips_status` then says it was skipped;
+//! - `ssim_convention`: which SSIM border convention was used;
+//! - `fscore`, `precision`, `recall`, `accuracy`, `completeness`, `tau`, `voxel`:
+//!   the whole-scene mesh F-score (null when no mesh was evaluated);
+//! - `objects`: one entry per object with `id`, `label` and the same fields —
+//!   `psnr`/`ssim` are masked by the object's pixels and averaged over the images
+//!   that show it, `lpips` is always null (LPIPS has no masked form);
+//! - `images`: per test image `name`, `psnr`, `ssim`, `lpips`, and `objects`
+//!   (per object `id`, `psnr`, `ssim`).
+//!
+//! A PSNR of identical images is infinite and written as null (JSON has no infinity).
+//!
+//! `metrics.csv`: one row per scene / object / image with columns
+//! `scope,name,id,label,psnr,ssim,lpips,fscore,precision,recall,accuracy,completeness,tau`;
+//! empty cells mean null.
+
+use anyhow::{Context, Result};
+use serde::{Deserialize, Serialize, Serializer};
+use std::path::Path;
+
+pub const METRICS_JSON: &str = "metrics.json";
+pub const METRICS_CSV: &str = "metrics.csv";
+
+/// Writes non-finite numbers as null.
+fn finite_or_null<S: Serializer>(v: &Option<f64>, s: S) -> std::result::Result<S::Ok, S::Error> {
+    match v {
+        Some(x) if x.is_finite() => s.serialize_f64(*x),
+        _ => s.serialize_none(),
+    }
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ObjectImageMetrics {
+    pub id: u16,
+    #[serde(serialize_with = "finite_or_null")]
+    pub psnr: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub ssim: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ImageMetrics {
+    pub name: String,
+    #[serde(serialize_with = "finite_or_null")]
+    pub psnr: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub ssim: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub lpips: Option<f64>,
+    pub objects: Vec<ObjectImageMetrics>,
+}
+
+/// Mesh and image metrics of one scope (the scene or one object).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ScopeMetrics {
+    #[serde(serialize_with = "finite_or_null")]
+    pub psnr: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub ssim: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub lpips: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub fscore: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub precision: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub recall: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub accuracy: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub completeness: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub tau: Option<f64>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ObjectMetrics {
+    pub id: u16,
+    pub label: String,
+    #[serde(flatten)]
+    pub metrics: ScopeMetrics,
+    /// How many test images show the object (its image metrics average over these).
+    pub images: usize,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MetricsReport {
+    #[serde(flatten)]
+    pub scene: ScopeMetrics,
+    #[serde(serialize_with = "finite_or_null")]
+    pub voxel: Option<f64>,
+    pub ssim_convention: String,
+    pub lpips_status: String,
+    pub objects: Vec<ObjectMetrics>,
+    pub images: Vec<ImageMetrics>,
+}
+
+#[derive(Serialize)]
+struct CsvRow<'a> {
+    scope: &'static str,
+    name: &'a str,
+    id: Option<u16>,
+    label: &'a str,
+    psnr: Option<f64>,
+    ssim: Option<f64>,
+    lpips: Option<f64>,
+    fscore: Option<f64>,
+    precision: Option<f64>,
+    recall: Option<f64>,
+    accuracy: Option<f64>,
+    completeness: Option<f64>,
+    tau: Option<f64>,
+}
+
+impl<'a> CsvRow<'a> {
+    fn scope(
+        scope: &'static str,
+        name: &'a str,
+        id: Option<u16>,
+        label: &'a str,
+        m: &ScopeMetrics,
+    ) -> Self {
+        let f = |v: Option<f64>| v.filter(|x| x.is_finite());
+        CsvRow {
+            scope,
+            name,
+            id,
+            label,
+            psnr: f(m.psnr),
+            ssim: f(m.ssim),
+            lpips: f(m.lpips),
+            fscore: f(m.fscore),
+            precision: f(m.precision),
+            recall: f(m.recall),
+            accuracy: f(m.accuracy),
+            completeness: f(m.completeness),
+            tau: f(m.tau),
+        }
+    }
+}
+
+impl MetricsReport {
+    /// Writes `metrics.json` and `metrics.csv` into `dir` (created if missing).
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("{}: cannot create folder", dir.display()))?;
+        let json_path = dir.join(METRICS_JSON);
+        let json = serde_json::to_string_pretty(self)?;
+        std::fs::write(&json_path, json + "\n")
+            .with_context(|| format!("{}: cannot write", json_path.display()))?;
+        let csv_path = dir.join(METRICS_CSV);
+        std::fs::write(&csv_path, self.to_csv()?)
+            .with_context(|| format!("{}: cannot write", csv_path.display()))
+    }
+
+    pub fn read(dir: &Path) -> Result<MetricsReport> {
+        let path = dir.join(METRICS_JSON);
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("{}: cannot read", path.display()))?;
+        serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a metrics report", path.display()))
+    }
+
+    pub fn to_csv(&self) -> Result<String> {
+        let mut w = csv::Writer::from_writer(Vec::new());
+        w.serialize(CsvRow::scope("scene", "scene", None, "", &self.scene))?;
+        for o in &self.objects {
+            w.serialize(CsvRow::scope(
+                "object",
+                &o.label,
+                Some(o.id),
+                &o.label,
+                &o.metrics,
+            ))?;
+        }
+        for img in &self.images {
+            let m = ScopeMetrics {
+                psnr: img.psnr,
+                ssim: img.ssim,
+                lpips: img.lpips,
+                ..Default::default()
+            };
+            w.serialize(CsvRow::scope("image", &img.name, None, "", &m))?;
+        }
+        // Invariant: writing into a Vec cannot fail, and the rows are UTF-8 strings.
+        let bytes = w
+            .into_inner()
+            .map_err(|e| anyhow::anyhow!("CSV buffer: {e}"))?;
+        Ok(String::from_utf8(bytes)?)
+    }
+}
