@@ -1,0 +1,53 @@
+//! A COLMAP sparse model plus its image folder as posed views and SfM points.
+
+use crate::colmap::ColmapModel;
+use crate::scene::SourceView;
+use anyhow::{Context, Result};
+use objectsplat_core::{Camera, Points};
+use std::path::Path;
+
+/// One view per registered image; distorted cameras are refused (see `ColmapCamera::pinhole`).
+pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> {
+    let mut out = Vec::with_capacity(model.images.len());
+    for img in model.images.values() {
+        // `ColmapModel::check` guarantees every image's camera exists; stay defensive anyway.
+        let cam = model.cameras.get(&img.camera_id).with_context(|| {
+            format!(
+                "{}: image {:?} has no camera {}",
+                model.dir.display(),
+                img.name,
+                img.camera_id
+            )
+        })?;
+        let (fx, fy, cx, cy) = cam
+            .pinhole()
+            .map_err(|e| anyhow::anyhow!("{}: {e}", model.dir.display()))?;
+        let camera = Camera {
+            width: cam.width,
+            height: cam.height,
+            fx,
+            fy,
+            cx,
+            cy,
+            world_to_camera: img.pose.matrix(),
+        };
+        out.push(SourceView {
+            name: img.name.clone(),
+            image: images_dir.join(&img.name),
+            camera,
+            valid_mask: None,
+        });
+    }
+    Ok(out)
+}
+
+/// The model's 3D points with their colours (f64 → f32).
+pub fn points(model: &ColmapModel) -> Points {
+    let positions = model
+        .points
+        .values()
+        .map(|p| p.xyz.map(|v| v as f32))
+        .collect();
+    let colors = model.points.values().map(|p| p.rgb).collect();
+    Points { positions, colors }
+}

@@ -1,0 +1,181 @@
+//! Writing what every scene source produces: a Frames artifact (images + frames.json,
+//! split and downscaled) and a Points artifact.
+//!
+//! Resolution: `resolution: n` (integer ≥ 1) divides both sides by `n`, rounding to the
+//! nearest pixel (as 3DGS does); `max_width: Some(w)` then caps the width at `w` pixels,
+//! keeping the aspect ratio. Intrinsics follow the pixel grid (`Camera::scaled`).
+//!
+//! Frames are sorted by name before the split is assigned (as COLMAP/3DGS order them).
+//! A source's validity mask (nerfstudio `mask_path`, non-zero = use the pixel) is
+//! written beside the image as `valid/<stem>.png` (8-bit, 255 = use, 0 = ignore);
+//! after downscaling a pixel is valid only when every source pixel under it was.
+
+use anyhow::{Context, Result, bail};
+use objectsplat_core::frames::{check_relative, frame_stem};
+use objectsplat_core::{Camera, Frame, Frames, Image, Points, SplitPolicy};
+use std::path::{Path, PathBuf};
+
+pub const VALID_DIR: &str = "valid";
+
+/// Output size policy shared by the scene sources.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Resolution {
+    pub factor: u32,
+    pub max_width: Option<u32>,
+}
+
+impl Resolution {
+    pub const FULL: Resolution = Resolution {
+        factor: 1,
+        max_width: None,
+    };
+
+    pub fn new(factor: i64, max_width: Option<i64>) -> Result<Resolution> {
+        let factor = u32::try_from(factor).ok().filter(|&f| f >= 1).with_context(|| {
+            format!("resolution {factor} must be a whole downscale factor ≥ 1 (use max_width for a pixel width)")
+        })?;
+        let max_width = match max_width {
+            None => None,
+            Some(w) => Some(
+                u32::try_from(w)
+                    .ok()
+                    .filter(|&w| w >= 1)
+                    .with_context(|| format!("max_width {w} must be ≥ 1"))?,
+            ),
+        };
+        Ok(Resolution { factor, max_width })
+    }
+
+    /// The output size for an input of `width`×`height`.
+    pub fn target(&self, width: u32, height: u32) -> (u32, u32) {
+        let f = self.factor as f64;
+        let mut w = ((width as f64 / f).round() as u32).max(1);
+        let mut h = ((height as f64 / f).round() as u32).max(1);
+        if let Some(max) = self.max_width
+            && w > max
+        {
+            h = ((h as f64 * max as f64 / w as f64).round() as u32).max(1);
+            w = max;
+        }
+        (w, h)
+    }
+}
+
+/// One posed input image, before splitting and downscaling.
+#[derive(Debug, Clone)]
+pub struct SourceView {
+    /// Frame name (unique; may contain `/`).
+    pub name: String,
+    pub image: PathBuf,
+    /// The camera at the image file's full resolution.
+    pub camera: Camera,
+    pub valid_mask: Option<PathBuf>,
+}
+
+/// Writes the Frames artifact into `out` and returns its frames.
+pub fn write_frames(
+    out: &Path,
+    mut views: Vec<SourceView>,
+    split: SplitPolicy,
+    res: Resolution,
+) -> Result<Vec<Frame>> {
+    if views.is_empty() {
+        bail!("the scene has no images");
+    }
+    views.sort_by(|a, b| a.name.cmp(&b.name));
+    if let Some(w) = views.windows(2).find(|w| w[0].name == w[1].name) {
+        bail!("two images are both named {:?}", w[0].name);
+    }
+    let splits = split.assign(views.len());
+    let mut frames = Vec::with_capacity(views.len());
+    let mut stems = std::collections::HashSet::new();
+    for (view, split) in views.iter().zip(splits) {
+        check_relative(&view.name).with_context(|| format!("frame {:?}", view.name))?;
+        view.camera
+            .validate()
+            .map_err(|e| anyhow::anyhow!("frame {:?}: {e}", view.name))?;
+        // Per-frame files downstream are named by stem; two frames sharing one would collide.
+        let stem = frame_stem(&view.name).to_string();
+        if !stems.insert(stem.clone()) {
+            bail!(
+                "frames {:?} and another share the file stem {stem:?}; per-frame files would collide",
+                view.name
+            );
+        }
+        let img = Image::load(&view.image)?.to_rgb();
+        let cam = &view.camera;
+        if (img.width, img.height) != (cam.width, cam.height) {
+            bail!(
+                "{}: image is {}×{} but its camera says {}×{}",
+                view.image.display(),
+                img.width,
+                img.height,
+                cam.width,
+                cam.height
+            );
+        }
+        let (w, h) = res.target(img.width, img.height);
+        let scaled = if (w, h) == (img.width, img.height) {
+            img
+        } else {
+            img.resize_area(w, h)
+        };
+        let rel = format!("images/{stem}.png");
+        let path = out.join(&rel);
+        std::fs::create_dir_all(out.join("images"))
+            .with_context(|| format!("{}: cannot create", out.display()))?;
+        scaled.save_png8(&path)?;
+        if let Some(mask) = &view.valid_mask {
+            write_valid_mask(
+                mask,
+                &out.join(VALID_DIR).join(format!("{stem}.png")),
+                (cam.width, cam.height),
+                (w, h),
+            )?;
+        }
+        frames.push(Frame::new(view.name.clone(), rel, &cam.scaled(w, h), split));
+    }
+    Frames::write_json(out, &frames)?;
+    Ok(frames)
+}
+
+fn write_valid_mask(src: &Path, dst: &Path, full: (u32, u32), target: (u32, u32)) -> Result<()> {
+    let m = Image::load(src)?;
+    if (m.width, m.height) != full {
+        bail!(
+            "{}: mask is {}×{} but its image is {}×{}",
+            src.display(),
+            m.width,
+            m.height,
+            full.0,
+            full.1
+        );
+    }
+    let binary = Image::from_fn(m.width, m.height, 1, |x, y, _| {
+        if m.get(x, y, 0) > 0.0 { 1.0 } else { 0.0 }
+    });
+    let scaled = if target == full {
+        binary
+    } else {
+        binary.resize_area(target.0, target.1)
+    };
+    // Valid only when every source pixel under the output pixel was valid.
+    let out = Image::from_fn(target.0, target.1, 1, |x, y, _| {
+        if scaled.get(x, y, 0) >= 1.0 - 1e-6 {
+            1.0
+        } else {
+            0.0
+        }
+    });
+    if let Some(parent) = dst.parent() {
+        std::fs::create_dir_all(parent)
+            .with_context(|| format!("{}: cannot create", parent.display()))?;
+    }
+    out.save_png8(dst)
+}
+
+/// Writes the Points artifact (`points.ply`) into `out`.
+pub fn write_points(out: &Path, points: &Points) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
+    points.write_ply(&out.join(objectsplat_core::mesh_io::POINTS_PLY))
+}

@@ -1,0 +1,123 @@
+//! The dataflow nodes run on fixture inputs and write artifacts in the documented encodings.
+
+use objectsplat_core::{Frames, IdMap, Points, Split};
+use objectsplat_inputs::nodes::{ColmapScene, ImportMasks, NerfstudioScene, ScannetppScene};
+use objectsplat_runtime::testing::run_node;
+use objectsplat_runtime::{Outcome, Registry};
+use std::path::{Path, PathBuf};
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(name)
+}
+
+#[test]
+fn register_declares_all_four_kinds_with_valid_specs() {
+    let mut reg = Registry::new();
+    for t in ["Frames", "Points", "Mesh", "Masks"] {
+        reg.add_type(t, "test");
+    }
+    objectsplat_inputs::register(&mut reg);
+    for kind in [
+        "colmap_scene",
+        "nerfstudio_scene",
+        "scannetpp_scene",
+        "import_masks",
+    ] {
+        assert!(reg.get(kind).is_some(), "{kind}");
+    }
+}
+
+#[test]
+fn colmap_scene_writes_frames_and_points() {
+    let out = tempfile::tempdir().unwrap();
+    let params = format!(
+        "(path: {:?}, images: Some({:?}), split: \"dense\", max_width: Some(32))",
+        fixture("colmap/rig_bin").display().to_string(),
+        fixture("colmap/images").display().to_string()
+    );
+    let run = run_node(&ColmapScene, &[], &params, out.path(), None).unwrap();
+    assert_eq!(run.outcome, Outcome::Done);
+    let frames = Frames::read(&run.outputs["frames"]).unwrap();
+    assert_eq!(frames.frames.len(), 6);
+    assert_eq!(frames.by_split(Split::Test).count(), 1);
+    assert!(
+        frames
+            .frames
+            .iter()
+            .all(|f| (f.width, f.height) == (32, 24))
+    );
+    let pts = Points::read_ply(&run.outputs["points"].join("points.ply")).unwrap();
+    assert_eq!(pts.positions.len(), 6);
+    assert!(
+        run.notes
+            .iter()
+            .any(|(k, v)| k == "layout" && v == "rigs/frames")
+    );
+}
+
+#[test]
+fn import_masks_writes_id_maps_and_reports_objects() {
+    let out = tempfile::tempdir().unwrap();
+    let params = format!(
+        "(path: {:?}, format: \"grounded_sam2\")",
+        fixture("masks/gsam").display().to_string()
+    );
+    let run = run_node(
+        &ImportMasks,
+        &[("frames", &fixture("masks/frames"))],
+        &params,
+        out.path(),
+        None,
+    )
+    .unwrap();
+    let dir = &run.outputs["masks"];
+    let map = IdMap::load(&dir.join("f001.png")).unwrap();
+    assert_eq!((map.width, map.height), (16, 12));
+    assert!(
+        map.data.iter().all(|&v| v == 0 || v == 2),
+        "frame f001 has only the chair"
+    );
+    assert_eq!(objectsplat_core::masks::read_objects(dir).unwrap().len(), 2);
+    let line = &run.notes.iter().find(|(k, _)| k == "object 1").unwrap().1;
+    assert!(line.starts_with("lamp: in 2/3 frames"), "{line}");
+}
+
+#[test]
+fn bad_params_are_errors_not_panics() {
+    let out = tempfile::tempdir().unwrap();
+    let e = run_node(
+        &NerfstudioScene,
+        &[],
+        "(path: \"/nonexistent/transforms.json\")",
+        out.path(),
+        None,
+    )
+    .err()
+    .unwrap();
+    assert!(
+        format!("{e:#}").contains("/nonexistent/transforms.json: cannot read"),
+        "{e:#}"
+    );
+    let e = run_node(
+        &ScannetppScene,
+        &[],
+        "(path: \"/nonexistent\", overlap: \"biggest\")",
+        out.path(),
+        None,
+    )
+    .err()
+    .unwrap();
+    assert!(format!("{e:#}").contains("biggest"), "{e:#}");
+    let e = run_node(
+        &ColmapScene,
+        &[],
+        "(path: \"/nonexistent\", resolution: 0)",
+        out.path(),
+        None,
+    )
+    .err()
+    .unwrap();
+    assert!(format!("{e:#}").contains("resolution"), "{e:#}");
+}

@@ -1,0 +1,260 @@
+//! A tiny synthetic scene in the ScanNet++ layout (built here): COLMAP poses in the mesh
+//! frame, the nerfstudio JSON fallback with the documented frame change, and segment
+//! annotations with overlapping groups resolved by an explicit policy.
+
+use glam::{DQuat, DVec3};
+use objectsplat_core::{Camera, Image, Mesh};
+use objectsplat_inputs::scannetpp::{self, GroupOverlap, PoseSource};
+use serde_json::json;
+use std::path::Path;
+
+const NAMES: [&str; 3] = ["DSC00001.JPG", "DSC00002.JPG", "DSC00003.JPG"];
+
+fn cameras() -> Vec<Camera> {
+    // A 4 × 3 × 2.5 m room with its corner at the origin; cameras inside looking around.
+    [
+        (DVec3::new(3.5, 0.5, 1.5), DVec3::new(1.0, 2.0, 0.5)),
+        (DVec3::new(0.5, 0.5, 1.2), DVec3::new(3.0, 2.5, 0.8)),
+        (DVec3::new(2.0, 2.5, 1.8), DVec3::new(2.0, 0.0, 0.5)),
+    ]
+    .iter()
+    .map(|&(eye, target)| {
+        let mut c = Camera::look_at(16, 12, 12.0, 12.5, eye, target, DVec3::Z);
+        c.cx = 8.0;
+        c.cy = 6.0;
+        c
+    })
+    .collect()
+}
+
+/// The toolkit generator's steps, literally: inv(w2c), negate columns 1 and 2,
+/// permute rows to [1, 0, 2], negate row 2.
+fn toolkit_transform_matrix(cam: &Camera, apply_frame_change: bool) -> Vec<Vec<f64>> {
+    let c2w = cam.view().inverse();
+    let mut m: Vec<Vec<f64>> = (0..4)
+        .map(|r| (0..4).map(|c| c2w.col(c)[r]).collect())
+        .collect();
+    for row in m.iter_mut() {
+        row[1] = -row[1];
+        row[2] = -row[2];
+    }
+    if apply_frame_change {
+        m.swap(0, 1);
+        for v in m[2].iter_mut() {
+            *v = -*v;
+        }
+    }
+    m
+}
+
+/// 10 vertices: 8 room corners (segments 0–7) and 2 object vertices (segments 8, 9).
+fn mesh() -> Mesh {
+    let mut positions = Vec::new();
+    for &x in &[0.0f32, 4.0] {
+        for &y in &[0.0f32, 3.0] {
+            for &z in &[0.0f32, 2.5] {
+                positions.push([x, y, z]);
+            }
+        }
+    }
+    positions.push([2.0, 1.5, 0.5]);
+    positions.push([2.2, 1.4, 0.7]);
+    let colors = (0..10).map(|i| [i as u8 * 20, 100, 200]).collect();
+    Mesh {
+        positions,
+        faces: vec![[0, 1, 2], [8, 9, 3]],
+        colors: Some(colors),
+        object_ids: None,
+    }
+}
+
+fn build(root: &Path, with_colmap: bool, frame_change_in_json: bool) {
+    let cams = cameras();
+    let dslr = root.join("dslr");
+    std::fs::create_dir_all(dslr.join("resized_undistorted_images")).unwrap();
+    std::fs::create_dir_all(dslr.join("nerfstudio")).unwrap();
+    std::fs::create_dir_all(root.join("scans")).unwrap();
+    for n in NAMES {
+        Image::from_fn(16, 12, 3, |x, y, c| ((x + y + c) % 5) as f32 / 4.0)
+            .save_png8(&dslr.join("resized_undistorted_images").join(n))
+            .unwrap();
+    }
+    let frames: Vec<_> = NAMES
+        .iter()
+        .zip(&cams)
+        .map(|(n, c)| json!({"file_path": n, "transform_matrix": toolkit_transform_matrix(c, frame_change_in_json), "is_bad": false}))
+        .collect();
+    let bad = json!({"file_path": "DSC09999.JPG", "transform_matrix": toolkit_transform_matrix(&cams[0], true), "is_bad": true});
+    let doc = json!({"camera_model": "PINHOLE", "fl_x": 12.0, "fl_y": 12.5, "cx": 8.0, "cy": 6.0, "w": 16, "h": 12,
+        "k1": 0.0, "k2": 0.0, "k3": 0.0, "k4": 0.0, "frames": [frames[0], frames[1], bad], "test_frames": [frames[2]], "has_mask": false});
+    std::fs::write(
+        dslr.join("nerfstudio/transforms_undistorted.json"),
+        doc.to_string(),
+    )
+    .unwrap();
+    if with_colmap {
+        let colmap = dslr.join("colmap");
+        std::fs::create_dir_all(&colmap).unwrap();
+        // The DSLR COLMAP camera is the distorted fisheye one; only its poses are used.
+        std::fs::write(
+            colmap.join("cameras.txt"),
+            "1 OPENCV_FISHEYE 32 24 20 20 16 12 0.1 0.01 0 0\n",
+        )
+        .unwrap();
+        let mut images = String::from("# images\n");
+        for (i, (n, c)) in NAMES.iter().zip(&cams).enumerate() {
+            let q = DQuat::from_mat3(&c.rotation());
+            let t = c.translation();
+            images += &format!(
+                "{} {} {} {} {} {} {} {} 1 {n}\n\n",
+                i + 1,
+                q.w,
+                q.x,
+                q.y,
+                q.z,
+                t.x,
+                t.y,
+                t.z
+            );
+        }
+        std::fs::write(colmap.join("images.txt"), images).unwrap();
+        std::fs::write(
+            colmap.join("points3D.txt"),
+            "1 1.0 1.0 1.0 10 20 30 0.5 1 0\n2 2.0 1.5 0.5 40 50 60 0.5\n",
+        )
+        .unwrap();
+    }
+    mesh().write_ply(&root.join(scannetpp::MESH_FILE)).unwrap();
+    std::fs::write(
+        root.join("scans/segments.json"),
+        json!({"sceneId": "t", "segIndices": (0..10).collect::<Vec<_>>()}).to_string(),
+    )
+    .unwrap();
+    let anno = json!({"sceneId": "t", "segGroups": [
+        {"id": 0, "objectId": 40, "label": "Wall", "segments": [0, 1, 2, 3]},
+        {"id": 1, "objectId": 12, "label": "table", "segments": [4, 5, 8]},
+        {"id": 2, "objectId": 3, "label": "cup", "segments": [8, 9]},
+    ]});
+    std::fs::write(root.join("scans/segments_anno.json"), anno.to_string()).unwrap();
+}
+
+fn assert_poses(views: &[objectsplat_inputs::scene::SourceView], tolerance: f64) {
+    for (v, want) in views.iter().zip(cameras()) {
+        let d = (v.camera.view() - want.view())
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        assert!(d < tolerance, "{}: pose off by {d:e}", v.name);
+        assert_eq!((v.camera.fx, v.camera.fy, v.camera.width), (12.0, 12.5, 16));
+    }
+}
+
+#[test]
+fn colmap_poses_are_used_and_json_centres_agree() {
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), true, true);
+    let s = scannetpp::load(dir.path(), GroupOverlap::Smallest, &["wall".into()]).unwrap();
+    assert_eq!(s.pose_source, PoseSource::Colmap);
+    assert_eq!(s.skipped_bad, 1);
+    assert_eq!(
+        s.views.iter().map(|v| v.name.as_str()).collect::<Vec<_>>(),
+        NAMES
+    );
+    assert_poses(&s.views, 1e-12);
+    assert_eq!(s.points.positions, [[1.0, 1.0, 1.0], [2.0, 1.5, 0.5]]);
+    assert_eq!(s.points.colors, [[10, 20, 30], [40, 50, 60]]);
+}
+
+#[test]
+fn json_fallback_applies_the_frame_change() {
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), false, true);
+    let s = scannetpp::load(dir.path(), GroupOverlap::Smallest, &[]).unwrap();
+    assert_eq!(s.pose_source, PoseSource::NerfstudioJson);
+    assert_poses(&s.views, 1e-9);
+    assert_eq!(
+        s.points.positions,
+        mesh().positions,
+        "without COLMAP points the mesh vertices seed"
+    );
+}
+
+#[test]
+fn json_in_the_wrong_frame_is_caught_both_ways() {
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), true, false);
+    let e = scannetpp::load(dir.path(), GroupOverlap::Smallest, &[])
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("DSC00001.JPG") && e.contains("the two pose sources disagree"),
+        "{e}"
+    );
+    std::fs::remove_dir_all(dir.path().join("dslr/colmap")).unwrap();
+    let e = scannetpp::load(dir.path(), GroupOverlap::Smallest, &[])
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(e.contains("lies outside the mesh bounds"), "{e}");
+}
+
+#[test]
+fn overlapping_groups_follow_the_policy_and_background_labels_stay_background() {
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), true, true);
+    // Segment 8 is in both the table (3 vertices) and the cup (2 vertices).
+    // Ids follow objectId order: cup (3) → 1, table (12) → 2.
+    let none = -1;
+    for (policy, vertex8) in [
+        (GroupOverlap::Smallest, 1),
+        (GroupOverlap::First, 2),
+        (GroupOverlap::Last, 1),
+    ] {
+        let s = scannetpp::load(dir.path(), policy, &["wall".into()]).unwrap();
+        let ids = s.mesh.object_ids.as_ref().unwrap();
+        assert_eq!(
+            ids,
+            &[none, none, none, none, 2, 2, none, none, vertex8, 1],
+            "{policy:?}"
+        );
+        assert_eq!(s.contested_vertices, 1);
+        assert_eq!(
+            s.labels,
+            [(1, "cup".to_string()), (2, "table".to_string())].into()
+        );
+    }
+    let s = scannetpp::load(dir.path(), GroupOverlap::First, &[]).unwrap();
+    assert_eq!(
+        s.labels.len(),
+        3,
+        "without background labels the wall is an object"
+    );
+}
+
+#[test]
+fn missing_pieces_are_named() {
+    let dir = tempfile::tempdir().unwrap();
+    let e = scannetpp::load(dir.path(), GroupOverlap::Smallest, &[])
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("no dslr/resized_undistorted_images or dslr/undistorted_images"),
+        "{e}"
+    );
+    build(dir.path(), true, true);
+    std::fs::write(
+        dir.path().join("scans/segments.json"),
+        json!({"segIndices": [0, 1]}).to_string(),
+    )
+    .unwrap();
+    let e = scannetpp::load(dir.path(), GroupOverlap::Smallest, &[])
+        .err()
+        .unwrap()
+        .to_string();
+    assert!(
+        e.contains("segments.json: 2 segIndices for 10 mesh vertices"),
+        "{e}"
+    );
+}
