@@ -72,7 +72,7 @@ fn main() -> Result<()> {
     let opts = RunOptions { jobs, out_dir: None, observer: Arc::new(Silent) };
     let cache = dir.path().join("cache");
 
-    let mut run = |sets: &[&str]| -> Result<(f64, f64, usize)> {
+    let run = |sets: &[&str]| -> Result<(f64, f64, usize)> {
         let overrides: Vec<Override> = sets.iter().map(|s| Override::parse(s)).collect::<Result<_, _>>()?;
         let t0 = Instant::now();
         let plan = build_plan(&src, &reg, &overrides, &[])?;

@@ -104,7 +104,7 @@ impl std::error::Error for Diagnostic {}
 pub fn similar<'a>(word: &str, candidates: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
     let mut scored: Vec<(usize, &str)> = candidates
         .map(|c| (edit_distance(word, c), c))
-        .filter(|(d, c)| *d <= (word.len().max(c.len()) + 2) / 3)
+        .filter(|(d, c)| *d <= word.len().max(c.len()).div_ceil(3))
         .collect();
     scored.sort();
     scored.into_iter().take(3).map(|(_, c)| c).collect()

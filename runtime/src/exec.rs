@@ -754,11 +754,10 @@ fn materialize_targets(plan: &Plan, store: &Store, report: &RunReport, out: &Pat
                 std::fs::remove_dir_all(&dest)
                     .with_context(|| format!("{}: cannot replace", dest.display()))?;
             }
-            store.materialize(digest, &dest, true).map_err(|e| {
+            store.materialize(digest, &dest, true).inspect_err(|e| {
                 if e.downcast_ref::<Corrupt>().is_some() {
                     store.forget_artifact(digest);
                 }
-                e
             })?;
         }
     }

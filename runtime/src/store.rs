@@ -133,13 +133,12 @@ impl Store {
         };
         for e in entries.flatten() {
             let p = e.path();
-            if p.extension().is_some_and(|x| x == "lock") {
-                if let Ok(f) = fs::File::open(&p)
-                    && f.try_lock().is_ok()
-                {
-                    let _ = fs::remove_dir_all(p.with_extension(""));
-                    let _ = fs::remove_file(&p);
-                }
+            if p.extension().is_some_and(|x| x == "lock")
+                && let Ok(f) = fs::File::open(&p)
+                && f.try_lock().is_ok()
+            {
+                let _ = fs::remove_dir_all(p.with_extension(""));
+                let _ = fs::remove_file(&p);
             }
         }
     }

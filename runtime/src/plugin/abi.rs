@@ -31,7 +31,8 @@ pub struct OwnedBuf {
 pub struct HostV1 {
     pub struct_size: usize,
     pub ctx: *const c_void,
-    pub progress: unsafe extern "C" fn(ctx: *const c_void, done: u64, total: u64, msg: *const u8, len: usize),
+    pub progress:
+        unsafe extern "C" fn(ctx: *const c_void, done: u64, total: u64, msg: *const u8, len: usize),
     pub cancelled: unsafe extern "C" fn(ctx: *const c_void) -> u8,
 }
 
@@ -49,7 +50,12 @@ pub struct EntryV1 {
     pub plugin_build: StaticStr,
     pub sdk_build: StaticStr,
     pub describe: unsafe extern "C" fn(out: *mut OwnedBuf) -> i32,
-    pub run: unsafe extern "C" fn(request: *const u8, len: usize, host: *const HostV1, out: *mut OwnedBuf) -> i32,
+    pub run: unsafe extern "C" fn(
+        request: *const u8,
+        len: usize,
+        host: *const HostV1,
+        out: *mut OwnedBuf,
+    ) -> i32,
     pub free: unsafe extern "C" fn(buf: OwnedBuf),
 }
 

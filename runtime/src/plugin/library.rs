@@ -3,7 +3,10 @@
 //! on another thread, and unloading Rust cdylibs is unsound in general), so each
 //! canonical path is opened once per process and kept in a global list.
 
-use super::abi::{ABI_VERSION, ENTRY_SYMBOL, EntryFn, EntryHeader, EntryV1, OwnedBuf, STATUS_OK, STATUS_PANIC, StaticStr};
+use super::abi::{
+    ABI_VERSION, ENTRY_SYMBOL, EntryFn, EntryHeader, EntryV1, OwnedBuf, STATUS_OK, STATUS_PANIC,
+    StaticStr,
+};
 use super::protocol::Description;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
@@ -28,7 +31,9 @@ pub fn open(path: &Path) -> Result<Arc<LoadedLibrary>, String> {
     if meta.is_dir() {
         return Err("is a folder, not a shared library".into());
     }
-    let canonical = path.canonicalize().map_err(|e| format!("cannot resolve the path: {e}"))?;
+    let canonical = path
+        .canonicalize()
+        .map_err(|e| format!("cannot resolve the path: {e}"))?;
     let bytes = std::fs::read(&canonical).map_err(|e| format!("cannot read the file: {e}"))?;
     let digest = blake3::hash(&bytes).to_hex().to_string();
     // A poisoned lock only means another thread panicked while holding it; the
@@ -61,9 +66,19 @@ fn open_new(path: &Path, digest: String) -> Result<LoadedLibrary, String> {
     let table = unsafe { entry_fn() };
     // SAFETY: the table pointer comes from the plugin's static data (checked for null inside).
     let entry = unsafe { check_table(table) }?;
-    let build = format!("{} ({})", read_static(entry.plugin_build, "plugin_build")?, read_static(entry.sdk_build, "sdk_build")?);
+    let build = format!(
+        "{} ({})",
+        read_static(entry.plugin_build, "plugin_build")?,
+        read_static(entry.sdk_build, "sdk_build")?
+    );
     let description = describe(entry)?;
-    Ok(LoadedLibrary { path: path.to_path_buf(), entry, build, digest, description })
+    Ok(LoadedLibrary {
+        path: path.to_path_buf(),
+        entry,
+        build,
+        digest,
+        description,
+    })
 }
 
 /// Checks the version and size fields before touching anything else of the table.
@@ -102,7 +117,9 @@ fn read_static(s: StaticStr, field: &str) -> Result<String, String> {
     }
     // SAFETY: the ABI says ptr/len describe static UTF-8 data in the library.
     let bytes = unsafe { std::slice::from_raw_parts(s.ptr, s.len) };
-    std::str::from_utf8(bytes).map(str::to_string).map_err(|_| format!("entry table field `{field}` is not UTF-8"))
+    std::str::from_utf8(bytes)
+        .map(str::to_string)
+        .map_err(|_| format!("entry table field `{field}` is not UTF-8"))
 }
 
 /// Copies a buffer the plugin filled and returns it to the plugin's `free`.
@@ -119,14 +136,28 @@ pub(crate) fn take(entry: &EntryV1, buf: OwnedBuf) -> Vec<u8> {
 }
 
 fn describe(entry: &EntryV1) -> Result<Description, String> {
-    let mut out = OwnedBuf { ptr: std::ptr::null_mut(), len: 0, cap: 0 };
+    let mut out = OwnedBuf {
+        ptr: std::ptr::null_mut(),
+        len: 0,
+        cap: 0,
+    };
     // SAFETY: `out` is a valid slot for the plugin to fill.
     let status = unsafe { (entry.describe)(&mut out) };
     let bytes = take(entry, out);
     match status {
         STATUS_OK => {}
-        STATUS_PANIC => return Err(format!("`describe` panicked: {}", String::from_utf8_lossy(&bytes))),
-        _ => return Err(format!("`describe` failed: {}", String::from_utf8_lossy(&bytes))),
+        STATUS_PANIC => {
+            return Err(format!(
+                "`describe` panicked: {}",
+                String::from_utf8_lossy(&bytes)
+            ));
+        }
+        _ => {
+            return Err(format!(
+                "`describe` failed: {}",
+                String::from_utf8_lossy(&bytes)
+            ));
+        }
     }
     serde_json::from_slice(&bytes).map_err(|e| format!("its describe text is malformed: {e}"))
 }

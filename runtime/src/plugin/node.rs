@@ -23,7 +23,11 @@ impl Node for PluginNode {
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let request = serde_json::to_vec(&request(&self.spec.kind, ctx)?)?;
-        let services = HostServices { job: ctx.job.clone(), progress: ctx.progress, cancel: ctx.cancel };
+        let services = HostServices {
+            job: ctx.job.clone(),
+            progress: ctx.progress,
+            cancel: ctx.cancel,
+        };
         let host = HostV1 {
             struct_size: std::mem::size_of::<HostV1>(),
             ctx: &services as *const HostServices as *const c_void,
@@ -31,17 +35,28 @@ impl Node for PluginNode {
             cancelled: host_cancelled,
         };
         let entry = self.library.entry;
-        let mut out = OwnedBuf { ptr: std::ptr::null_mut(), len: 0, cap: 0 };
+        let mut out = OwnedBuf {
+            ptr: std::ptr::null_mut(),
+            len: 0,
+            cap: 0,
+        };
         // SAFETY: request bytes, host table and `services` outlive the call; `out` is a valid slot.
         let status = unsafe { (entry.run)(request.as_ptr(), request.len(), &host, &mut out) };
         let bytes = take(entry, out);
         let plugin = &self.library.description.plugin;
         let response: RunResponse = match status {
-            STATUS_OK => serde_json::from_slice(&bytes)
-                .map_err(|e| anyhow!("plugin `{plugin}` answered with a malformed response: {e}"))?,
+            STATUS_OK => serde_json::from_slice(&bytes).map_err(|e| {
+                anyhow!("plugin `{plugin}` answered with a malformed response: {e}")
+            })?,
             STATUS_ERROR => bail!("plugin `{plugin}`: {}", String::from_utf8_lossy(&bytes)),
-            STATUS_PANIC => bail!("plugin `{plugin}` panicked: {}", String::from_utf8_lossy(&bytes)),
-            other => bail!("plugin `{plugin}` returned unknown status {other}: {}", String::from_utf8_lossy(&bytes)),
+            STATUS_PANIC => bail!(
+                "plugin `{plugin}` panicked: {}",
+                String::from_utf8_lossy(&bytes)
+            ),
+            other => bail!(
+                "plugin `{plugin}` returned unknown status {other}: {}",
+                String::from_utf8_lossy(&bytes)
+            ),
         };
         for (key, value) in response.notes {
             ctx.note(&key, value);
@@ -50,29 +65,45 @@ impl Node for PluginNode {
             ctx.warn(warning);
         }
         for (input, output) in &response.forwards {
-            ctx.forward(input, output).map_err(|e| anyhow!("plugin `{plugin}`: {e}"))?;
+            ctx.forward(input, output)
+                .map_err(|e| anyhow!("plugin `{plugin}`: {e}"))?;
         }
         Ok(match response.outcome {
             OutcomeKind::Done => Outcome::Done,
-            OutcomeKind::Skipped => Outcome::Skipped(response.reason.unwrap_or_else(|| "skipped by the plugin".into())),
+            OutcomeKind::Skipped => Outcome::Skipped(
+                response
+                    .reason
+                    .unwrap_or_else(|| "skipped by the plugin".into()),
+            ),
         })
     }
 }
 
 fn utf8(path: &Path) -> Result<String> {
-    path.to_str()
-        .map(str::to_string)
-        .ok_or_else(|| anyhow!("{}: plugins receive UTF-8 paths and this one is not", path.display()))
+    path.to_str().map(str::to_string).ok_or_else(|| {
+        anyhow!(
+            "{}: plugins receive UTF-8 paths and this one is not",
+            path.display()
+        )
+    })
 }
 
 fn request(kind: &str, ctx: &Context) -> Result<RunRequest> {
     let mut inputs = std::collections::BTreeMap::new();
     for (port, value) in &ctx.inputs {
         let arg = match value {
-            InputValue::One(dir) => InputArg { dir: utf8(dir)?, items: None },
+            InputValue::One(dir) => InputArg {
+                dir: utf8(dir)?,
+                items: None,
+            },
             InputValue::Items { dir, items } => InputArg {
                 dir: utf8(dir)?,
-                items: Some(items.iter().map(|(n, p)| Ok((n.clone(), utf8(p)?))).collect::<Result<_>>()?),
+                items: Some(
+                    items
+                        .iter()
+                        .map(|(n, p)| Ok((n.clone(), utf8(p)?)))
+                        .collect::<Result<_>>()?,
+                ),
             },
         };
         inputs.insert(port.clone(), arg);
@@ -84,8 +115,16 @@ fn request(kind: &str, ctx: &Context) -> Result<RunRequest> {
         threads: ctx.threads,
         scratch: utf8(&ctx.scratch)?,
         inputs,
-        outputs: ctx.outputs.iter().map(|(k, p)| Ok((k.clone(), utf8(p)?))).collect::<Result<_>>()?,
-        params: ctx.params.iter().map(|(k, v)| (k.clone(), v.to_ron())).collect(),
+        outputs: ctx
+            .outputs
+            .iter()
+            .map(|(k, p)| Ok((k.clone(), utf8(p)?)))
+            .collect::<Result<_>>()?,
+        params: ctx
+            .params
+            .iter()
+            .map(|(k, v)| (k.clone(), v.to_ron()))
+            .collect(),
     })
 }
 
@@ -97,7 +136,13 @@ struct HostServices<'a> {
     cancel: &'a AtomicBool,
 }
 
-unsafe extern "C" fn host_progress(ctx: *const c_void, done: u64, total: u64, msg: *const u8, len: usize) {
+unsafe extern "C" fn host_progress(
+    ctx: *const c_void,
+    done: u64,
+    total: u64,
+    msg: *const u8,
+    len: usize,
+) {
     // Unwinding into the plugin's frames would abort the process: contain any panic.
     let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         // SAFETY: ctx is the HostServices this run passed, alive for the whole run call.
@@ -108,7 +153,9 @@ unsafe extern "C" fn host_progress(ctx: *const c_void, done: u64, total: u64, ms
             // SAFETY: the plugin passes len readable bytes for the duration of the call.
             String::from_utf8_lossy(unsafe { std::slice::from_raw_parts(msg, len) }).into_owned()
         };
-        services.progress.progress(&services.job, done, total, &message);
+        services
+            .progress
+            .progress(&services.job, done, total, &message);
     }));
 }
 

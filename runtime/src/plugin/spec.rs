@@ -24,7 +24,10 @@ pub fn node_specs(desc: &Description, library_digest: &str) -> Result<Vec<NodeSp
         return Err("its description has an empty `plugin` name".into());
     }
     if desc.version.trim().is_empty() {
-        return Err(format!("plugin `{}` declares an empty code `version`", desc.plugin));
+        return Err(format!(
+            "plugin `{}` declares an empty code `version`",
+            desc.plugin
+        ));
     }
     if desc.nodes.is_empty() {
         return Err(format!("plugin `{}` declares no node kinds", desc.plugin));
@@ -35,12 +38,26 @@ pub fn node_specs(desc: &Description, library_digest: &str) -> Result<Vec<NodeSp
 
 fn node_spec(n: &NodeDescription, version: &str) -> Result<NodeSpec, String> {
     let port = |p: &PortDescription, side: &str| -> Result<PortSpec, String> {
-        let ty = TypeRef::parse(&p.ty).map_err(|e| format!("node `{}` {side} `{}`: {e}", n.kind, p.name))?;
-        Ok(PortSpec { name: p.name.clone(), ty, optional: p.optional, doc: p.doc.clone() })
+        let ty = TypeRef::parse(&p.ty)
+            .map_err(|e| format!("node `{}` {side} `{}`: {e}", n.kind, p.name))?;
+        Ok(PortSpec {
+            name: p.name.clone(),
+            ty,
+            optional: p.optional,
+            doc: p.doc.clone(),
+        })
     };
     let mut spec = NodeSpec::new(&n.kind, version).doc(&n.doc);
-    spec.inputs = n.inputs.iter().map(|p| port(p, "input")).collect::<Result<_, _>>()?;
-    spec.outputs = n.outputs.iter().map(|p| port(p, "output")).collect::<Result<_, _>>()?;
+    spec.inputs = n
+        .inputs
+        .iter()
+        .map(|p| port(p, "input"))
+        .collect::<Result<_, _>>()?;
+    spec.outputs = n
+        .outputs
+        .iter()
+        .map(|p| port(p, "output"))
+        .collect::<Result<_, _>>()?;
     if spec.outputs.iter().any(|p| p.optional) {
         return Err(format!("node `{}`: outputs cannot be optional", n.kind));
     }
@@ -48,8 +65,14 @@ fn node_spec(n: &NodeDescription, version: &str) -> Result<NodeSpec, String> {
         .params
         .iter()
         .map(|p| {
-            let ty = ParamType::parse(&p.ty).map_err(|e| format!("node `{}` param `{}`: {e}", n.kind, p.name))?;
-            Ok(ParamSpec { name: p.name.clone(), ty, default: p.default.clone(), doc: p.doc.clone() })
+            let ty = ParamType::parse(&p.ty)
+                .map_err(|e| format!("node `{}` param `{}`: {e}", n.kind, p.name))?;
+            Ok(ParamSpec {
+                name: p.name.clone(),
+                ty,
+                default: p.default.clone(),
+                doc: p.doc.clone(),
+            })
         })
         .collect::<Result<_, String>>()?;
     Ok(spec)
@@ -71,24 +94,40 @@ mod tests {
         );
         let specs = node_specs(&d, "0123456789abcdef0123").unwrap();
         assert_eq!(specs[0].version, "7+lib.0123456789ab");
-        assert_ne!(specs[0].version, node_specs(&d, "fedcba9876543210").unwrap()[0].version);
+        assert_ne!(
+            specs[0].version,
+            node_specs(&d, "fedcba9876543210").unwrap()[0].version
+        );
         assert_eq!(specs[0].params[0].ty, ParamType::float_range(0.0, 1.0));
         assert_eq!(specs[0].outputs[0].ty, TypeRef::One("Image".into()));
     }
 
     #[test]
     fn bad_entries_are_refused_by_name() {
-        let bad_port = description(r#"{"plugin":"p","version":"1","nodes":[{"kind":"k","outputs":[{"name":"o","type":"[Image"}]}]}"#);
+        let bad_port = description(
+            r#"{"plugin":"p","version":"1","nodes":[{"kind":"k","outputs":[{"name":"o","type":"[Image"}]}]}"#,
+        );
         let e = node_specs(&bad_port, "00").unwrap_err();
         assert!(e.contains("node `k` output `o`"), "{e}");
         let bad_param = description(
             r#"{"plugin":"p","version":"1","nodes":[{"kind":"k","outputs":[],"params":[{"name":"x","type":"floaty"}]}]}"#,
         );
         let e = node_specs(&bad_param, "00").unwrap_err();
-        assert!(e.contains("node `k` param `x`") && e.contains("unknown param type"), "{e}");
+        assert!(
+            e.contains("node `k` param `x`") && e.contains("unknown param type"),
+            "{e}"
+        );
         let no_nodes = description(r#"{"plugin":"p","version":"1","nodes":[]}"#);
-        assert!(node_specs(&no_nodes, "00").unwrap_err().contains("declares no node kinds"));
+        assert!(
+            node_specs(&no_nodes, "00")
+                .unwrap_err()
+                .contains("declares no node kinds")
+        );
         let no_version = description(r#"{"plugin":"p","version":" ","nodes":[]}"#);
-        assert!(node_specs(&no_version, "00").unwrap_err().contains("empty code `version`"));
+        assert!(
+            node_specs(&no_version, "00")
+                .unwrap_err()
+                .contains("empty code `version`")
+        );
     }
 }

@@ -1,0 +1,192 @@
+//! Running a user's inpainting program (e.g. a diffusion inpainter) on image+mask
+//! pairs through files.
+//!
+//! Protocol, in a fresh working folder:
+//! - `input/<stem>.png`: the frame, 8-bit RGB;
+//! - `input/<stem>_mask.png`: 8-bit grey, 255 = fill, 0 = keep;
+//! - `output/`: empty; the program must write `output/<stem>.png` for every pair,
+//!   the same size as the input (any colour type the `image` crate reads).
+//!
+//! The command is an argv list run directly, never through a shell. An argument
+//! that is exactly `{input}` or `{output}` is replaced by the folder's path; nothing
+//! else is substituted, so file names never end up inside a command string. The
+//! program's stdout is discarded, its stderr is captured (the last few KB go into
+//! error messages), and it is killed when it runs past the timeout. Pixels outside
+//! the mask are taken from the input, whatever the program wrote there.
+
+use crate::component_io::{load_rgb8, save_gray8, save_rgb8};
+use anyhow::{Context, Result, bail};
+use std::io::Read;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::time::Duration;
+use wait_timeout::ChildExt;
+
+/// How much of the program's stderr is quoted in errors.
+const STDERR_TAIL: usize = 4000;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExternalCommand {
+    pub argv: Vec<String>,
+    pub timeout: Duration,
+}
+
+/// One image to fill: `rgb` is `width × height × 3`, `mask` non-zero = fill.
+#[derive(Debug, Clone)]
+pub struct FillRequest {
+    pub stem: String,
+    pub width: u32,
+    pub height: u32,
+    pub rgb: Vec<u8>,
+    pub mask: Vec<u8>,
+}
+
+impl ExternalCommand {
+    /// Runs the program once on all `requests` inside `workdir` and returns the
+    /// filled RGB images in request order.
+    pub fn run(&self, requests: &[FillRequest], workdir: &Path) -> Result<Vec<Vec<u8>>> {
+        let Some(program) = self.argv.first() else {
+            bail!(
+                "the inpainting command is empty: give it as a list, e.g. [\"python3\", \"fill.py\", \"{{input}}\", \"{{output}}\"]"
+            );
+        };
+        let input = workdir.join("input");
+        let output = workdir.join("output");
+        for dir in [&input, &output] {
+            std::fs::create_dir_all(dir)
+                .with_context(|| format!("{}: cannot create folder", dir.display()))?;
+        }
+        for r in requests {
+            if r.stem.is_empty() || r.stem.contains(['/', '\\']) || r.stem.starts_with('.') {
+                bail!("frame stem {:?} cannot be used as a file name", r.stem);
+            }
+            save_rgb8(
+                &input.join(format!("{}.png", r.stem)),
+                &r.rgb,
+                r.width,
+                r.height,
+            )?;
+            let mask: Vec<u8> = r
+                .mask
+                .iter()
+                .map(|&m| if m != 0 { 255 } else { 0 })
+                .collect();
+            save_gray8(
+                &input.join(format!("{}_mask.png", r.stem)),
+                &mask,
+                r.width,
+                r.height,
+            )?;
+        }
+
+        let args: Vec<&std::ffi::OsStr> = self.argv[1..]
+            .iter()
+            .map(|a| match a.as_str() {
+                "{input}" => input.as_os_str(),
+                "{output}" => output.as_os_str(),
+                other => std::ffi::OsStr::new(other),
+            })
+            .collect();
+        let mut child = Command::new(program)
+            .args(&args)
+            .current_dir(workdir)
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::piped())
+            .spawn()
+            .with_context(|| format!("cannot start inpainting command {program:?}"))?;
+        // Drain stderr on a thread so a chatty program cannot block on a full pipe.
+        let mut stderr_pipe = child
+            .stderr
+            .take()
+            .context("child stderr was not captured")?;
+        let (sender, receiver) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            let mut buf = Vec::new();
+            let _ = stderr_pipe.read_to_end(&mut buf);
+            let _ = sender.send(buf);
+        });
+        // The pipe closes when the program and every process it started have exited;
+        // grandchildren that outlive a killed program must not hang the node.
+        let collect_stderr = || {
+            receiver
+                .recv_timeout(Duration::from_secs(2))
+                .map(|b| tail(&b))
+                .unwrap_or_else(|_| {
+                    "(not available: processes started by the command still hold it)".into()
+                })
+        };
+        let status = match child
+            .wait_timeout(self.timeout)
+            .context("cannot wait for the inpainting command")?
+        {
+            Some(status) => status,
+            None => {
+                // Kill errors mean it exited in the meantime; either way, reap it.
+                let _ = child.kill();
+                let _ = child.wait();
+                let stderr = collect_stderr();
+                bail!(
+                    "inpainting command {program:?} did not finish within {:.1} s and was killed; stderr:\n{stderr}",
+                    self.timeout.as_secs_f64()
+                );
+            }
+        };
+        let stderr = collect_stderr();
+        if !status.success() {
+            bail!("inpainting command {program:?} failed ({status}); stderr:\n{stderr}");
+        }
+
+        let missing: Vec<String> = requests
+            .iter()
+            .map(|r| format!("{}.png", r.stem))
+            .filter(|name| !output.join(name).is_file())
+            .collect();
+        if !missing.is_empty() {
+            bail!(
+                "inpainting command {program:?} exited successfully but did not write {} in {}; stderr:\n{stderr}",
+                missing.join(", "),
+                output.display()
+            );
+        }
+        requests
+            .iter()
+            .map(|r| {
+                let path = output.join(format!("{}.png", r.stem));
+                let (w, h, filled) = load_rgb8(&path)?;
+                if (w, h) != (r.width, r.height) {
+                    bail!(
+                        "{}: the inpainting command wrote a {w}×{h} image for a {}×{} input",
+                        path.display(),
+                        r.width,
+                        r.height
+                    );
+                }
+                Ok(composite(&r.rgb, &filled, &r.mask))
+            })
+            .collect()
+    }
+}
+
+/// `filled` inside the mask, `original` outside it.
+pub fn composite(original: &[u8], filled: &[u8], mask: &[u8]) -> Vec<u8> {
+    let mut out = original.to_vec();
+    for (p, &m) in mask.iter().enumerate() {
+        if m != 0 {
+            out[p * 3..p * 3 + 3].copy_from_slice(&filled[p * 3..p * 3 + 3]);
+        }
+    }
+    out
+}
+
+fn tail(bytes: &[u8]) -> String {
+    let text = String::from_utf8_lossy(bytes);
+    let text = text.trim_end();
+    if text.is_empty() {
+        return "(empty)".into();
+    }
+    match text.char_indices().rev().nth(STDERR_TAIL) {
+        Some((cut, _)) => format!("…{}", &text[cut..]),
+        None => text.to_string(),
+    }
+}

@@ -1,0 +1,298 @@
+//! Node wrappers: `inpaint`, `fill_holes`, `surface_completion`, `inpaint_background`.
+
+use crate::background::{FillSource, inpaint_background};
+use crate::external::ExternalCommand;
+use crate::fill_holes::{Connectivity, fill_holes};
+use crate::inpaint::{Method, Options, Raster, Sample, inpaint};
+use crate::surface::{SurfaceParams, complete_surfaces};
+use anyhow::{Context as _, Result, bail};
+use objectsplat_core::{Frames, Points};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Duration;
+
+const IMAGE_PNG: &str = "image.png";
+const MASK_PNG: &str = "mask.png";
+
+pub fn register(reg: &mut Registry) {
+    let nodes: [Arc<dyn Node>; 4] = [
+        Arc::new(InpaintNode),
+        Arc::new(FillHolesNode),
+        Arc::new(SurfaceCompletionNode),
+        Arc::new(InpaintBackgroundNode),
+    ];
+    for node in nodes {
+        let kind = node.spec().kind;
+        // Kinds are unique within this crate; a clash means another crate registered
+        // the same kind first, which the catalogue's tests catch.
+        if let Err(e) = reg.add_node(node) {
+            panic!("registering {kind}: {e}");
+        }
+    }
+}
+
+fn method_param(ctx: &Context) -> Result<Method> {
+    let text: String = ctx.param("method")?;
+    text.parse().map_err(anyhow::Error::msg)
+}
+
+fn connectivity_param(ctx: &Context) -> Result<Connectivity> {
+    let n: i64 = ctx.param("connectivity")?;
+    Connectivity::from_number(n).map_err(anyhow::Error::msg)
+}
+
+/// A Mask artifact's `mask.png`: any PNG, non-zero = set.
+fn load_mask(dir: &Path) -> Result<(u32, u32, Vec<bool>)> {
+    let path = dir.join(MASK_PNG);
+    let img =
+        image::open(&path).with_context(|| format!("{}: cannot read mask", path.display()))?;
+    let (w, h) = (img.width(), img.height());
+    Ok((
+        w,
+        h,
+        img.to_luma16()
+            .into_raw()
+            .into_iter()
+            .map(|v| v != 0)
+            .collect(),
+    ))
+}
+
+fn save_mask(dir: &Path, w: u32, h: u32, set: &[bool]) -> Result<()> {
+    let data: Vec<u8> = set.iter().map(|&s| if s { 255 } else { 0 }).collect();
+    crate::component_io::save_gray8(&dir.join(MASK_PNG), &data, w, h)
+}
+
+pub struct InpaintNode;
+
+impl InpaintNode {
+    fn fill<T: Sample>(
+        raster: Raster<T>,
+        mask: &[u8],
+        options: &Options,
+        path: &Path,
+    ) -> Result<Raster<T>> {
+        inpaint(&raster, mask, options)
+            .with_context(|| format!("{}: inpainting failed", path.display()))
+    }
+}
+
+impl Node for InpaintNode {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("inpaint", "1")
+            .doc("Single-image inpainting with OpenCV's semantics (cv::inpaint, 4.10+): fast-marching order, NS isophote-weighted or Telea averages. 8- and 16-bit PNGs, 1-4 channels; pixels outside the mask are unchanged.")
+            .input("image", "Image", "the image to fill (image.png, 8- or 16-bit)")
+            .input("mask", "Mask", "mask.png, non-zero = fill")
+            .output("image", "Image", "the filled image, same bit depth and channels")
+            .param("method", ParamType::enumeration(&["ns", "telea"]), Some("\"ns\""), "OpenCV's INPAINT_NS or INPAINT_TELEA")
+            .param("radius", ParamType::float_range(0.0, 100.0), Some("3.0"), "neighbourhood radius in pixels (rounded half to even, at least 1)")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let method = method_param(ctx)?;
+        let radius: f64 = ctx.param("radius")?;
+        let options = Options {
+            method,
+            radius,
+            threads: ctx.threads(),
+        };
+        let image_path = ctx.input("image")?.join(IMAGE_PNG);
+        let (mw, mh, set) = load_mask(ctx.input("mask")?)?;
+        let img = image::open(&image_path)
+            .with_context(|| format!("{}: cannot read image", image_path.display()))?;
+        let (w, h) = (img.width(), img.height());
+        if (mw, mh) != (w, h) {
+            bail!("mask is {mw}×{mh} but {} is {w}×{h}", image_path.display());
+        }
+        let mask: Vec<u8> = set.iter().map(|&s| u8::from(s)).collect();
+        let filled = set.iter().filter(|&&s| s).count();
+        let out = ctx.output("image")?.join(IMAGE_PNG);
+        let (wu, hu) = (w as usize, h as usize);
+        use image::DynamicImage as D;
+        use image::ExtendedColorType as E;
+        let (bytes, color): (Vec<u8>, E) = match img {
+            D::ImageLuma8(_) | D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => {
+                let (ch, color) = match img.color().channel_count() {
+                    1 => (1, E::L8),
+                    2 => (2, E::La8),
+                    3 => (3, E::Rgb8),
+                    _ => (4, E::Rgba8),
+                };
+                let raw = img.into_bytes();
+                (
+                    Self::fill(Raster::new(wu, hu, ch, raw)?, &mask, &options, &image_path)?.data,
+                    color,
+                )
+            }
+            D::ImageLuma16(_) | D::ImageLumaA16(_) | D::ImageRgb16(_) | D::ImageRgba16(_) => {
+                let ch = img.color().channel_count() as usize;
+                let color = [E::L16, E::La16, E::Rgb16, E::Rgba16][ch - 1];
+                let samples: Vec<u16> = match img {
+                    D::ImageLuma16(b) => b.into_raw(),
+                    D::ImageLumaA16(b) => b.into_raw(),
+                    D::ImageRgb16(b) => b.into_raw(),
+                    D::ImageRgba16(b) => b.into_raw(),
+                    _ => unreachable!("matched 16-bit variants above"),
+                };
+                let filled = Self::fill(
+                    Raster::new(wu, hu, ch, samples)?,
+                    &mask,
+                    &options,
+                    &image_path,
+                )?;
+                (
+                    filled.data.iter().flat_map(|v| v.to_ne_bytes()).collect(),
+                    color,
+                )
+            }
+            other => bail!(
+                "{}: unsupported colour type {:?} (8- or 16-bit PNG expected)",
+                image_path.display(),
+                other.color()
+            ),
+        };
+        image::save_buffer_with_format(&out, &bytes, w, h, color, image::ImageFormat::Png)
+            .with_context(|| format!("{}: cannot write", out.display()))?;
+        ctx.note("pixels_filled", filled);
+        Ok(Outcome::Done)
+    }
+}
+
+pub struct FillHolesNode;
+
+impl Node for FillHolesNode {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("fill_holes", "1")
+            .doc("Binary hole filling with scipy.ndimage.binary_fill_holes semantics.")
+            .input("mask", "Mask", "mask.png, non-zero = set")
+            .output("mask", "Mask", "the filled mask (mask.png, 0/255)")
+            .param("connectivity", ParamType::int_range(4, 8), Some("4"), "4 or 8: connectivity of the background flood (SciPy's structure; 4 is SciPy's default)")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let connectivity = connectivity_param(ctx)?;
+        let (w, h, set) = load_mask(ctx.input("mask")?)?;
+        let filled = fill_holes(&set, w as usize, h as usize, connectivity);
+        let added = filled.iter().zip(&set).filter(|(f, s)| **f && !**s).count();
+        save_mask(&ctx.output("mask")?, w, h, &filled)?;
+        ctx.note("pixels_filled", added);
+        Ok(Outcome::Done)
+    }
+}
+
+pub struct SurfaceCompletionNode;
+
+impl Node for SurfaceCompletionNode {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("surface_completion", "1")
+            .doc("Completes flat support surfaces (tables, desks, counters): hole-fills each surface mask per frame, adopts filled pixels owned by other objects, and inpaints their colours with NS as training targets. Qualitative use: the paper keeps it out of reported metrics.")
+            .input("components", "[Component]", "the partition's components")
+            .input("frames", "Frames", "the capture")
+            .optional_input("points", "Points", "scene points for the planarity test (optional)")
+            .output("components", "[Component]", "all components; completed surfaces gain pixels, targets/ and completion.json")
+            .param("labels", ParamType::list(ParamType::Str), Some("[\"table\", \"desk\", \"counter\"]"), "labels (or label words) that name support surfaces")
+            .param("planarity_tolerance", ParamType::float_range(0.0, 1.0), Some("0.02"), "plane-fit tolerance relative to the surface points' extent (used when points are wired)")
+            .param("radius", ParamType::float_range(0.0, 100.0), Some("5.0"), "NS inpainting radius in pixels")
+            .param("connectivity", ParamType::int_range(4, 8), Some("4"), "4 or 8: background connectivity of the hole filling")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let params = SurfaceParams {
+            labels: ctx.param("labels")?,
+            planarity_tolerance: ctx.param("planarity_tolerance")?,
+            radius: ctx.param("radius")?,
+            connectivity: connectivity_param(ctx)?,
+        };
+        // Validates the capture even though the components carry their own frames.
+        Frames::read(ctx.input("frames")?)?;
+        let points = match ctx.input_opt("points") {
+            Some(dir) => Some(Points::read_ply(
+                &dir.join(objectsplat_core::mesh_io::POINTS_PLY),
+            )?),
+            None => None,
+        };
+        let items = ctx.input_items("components")?.to_vec();
+        ctx.progress(0, 1, "completing support surfaces");
+        let report =
+            complete_surfaces(&items, points.as_ref(), &params, &ctx.output("components")?)?;
+        for s in &report.surfaces {
+            ctx.note(
+                &format!("surface {}", s.component),
+                format!(
+                    "{} ({} frames, {} pixels added)",
+                    s.reason, s.frames_completed, s.pixels_added
+                ),
+            );
+        }
+        ctx.note(
+            "use",
+            "qualitative only: completion is excluded from reported metrics",
+        );
+        ctx.progress(1, 1, "done");
+        match report.skipped {
+            Some(reason) => {
+                ctx.forward("components", "components")?;
+                Ok(Outcome::Skipped(reason))
+            }
+            None => Ok(Outcome::Done),
+        }
+    }
+}
+
+pub struct InpaintBackgroundNode;
+
+impl Node for InpaintBackgroundNode {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("inpaint_background", "1")
+            .doc("Fills the background where objects stood, per frame, for interactive/qualitative use only (never fed to metrics or training). Methods: built-in ns/telea, an external command (argv, no shell; protocol in the crate docs), or a folder of precomputed fills.")
+            .input("components", "[Component]", "the partition's components (the background's masks say what to fill)")
+            .input("frames", "Frames", "the capture")
+            .output("fills", "Images", "<frame stem>.png per background frame")
+            .param("method", ParamType::enumeration(&["ns", "telea", "command", "folder"]), Some("\"ns\""), "where fills come from")
+            .param("radius", ParamType::float_range(0.0, 100.0), Some("5.0"), "radius for ns/telea")
+            .param("command", ParamType::list(ParamType::Str), Some("[]"), "argv for method command; arguments exactly {input} / {output} become the folders")
+            .param("timeout_s", ParamType::float_range(0.001, 1.0e6), Some("600.0"), "seconds before the command is killed")
+            .param("path", ParamType::optional(ParamType::Path), Some("None"), "folder of <frame stem>.png fills for method folder")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let method: String = ctx.param("method")?;
+        let source = match method.as_str() {
+            "ns" | "telea" => FillSource::Builtin {
+                method: method.parse().map_err(anyhow::Error::msg)?,
+                radius: ctx.param("radius")?,
+            },
+            "command" => {
+                let argv: Vec<String> = ctx.param("command")?;
+                let timeout: f64 = ctx.param("timeout_s")?;
+                FillSource::Command(ExternalCommand {
+                    argv,
+                    timeout: Duration::from_secs_f64(timeout),
+                })
+            }
+            "folder" => {
+                let path: Option<String> = ctx.param("path")?;
+                let Some(path) = path else {
+                    bail!("method \"folder\" needs the param `path`")
+                };
+                FillSource::Folder(PathBuf::from(path))
+            }
+            other => bail!("unknown method {other:?}"),
+        };
+        let frames = Frames::read(ctx.input("frames")?)?;
+        let items = ctx.input_items("components")?.to_vec();
+        let scratch = ctx.scratch().to_path_buf();
+        let report = inpaint_background(&items, &frames, &source, &ctx.output("fills")?, &scratch)?;
+        ctx.note("use", "qualitative only: never fed to metrics or training");
+        ctx.note(
+            "frames_filled",
+            format!("{} of {}", report.frames_with_holes, report.frames),
+        );
+        ctx.note("pixels_filled", report.pixels_filled);
+        match report.skipped {
+            Some(reason) => Ok(Outcome::Skipped(reason)),
+            None => Ok(Outcome::Done),
+        }
+    }
+}

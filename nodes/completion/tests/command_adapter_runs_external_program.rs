@@ -1,0 +1,174 @@
+//! The `command` adapter with a real external program (tests/scripts/fake_inpainter.sh
+//! run by /bin/sh): its output is used inside the mask and the input outside it;
+//! a non-zero exit, a timeout, missing outputs and wrong-size outputs each fail with
+//! a message that says so (and quotes stderr); arguments reach the program verbatim,
+//! with only whole `{input}`/`{output}` arguments substituted; the node writes one
+//! fill per background frame.
+
+mod common;
+
+use objectsplat_completion::external::{ExternalCommand, FillRequest};
+use objectsplat_completion::nodes::InpaintBackgroundNode;
+use objectsplat_runtime::Outcome;
+use objectsplat_runtime::testing::run_node;
+use std::path::PathBuf;
+use std::time::{Duration, Instant};
+
+fn script() -> String {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/scripts/fake_inpainter.sh")
+        .display()
+        .to_string()
+}
+
+fn command(mode: &str, extra: &[&str], timeout_s: f64) -> ExternalCommand {
+    let mut argv: Vec<String> = vec![
+        "sh".into(),
+        script(),
+        mode.into(),
+        "{input}".into(),
+        "{output}".into(),
+    ];
+    argv.extend(extra.iter().map(|s| s.to_string()));
+    ExternalCommand {
+        argv,
+        timeout: Duration::from_secs_f64(timeout_s),
+    }
+}
+
+fn request(stem: &str) -> FillRequest {
+    let (width, height) = (6u32, 4u32);
+    let rgb: Vec<u8> = (0..width * height * 3)
+        .map(|v| (v * 5 % 200) as u8)
+        .collect();
+    let mut mask = vec![0u8; (width * height) as usize];
+    mask[7] = 1;
+    mask[8] = 1;
+    FillRequest {
+        stem: stem.into(),
+        width,
+        height,
+        rgb,
+        mask,
+    }
+}
+
+#[test]
+fn program_output_is_used_inside_the_mask_only() {
+    let work = tempfile::tempdir().unwrap();
+    // A stem with spaces and shell metacharacters is just a file name here.
+    let requests = [request("frame 0;$(touch pwned)"), request("f1")];
+    let filled = command("ok", &[], 30.0)
+        .run(&requests, work.path())
+        .unwrap();
+    assert!(!work.path().join("pwned").exists());
+    for (r, out) in requests.iter().zip(&filled) {
+        for (p, &m) in r.mask.iter().enumerate() {
+            let want: &[u8] = if m != 0 {
+                &[255, 255, 255]
+            } else {
+                &r.rgb[p * 3..p * 3 + 3]
+            };
+            assert_eq!(&out[p * 3..p * 3 + 3], want, "pixel {p}");
+        }
+    }
+}
+
+#[test]
+fn non_zero_exit_fails_with_status_and_stderr() {
+    let work = tempfile::tempdir().unwrap();
+    let err = command("fail", &[], 30.0)
+        .run(&[request("f0")], work.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("exit status: 3") && err.contains("model weights not found"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_hanging_program_is_killed_at_the_timeout() {
+    let work = tempfile::tempdir().unwrap();
+    let start = Instant::now();
+    let err = command("hang", &[], 0.5)
+        .run(&[request("f0")], work.path())
+        .unwrap_err()
+        .to_string();
+    assert!(
+        start.elapsed() < Duration::from_secs(10),
+        "took {:?}",
+        start.elapsed()
+    );
+    assert!(
+        err.contains("did not finish within 0.5 s") && err.contains("loading model"),
+        "{err}"
+    );
+}
+
+#[test]
+fn missing_and_wrong_size_outputs_are_reported() {
+    let work = tempfile::tempdir().unwrap();
+    let err = command("missing", &[], 30.0)
+        .run(&[request("f0"), request("f1")], work.path())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("did not write f0.png, f1.png"), "{err}");
+
+    let other =
+        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/inpaint/masks/corner.png");
+    let work = tempfile::tempdir().unwrap();
+    let err = command("wrong_size", &[&other.display().to_string()], 30.0)
+        .run(&[request("f0")], work.path())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("128×128 image for a 6×4 input"), "{err}");
+}
+
+#[test]
+fn arguments_are_passed_verbatim_and_only_whole_placeholders_substituted() {
+    let work = tempfile::tempdir().unwrap();
+    let err = command("args", &["x;echo hi", "pre{input}", "$HOME"], 30.0)
+        .run(&[request("f0")], work.path())
+        .unwrap_err()
+        .to_string();
+    let input = work.path().join("input").display().to_string();
+    assert!(err.contains(&format!("arg:[{input}]")), "{err}");
+    for literal in ["arg:[x;echo hi]", "arg:[pre{input}]", "arg:[$HOME]"] {
+        assert!(err.contains(literal), "{literal} missing from {err}");
+    }
+}
+
+#[test]
+fn node_writes_one_fill_per_background_frame() {
+    let scene = common::build("table");
+    let out = scene.root.path().join("run");
+    let params = format!(
+        "(method: \"command\", command: [\"sh\", {:?}, \"ok\", \"{{input}}\", \"{{output}}\"], timeout_s: 30.0)",
+        script()
+    );
+    let run = run_node(
+        &InpaintBackgroundNode,
+        &[("components", &scene.components), ("frames", &scene.frames)],
+        &params,
+        &out,
+        None,
+    )
+    .unwrap();
+    assert_eq!(run.outcome, Outcome::Done);
+    for f in 0..2 {
+        let fill = common::read_rgb(&run.outputs["fills"].join(format!("f{f}.png")));
+        for y in 0..common::H {
+            for x in 0..common::W {
+                let i = ((y * common::W + x) * 3) as usize;
+                // Background pixels keep their colour; object pixels got the program's white.
+                let want = if common::owner(f, x, y) == common::Owner::Background {
+                    common::BACKGROUND_RGB
+                } else {
+                    [255; 3]
+                };
+                assert_eq!(&fill[i..i + 3], &want, "frame {f} pixel ({x}, {y})");
+            }
+        }
+    }
+}

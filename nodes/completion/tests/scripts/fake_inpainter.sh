@@ -1,0 +1,37 @@
+#!/bin/sh
+# A stand-in for a user's inpainting program, speaking the `command` protocol of
+# inpaint_background: reads INPUT/<stem>.png + INPUT/<stem>_mask.png, writes
+# OUTPUT/<stem>.png. Modes exercise the adapter's success and failure paths.
+#   ok          write the mask itself as the "filled" image (white inside the hole)
+#   fail        complain on stderr and exit 3
+#   hang        never finish (the adapter must kill it)
+#   missing     exit 0 without writing anything
+#   wrong_size  write FILE (4th argument) as every output
+#   args        print each argument on stderr, then exit 1
+mode="$1"; input="$2"; output="$3"
+case "$mode" in
+  ok)
+    for mask in "$input"/*_mask.png; do
+      stem=$(basename "$mask" _mask.png)
+      cp "$mask" "$output/$stem.png"
+    done ;;
+  fail)
+    echo "model weights not found: /models/inpaint.ckpt" >&2
+    exit 3 ;;
+  hang)
+    echo "loading model..." >&2
+    exec sleep 30 ;;
+  missing)
+    exit 0 ;;
+  wrong_size)
+    for mask in "$input"/*_mask.png; do
+      stem=$(basename "$mask" _mask.png)
+      cp "$4" "$output/$stem.png"
+    done ;;
+  args)
+    for a in "$@"; do echo "arg:[$a]" >&2; done
+    exit 1 ;;
+  *)
+    echo "unknown mode $mode" >&2
+    exit 2 ;;
+esac

@@ -1,0 +1,202 @@
+//! The procedural demo scene: a textured room with a table and objects, rendered by our
+//! own rasterizer from an orbit of cameras, with its annotated ground-truth mesh and
+//! SfM-like sparse points. Everything is a deterministic function of the parameters.
+//!
+//! World frame: metres, Z up, the room spans x, y ∈ [−2, 2], z ∈ [0, 2.6]; the table
+//! stands at the centre. Labels: `floor`, `wall` (one object per wall), `ceiling`,
+//! `table`, `box`, `cup`, `ball`, `chair`, `bin`.
+
+mod layout;
+mod points;
+mod render;
+pub mod shapes;
+pub mod texture;
+
+use anyhow::{Context, Result, bail};
+use glam::DVec3;
+use objectsplat_core::{Camera, Frame, Frames, Image, Mesh, ObjectLabels, Points, SplitPolicy};
+use std::path::Path;
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct SyntheticParams {
+    pub seed: u64,
+    pub views: usize,
+    pub width: u32,
+    pub height: u32,
+    pub split: SplitPolicy,
+    /// Integer downscale factor applied to `width`×`height` (1 = as given).
+    pub resolution: u32,
+    /// Cap on the image width after `resolution`, keeping the aspect ratio.
+    pub max_width: Option<u32>,
+    /// Whether the room has a table (without one the small objects stand on the floor).
+    pub table: bool,
+    /// Number of sparse points.
+    pub points: usize,
+    /// Standard deviation of the Gaussian noise added to each point (metres).
+    pub points_noise: f64,
+    /// Samples per pixel along each axis when rendering (anti-aliasing).
+    pub supersample: u32,
+    /// Horizontal field of view in degrees.
+    pub fov_degrees: f64,
+    pub threads: usize,
+}
+
+impl Default for SyntheticParams {
+    fn default() -> Self {
+        SyntheticParams {
+            seed: 7,
+            views: 24,
+            width: 160,
+            height: 120,
+            split: SplitPolicy::Sparse,
+            resolution: 1,
+            max_width: None,
+            table: true,
+            points: 4000,
+            points_noise: 0.01,
+            supersample: 2,
+            fov_degrees: 60.0,
+            threads: crate::raster::default_threads(),
+        }
+    }
+}
+
+impl SyntheticParams {
+    pub fn validate(&self) -> Result<()> {
+        if self.views == 0 || self.views > 10_000 {
+            bail!("views = {} must be in 1..=10000", self.views);
+        }
+        if self.resolution == 0 {
+            bail!("resolution = 0 must be a downscale factor ≥ 1");
+        }
+        let (w, h) = self.image_size();
+        if w < 8 || h < 8 || w > 8192 || h > 8192 {
+            bail!(
+                "image size {w}×{h} (width {}, height {}, resolution {}) must be within 8..=8192",
+                self.width,
+                self.height,
+                self.resolution
+            );
+        }
+        if self.supersample == 0 || self.supersample > 8 {
+            bail!("supersample = {} must be in 1..=8", self.supersample);
+        }
+        if !(self.points_noise.is_finite() && self.points_noise >= 0.0 && self.points_noise < 1.0) {
+            bail!(
+                "points_noise = {} must be a finite standard deviation in [0, 1) metres",
+                self.points_noise
+            );
+        }
+        if self.points > 10_000_000 {
+            bail!("points = {} is more than 10 million", self.points);
+        }
+        if !(self.fov_degrees.is_finite() && self.fov_degrees > 10.0 && self.fov_degrees < 150.0) {
+            bail!("fov_degrees = {} must be in (10, 150)", self.fov_degrees);
+        }
+        Ok(())
+    }
+
+    pub fn image_size(&self) -> (u32, u32) {
+        let (w, h) = (
+            self.width / self.resolution.max(1),
+            self.height / self.resolution.max(1),
+        );
+        match self.max_width {
+            Some(max) if w > max => (
+                max,
+                ((h as u64 * max as u64 + w as u64 / 2) / w as u64) as u32,
+            ),
+            _ => (w, h),
+        }
+    }
+}
+
+/// The generated scene in memory.
+#[derive(Debug, Clone)]
+pub struct SyntheticScene {
+    pub frames: Vec<Frame>,
+    pub images: Vec<Image>,
+    pub mesh: Mesh,
+    pub labels: ObjectLabels,
+    pub points: Points,
+}
+
+pub fn generate(params: &SyntheticParams) -> Result<SyntheticScene> {
+    params.validate()?;
+    let room = layout::build_room(params.seed, params.table);
+    let cameras = orbit_cameras(params);
+    let texture_seed = params.seed.wrapping_mul(0x2545_F491_4F6C_DD1D);
+    let views = render::render_views(&room, &cameras, params, texture_seed)?;
+    let points = points::sample_points(&room, &cameras, &views.depth, params, texture_seed)?;
+    let splits = params.split.assign(cameras.len());
+    let frames = cameras
+        .iter()
+        .zip(splits)
+        .enumerate()
+        .map(|(i, (camera, split))| {
+            Frame::new(
+                frame_name(i),
+                format!("images/{}.png", frame_name(i)),
+                camera,
+                split,
+            )
+        })
+        .collect();
+    let colors = room.vertex_colors(texture_seed);
+    let (mesh, labels, _, _) = room.builder.into_mesh(colors);
+    Ok(SyntheticScene {
+        frames,
+        images: views.images,
+        mesh,
+        labels,
+        points,
+    })
+}
+
+pub fn frame_name(i: usize) -> String {
+    format!("frame_{i:03}")
+}
+
+/// Cameras on a circle around the table at about 1.5 m height, looking at its top.
+pub fn orbit_cameras(params: &SyntheticParams) -> Vec<Camera> {
+    let (w, h) = params.image_size();
+    let f = (w as f64 / 2.0) / (params.fov_degrees.to_radians() / 2.0).tan();
+    let target = DVec3::new(0.0, 0.0, 0.6);
+    (0..params.views)
+        .map(|i| {
+            let t = i as f64 / params.views as f64;
+            let angle = std::f64::consts::TAU * t + 0.3;
+            let radius = 1.65 + 0.1 * (3.0 * angle).sin();
+            let height = 1.5 + 0.12 * (2.0 * angle).cos();
+            let eye = DVec3::new(radius * angle.cos(), radius * angle.sin(), height);
+            Camera::look_at(w, h, f, f, eye, target, DVec3::Z)
+        })
+        .collect()
+}
+
+impl SyntheticScene {
+    /// Writes the three artifacts: Frames (frames.json + images/), Mesh, Points.
+    pub fn write(&self, frames_dir: &Path, mesh_dir: &Path, points_dir: &Path) -> Result<()> {
+        let images_dir = frames_dir.join("images");
+        for d in [
+            &images_dir,
+            &mesh_dir.to_path_buf(),
+            &points_dir.to_path_buf(),
+        ] {
+            std::fs::create_dir_all(d)
+                .with_context(|| format!("{}: cannot create folder", d.display()))?;
+        }
+        for (frame, image) in self.frames.iter().zip(&self.images) {
+            image.save_png8(&frames_dir.join(&frame.image))?;
+        }
+        Frames::write_json(frames_dir, &self.frames)?;
+        objectsplat_core::write_mesh_artifact(mesh_dir, &self.mesh, &self.labels)?;
+        self.points
+            .write_ply(&points_dir.join(objectsplat_core::mesh_io::POINTS_PLY))?;
+        Ok(())
+    }
+
+    pub fn cameras(&self) -> Vec<Camera> {
+        self.frames.iter().map(Frame::camera).collect()
+    }
+}

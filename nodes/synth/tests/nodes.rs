@@ -1,0 +1,155 @@
+//! The node wrappers end to end: synthetic_scene → gt_masks → partition, through the
+//! runtime's single-node runner, checking the documented encodings on disk.
+
+use objectsplat_core::component::{OTHER, OWN};
+use objectsplat_core::masks::read_objects;
+use objectsplat_core::{ComponentInfo, ComponentKind, Frames, IdMap, Image, read_mesh_artifact};
+use objectsplat_runtime::Registry;
+use objectsplat_runtime::testing::run_node;
+use objectsplat_synth::nodes::{GtMasksNode, PartitionNode, SyntheticSceneNode};
+use std::path::Path;
+
+fn component_dirs(dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    names
+}
+
+#[test]
+fn register_adds_the_three_kinds() {
+    let mut reg = Registry::new();
+    for t in ["Frames", "Mesh", "Points", "Masks", "Component"] {
+        reg.add_type(t, "test");
+    }
+    objectsplat_synth::register(&mut reg);
+    for kind in ["synthetic_scene", "gt_masks", "partition"] {
+        assert!(reg.get(kind).is_some(), "{kind}");
+    }
+}
+
+#[test]
+fn scene_masks_and_partition_chain_through_folders() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = run_node(
+        &SyntheticSceneNode,
+        &[],
+        "(views: 9, width: 96, height: 72, resolution: 1, max_width: Some(48), points: 200, split: \"sparse\")",
+        &tmp.path().join("scene"),
+        None,
+    )
+    .unwrap();
+    let (frames_dir, mesh_dir) = (&scene.outputs["frames"], &scene.outputs["mesh"]);
+    let frames = Frames::read(frames_dir).unwrap();
+    assert_eq!(frames.frames.len(), 9);
+    assert_eq!(frames.load_rgb(&frames.frames[0]).unwrap().width, 48);
+    let (mesh, labels) = read_mesh_artifact(mesh_dir).unwrap();
+    assert!(mesh.faces.len() > 1000 && labels.len() >= 9);
+    let points =
+        objectsplat_core::Points::read_ply(&scene.outputs["points"].join("points.ply")).unwrap();
+    assert_eq!(points.positions.len(), 200);
+
+    let masks = run_node(
+        &GtMasksNode,
+        &[("frames", frames_dir), ("mesh", mesh_dir)],
+        "(min_pixels: Some(0))",
+        &tmp.path().join("masks"),
+        None,
+    )
+    .unwrap();
+    let masks_dir = &masks.outputs["masks"];
+    let objects = read_objects(masks_dir).unwrap();
+    assert!(objects.values().any(|l| l == "table") && !objects.values().any(|l| l == "wall"));
+    for f in &frames.frames {
+        let m = IdMap::load(&masks_dir.join(format!("{}.png", f.name))).unwrap();
+        assert_eq!((m.width, m.height), (48, 36));
+    }
+
+    let parts = run_node(
+        &PartitionNode,
+        &[("frames", frames_dir), ("masks", masks_dir)],
+        "(min_pixels: Some(1))",
+        &tmp.path().join("parts"),
+        None,
+    )
+    .unwrap();
+    let out = &parts.outputs["components"];
+    let names = component_dirs(out);
+    assert!(names.contains(&"background".to_string()));
+    for (id, label) in &objects {
+        assert!(names.contains(&format!("obj_{id}_{label}")), "{names:?}");
+    }
+    // Per frame, exactly one component owns each pixel.
+    for f in &frames.frames {
+        let mut owners = vec![0u32; 48 * 36];
+        for name in &names {
+            let info: ComponentInfo = serde_json::from_str(
+                &std::fs::read_to_string(out.join(name).join("component.json")).unwrap(),
+            )
+            .unwrap();
+            assert_eq!(info.kind == ComponentKind::Background, name == "background");
+            let comp_frames = Frames::read(&out.join(name)).unwrap();
+            let Some(cf) = comp_frames.frames.iter().find(|g| g.name == f.name) else {
+                continue;
+            };
+            assert_eq!(cf.split, f.split);
+            assert_eq!(
+                comp_frames.load_rgb(cf).unwrap(),
+                frames.load_rgb(f).unwrap()
+            );
+            let mask = Image::load(&out.join(name).join(format!("masks/{}.png", f.name))).unwrap();
+            for (o, v) in owners.iter_mut().zip(&mask.data) {
+                let v = (v * 255.0).round() as u8;
+                assert!(v == OWN || v == OTHER);
+                *o += u32::from(v == OWN);
+            }
+        }
+        assert!(owners.iter().all(|&n| n == 1), "frame {}", f.name);
+    }
+
+    let holistic = run_node(
+        &PartitionNode,
+        &[("frames", frames_dir), ("masks", masks_dir)],
+        "(holistic: true)",
+        &tmp.path().join("holistic"),
+        None,
+    )
+    .unwrap();
+    let out = &holistic.outputs["components"];
+    assert_eq!(component_dirs(out), vec!["scene".to_string()]);
+    let mask = Image::load(&out.join("scene/masks/frame_000.png")).unwrap();
+    assert!(mask.data.iter().all(|&v| v == 1.0));
+    assert_eq!(Frames::read(&out.join("scene")).unwrap().frames.len(), 9);
+}
+
+#[test]
+fn node_errors_name_the_file() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = run_node(
+        &SyntheticSceneNode,
+        &[],
+        "(views: 4, width: 16, height: 12, points: 10)",
+        &tmp.path().join("scene"),
+        None,
+    )
+    .unwrap();
+    let err = run_node(
+        &GtMasksNode,
+        &[
+            ("frames", &scene.outputs["frames"]),
+            ("mesh", &scene.outputs["mesh"]),
+        ],
+        "(keep_labels: [\"sofa\"])",
+        &tmp.path().join("masks"),
+        None,
+    )
+    .err()
+    .expect("an unknown label is an error")
+    .to_string();
+    assert!(
+        err.contains("objects.json") && err.contains("\"sofa\""),
+        "{err}"
+    );
+}
