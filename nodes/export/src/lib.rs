@@ -1,0 +1,19 @@
+//! Scene export and the run report.
+//!
+//! - [`glb`]: one `.glb` for the whole scene, a node per object, linear vertex colours,
+//!   an unlit material (checked against the Khronos validator in the tests);
+//! - [`ply`]: one binary PLY per component;
+//! - [`report`]: a self-contained HTML report of a run;
+//! - [`nodes`]: the `report` dataflow node ([`register`]).
+
+pub mod color;
+pub mod glb;
+pub mod nodes;
+pub mod object;
+pub mod ply;
+pub mod report;
+
+pub use glb::{ExportedComponent, build_glb, write_glb};
+pub use nodes::register;
+pub use object::{ExportObject, SrgbColors};
+pub use report::{ReportData, render_report};

@@ -1,0 +1,102 @@
+//! Dataflow node wrappers.
+//!
+//! `report`: metrics (+ optional frames and renders) → an HTML report folder. Inside a graph
+//! the node cannot see the run's own node table (nodes downstream or beside it have not
+//! finished), so its "Run" section is empty; the CLI can render the full report after the
+//! run with [`crate::render_report`] and a `RunSummary` parsed from its `--json` report.
+//!
+//! `export_gltf` is not wrapped yet: it needs the Model encoding inside a Scene
+//! (`objects/<name>/model.ply`), which is not documented yet.
+
+use crate::report::{MetricsTable, ReportData, ViewTriplet, render_report};
+use anyhow::{Context as _, Result};
+use objectsplat_core::Frames;
+use objectsplat_core::frames::{Split, frame_stem};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use std::path::Path;
+use std::sync::Arc;
+
+pub const METRICS_JSON: &str = "metrics.json";
+
+/// Writes `index.html` from a Metrics artifact and, when wired, test views.
+pub struct ReportNode;
+
+fn read_metrics(dir: &Path) -> Result<MetricsTable> {
+    let path = dir.join(METRICS_JSON);
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a valid metrics file", path.display()))
+}
+
+/// Up to `max_views` test frames that have a render, spread evenly over the test split.
+fn test_views(frames_dir: &Path, renders_dir: &Path, max_views: usize) -> Result<Vec<ViewTriplet>> {
+    let frames = Frames::read(frames_dir)?;
+    let available: Vec<ViewTriplet> = frames
+        .by_split(Split::Test)
+        .filter_map(|f| {
+            let render = renders_dir.join(format!("{}.png", frame_stem(&f.name)));
+            render.is_file().then(|| ViewTriplet {
+                name: f.name.clone(),
+                ground_truth: frames.image_path(f),
+                render,
+            })
+        })
+        .collect();
+    if available.len() <= max_views {
+        return Ok(available);
+    }
+    Ok((0..max_views)
+        .map(|k| available[k * available.len() / max_views].clone())
+        .collect())
+}
+
+impl Node for ReportNode {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("report", "1")
+            .doc("A self-contained HTML report (index.html): metrics table, test-view triplets (ground truth / render / error heatmap) and plots; no external resources.")
+            .input("metrics", "Metrics", "the evaluation (metrics.json)")
+            .optional_input("frames", "Frames", "the capture; its test-split frames are the ground truth of the views")
+            .optional_input("renders", "Images", "renders of the test frames, named <frame stem>.png")
+            .output("file", "File", "a folder with index.html")
+            .param("title", ParamType::Str, Some("\"ObjectSplat run\""), "page title")
+            .param("max_views", ParamType::int_range(0, 64), Some("4"), "test views shown (spread evenly over the test split)")
+            .param(
+                "error_scale",
+                ParamType::float_range(1e-6, 1.0),
+                Some("0.25"),
+                "mean absolute RGB error drawn with the hottest heatmap colour",
+            )
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let title: String = ctx.param("title")?;
+        let max_views: i64 = ctx.param("max_views")?;
+        let error_scale: f64 = ctx.param("error_scale")?;
+        let metrics = read_metrics(ctx.input("metrics")?)?;
+        let views = match (ctx.input_opt("frames"), ctx.input_opt("renders")) {
+            (Some(frames), Some(renders)) => {
+                test_views(frames, renders, max_views.max(0) as usize)?
+            }
+            _ => Vec::new(),
+        };
+        ctx.note("views", views.len());
+        let data = ReportData {
+            title,
+            metrics: Some(metrics),
+            views,
+            error_scale,
+            ..Default::default()
+        };
+        ctx.progress(0, 1, "writing report");
+        render_report(&ctx.output("file")?, &data)?;
+        ctx.progress(1, 1, "report written");
+        Ok(Outcome::Done)
+    }
+}
+
+pub fn register(reg: &mut Registry) {
+    // Kinds are unique within this crate; a clash means another crate registered the same kind.
+    reg.add_node(Arc::new(ReportNode))
+        .expect("node kind `report` is registered once");
+}

@@ -1,0 +1,165 @@
+//! The export input: one component's mesh with sRGB vertex colours, and its validation.
+
+use anyhow::{Result, bail, ensure};
+use objectsplat_core::ComponentInfo;
+
+/// Per-vertex colours as stored by the capture: sRGB-encoded.
+#[derive(Debug, Clone, PartialEq)]
+pub enum SrgbColors {
+    U8(Vec<[u8; 3]>),
+    /// Values in [0, 1].
+    F32(Vec<[f32; 3]>),
+}
+
+impl SrgbColors {
+    pub fn len(&self) -> usize {
+        match self {
+            SrgbColors::U8(c) => c.len(),
+            SrgbColors::F32(c) => c.len(),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+}
+
+/// One component of the scene to export (an object or the background).
+#[derive(Debug, Clone, PartialEq)]
+pub struct ExportObject {
+    pub component: ComponentInfo,
+    /// World coordinates in metres, Z up (the capture's frame).
+    pub positions: Vec<[f32; 3]>,
+    pub faces: Vec<[u32; 3]>,
+    pub colors_srgb: SrgbColors,
+}
+
+impl ExportObject {
+    pub fn object(
+        id: u16,
+        label: &str,
+        positions: Vec<[f32; 3]>,
+        faces: Vec<[u32; 3]>,
+        colors_srgb: SrgbColors,
+    ) -> Self {
+        ExportObject {
+            component: ComponentInfo::object(id, label),
+            positions,
+            faces,
+            colors_srgb,
+        }
+    }
+
+    pub fn background(
+        positions: Vec<[f32; 3]>,
+        faces: Vec<[u32; 3]>,
+        colors_srgb: SrgbColors,
+    ) -> Self {
+        ExportObject {
+            component: ComponentInfo::background(),
+            positions,
+            faces,
+            colors_srgb,
+        }
+    }
+}
+
+/// A component's faces after validation, re-indexed onto the vertices they use.
+pub(crate) struct CleanMesh {
+    /// For each output vertex, its index in the input.
+    pub vertex_source: Vec<u32>,
+    pub faces: Vec<[u32; 3]>,
+    pub degenerate_dropped: usize,
+}
+
+/// Rejects non-finite or out-of-range data (naming the component and element), drops
+/// degenerate faces and the vertices no kept face uses.
+pub(crate) fn clean_mesh(object: &ExportObject) -> Result<CleanMesh> {
+    let name = &object.component.name;
+    let n = object.positions.len();
+    ensure!(
+        object.colors_srgb.len() == n,
+        "{name}: {} colours for {n} vertices",
+        object.colors_srgb.len()
+    );
+    // glTF forbids the index type's maximum value as an index (primitive restart).
+    ensure!(
+        (n as u64) < u32::MAX as u64,
+        "{name}: {n} vertices exceed the u32 index range"
+    );
+    if let Some(i) = object
+        .positions
+        .iter()
+        .position(|p| p.iter().any(|v| !v.is_finite()))
+    {
+        bail!(
+            "{name}: vertex {i} has a non-finite coordinate {:?}",
+            object.positions[i]
+        );
+    }
+    if let SrgbColors::F32(colors) = &object.colors_srgb
+        && let Some(i) = colors
+            .iter()
+            .position(|c| c.iter().any(|v| !(0.0..=1.0).contains(v)))
+    {
+        bail!(
+            "{name}: vertex {i} colour {:?} is not in [0, 1] (NaN or out of range)",
+            colors[i]
+        );
+    }
+    if let Some((i, f)) = object
+        .faces
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.iter().any(|&v| v as usize >= n))
+    {
+        bail!("{name}: face {i} refers to vertex {f:?} but there are only {n} vertices");
+    }
+
+    let mut faces: Vec<[u32; 3]> = object
+        .faces
+        .iter()
+        .filter(|f| !is_degenerate(f, &object.positions))
+        .copied()
+        .collect();
+    let degenerate_dropped = object.faces.len() - faces.len();
+
+    // Compact so every written vertex is drawn: bounds then describe the visible object.
+    const UNSEEN: u32 = u32::MAX;
+    let mut new_index = vec![UNSEEN; n];
+    let mut vertex_source = Vec::new();
+    for face in &mut faces {
+        for v in face.iter_mut() {
+            let old = *v as usize;
+            if new_index[old] == UNSEEN {
+                // Fits in u32: vertex_source.len() < n < u32::MAX, checked above.
+                new_index[old] = vertex_source.len() as u32;
+                vertex_source.push(*v);
+            }
+            *v = new_index[old];
+        }
+    }
+    Ok(CleanMesh {
+        vertex_source,
+        faces,
+        degenerate_dropped,
+    })
+}
+
+/// A face is degenerate when two corners share an index or its corners are exactly collinear.
+fn is_degenerate(face: &[u32; 3], positions: &[[f32; 3]]) -> bool {
+    let [a, b, c] = *face;
+    if a == b || b == c || a == c {
+        return true;
+    }
+    let p = |i: u32| positions[i as usize].map(f64::from);
+    let (pa, pb, pc) = (p(a), p(b), p(c));
+    let u = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
+    let v = [pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]];
+    let cross = [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ];
+    cross.iter().all(|&x| x == 0.0)
+}

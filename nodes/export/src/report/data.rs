@@ -1,0 +1,183 @@
+//! What a report shows, as plain serde structs that mirror the run's own files:
+//! the `--json` run report (nodes), `metrics.json` (scene + per-object metrics),
+//! the graph's edges, test views as image paths, and training curves.
+
+use serde::{Deserialize, Serialize};
+use std::path::PathBuf;
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ReportData {
+    pub title: String,
+    #[serde(default)]
+    pub run: RunSummary,
+    /// `metrics.json` as written by `evaluate`; absent when the run did not evaluate.
+    #[serde(default)]
+    pub metrics: Option<MetricsTable>,
+    #[serde(default)]
+    pub views: Vec<ViewTriplet>,
+    /// Mean absolute RGB error (values in [0, 1]) shown as the hottest heatmap colour; 0 means the default.
+    #[serde(default)]
+    pub error_scale: f64,
+    #[serde(default)]
+    pub curves: Vec<TrainingCurve>,
+    #[serde(default)]
+    pub runtime_vs_error: Vec<RuntimePoint>,
+}
+
+/// The nodes of the `--json` run report plus the graph's edges (for the drawing).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct RunSummary {
+    pub nodes: Vec<NodeRun>,
+    #[serde(default)]
+    pub edges: Vec<GraphEdge>,
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum NodeStatus {
+    Ran,
+    Cached,
+    Skipped,
+    Failed,
+}
+
+impl NodeStatus {
+    pub fn as_str(self) -> &'static str {
+        match self {
+            NodeStatus::Ran => "ran",
+            NodeStatus::Cached => "cached",
+            NodeStatus::Skipped => "skipped",
+            NodeStatus::Failed => "failed",
+        }
+    }
+}
+
+/// One node of the run report (`{"id","kind","status","seconds","reason","items"}`).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct NodeRun {
+    pub id: String,
+    pub kind: String,
+    pub status: NodeStatus,
+    pub seconds: f64,
+    #[serde(default)]
+    pub reason: Option<String>,
+    #[serde(default)]
+    pub items: Vec<ItemRun>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ItemRun {
+    pub name: String,
+    pub status: NodeStatus,
+    pub seconds: f64,
+}
+
+/// A data dependency: `from`'s output feeds `to`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct GraphEdge {
+    pub from: String,
+    pub to: String,
+}
+
+/// The metric columns shared by the scene row and each object row; null = not computed.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MetricValues {
+    #[serde(default)]
+    pub psnr: Option<f64>,
+    #[serde(default)]
+    pub ssim: Option<f64>,
+    #[serde(default)]
+    pub lpips: Option<f64>,
+    #[serde(default)]
+    pub fscore: Option<f64>,
+    #[serde(default)]
+    pub precision: Option<f64>,
+    #[serde(default)]
+    pub recall: Option<f64>,
+    #[serde(default)]
+    pub tau: Option<f64>,
+}
+
+impl MetricValues {
+    /// Column headers and values in display order.
+    pub fn columns(&self) -> [(&'static str, Option<f64>); 7] {
+        [
+            ("PSNR", self.psnr),
+            ("SSIM", self.ssim),
+            ("LPIPS", self.lpips),
+            ("F-score", self.fscore),
+            ("precision", self.precision),
+            ("recall", self.recall),
+            ("τ (m)", self.tau),
+        ]
+    }
+}
+
+/// `metrics.json`: scene averages at the top level and an `objects` list.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MetricsTable {
+    #[serde(flatten)]
+    pub scene: MetricValues,
+    #[serde(default)]
+    pub objects: Vec<ObjectMetrics>,
+}
+
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ObjectMetrics {
+    #[serde(default)]
+    pub name: Option<String>,
+    #[serde(default, alias = "id")]
+    pub object_id: Option<u16>,
+    #[serde(default)]
+    pub label: Option<String>,
+    #[serde(flatten)]
+    pub values: MetricValues,
+}
+
+impl ObjectMetrics {
+    pub fn display_name(&self) -> String {
+        match (&self.name, self.object_id, &self.label) {
+            (Some(name), _, _) => name.clone(),
+            (None, Some(id), label) => {
+                objectsplat_core::component::object_item_name(id, label.as_deref().unwrap_or(""))
+            }
+            (None, None, Some(label)) => label.clone(),
+            (None, None, None) => "(unnamed)".into(),
+        }
+    }
+}
+
+/// A test view: ground truth and render as PNG/JPEG files of equal size.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ViewTriplet {
+    pub name: String,
+    pub ground_truth: PathBuf,
+    pub render: PathBuf,
+}
+
+/// One component's training log.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainingCurve {
+    pub component: String,
+    pub points: Vec<CurvePoint>,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CurvePoint {
+    pub iteration: u64,
+    #[serde(default)]
+    pub loss: Option<f64>,
+    /// Held-out PSNR (dB), logged only at evaluation iterations.
+    #[serde(default)]
+    pub psnr: Option<f64>,
+}
+
+/// One measured configuration: how long it ran and how good it is.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RuntimePoint {
+    /// Points of one series are joined by a line in order of run time.
+    pub series: String,
+    pub label: String,
+    pub seconds: f64,
+    pub psnr: f64,
+}

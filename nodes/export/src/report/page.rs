@@ -1,0 +1,280 @@
+//! Assembles `index.html`: one self-contained page (inline CSS, inline SVG, PNG data URIs,
+//! no scripts and no external fetches) so it can be mailed or archived as a single file.
+
+use super::dag::{dag_svg, status_colour};
+use super::data::{MetricValues, NodeStatus, ReportData};
+use super::escape::escape;
+use super::images::render_triplet;
+use super::plot::{PlotSpec, Series, line_plot_svg};
+use anyhow::{Context, Result, bail, ensure};
+use std::fmt::Write;
+use std::path::{Path, PathBuf};
+
+pub const REPORT_FILE: &str = "index.html";
+
+/// Default error drawn with the hottest heatmap colour (mean absolute RGB error).
+pub const DEFAULT_ERROR_SCALE: f64 = 0.25;
+
+const STYLE: &str = "body{font-family:system-ui,-apple-system,'Segoe UI',sans-serif;margin:24px;color:#222;background:#fafafa}\
+h1{margin-top:0}h2{border-bottom:2px solid #ddd;padding-bottom:4px;margin-top:32px}\
+table{border-collapse:collapse;margin:8px 0;background:white}th,td{border:1px solid #ccc;padding:4px 10px;text-align:left}\
+td.num{text-align:right;font-variant-numeric:tabular-nums}th{background:#eee}\
+.status{display:inline-block;padding:1px 8px;border-radius:8px}\
+.triplet{display:flex;gap:8px;flex-wrap:wrap;margin-bottom:16px}.triplet figure{margin:0}\
+.triplet img{display:block;width:min(384px,30vw);height:auto;border:1px solid #bbb}\
+figcaption{font-size:12px;color:#555}.plots{display:flex;flex-wrap:wrap;gap:16px}\
+.note{color:#a33}svg{background:white;max-width:100%;height:auto}";
+
+fn metric_cell(value: Option<f64>) -> String {
+    match value {
+        Some(v) if v.is_finite() => format!(r#"<td class="num">{v:.4}</td>"#),
+        Some(v) => format!(r#"<td class="num">{v}</td>"#),
+        None => r#"<td class="num">–</td>"#.to_string(),
+    }
+}
+
+fn metrics_row(name: &str, values: &MetricValues) -> String {
+    let cells: String = values
+        .columns()
+        .iter()
+        .map(|(_, v)| metric_cell(*v))
+        .collect();
+    format!("<tr><th>{}</th>{cells}</tr>", escape(name))
+}
+
+/// Keeps finite points; says how many were left out so nothing disappears silently.
+fn finite_series(
+    name: &str,
+    points: impl Iterator<Item = (f64, f64)>,
+    notes: &mut Vec<String>,
+) -> Series {
+    let (kept, dropped): (Vec<_>, Vec<_>) =
+        points.partition(|(x, y)| x.is_finite() && y.is_finite());
+    if !dropped.is_empty() {
+        notes.push(format!(
+            "{name}: {} non-finite point(s) not plotted",
+            dropped.len()
+        ));
+    }
+    Series {
+        name: name.to_string(),
+        points: kept,
+    }
+}
+
+/// The node table and graph; left out when the report has no run summary (e.g. made by a node
+/// inside the graph, which cannot see the rest of its own run).
+fn section_run(data: &ReportData, html: &mut String) -> Result<()> {
+    let nodes = &data.run.nodes;
+    if nodes.is_empty() {
+        return Ok(());
+    }
+    let total: f64 = nodes.iter().map(|n| n.seconds).sum();
+    let count = |s: NodeStatus| nodes.iter().filter(|n| n.status == s).count();
+    let _ = write!(
+        html,
+        "<section id=\"run\"><h2>Run</h2><p>{} nodes: {} ran, {} cached, {} skipped, {} failed; {total:.2} s of node time.</p>",
+        nodes.len(),
+        count(NodeStatus::Ran),
+        count(NodeStatus::Cached),
+        count(NodeStatus::Skipped),
+        count(NodeStatus::Failed)
+    );
+    html.push_str(&dag_svg(nodes, &data.run.edges)?);
+    html.push_str("<table id=\"nodes\"><tr><th>id</th><th>kind</th><th>status</th><th>seconds</th><th>reason</th><th>items</th></tr>");
+    for n in nodes {
+        let items: Vec<String> = n
+            .items
+            .iter()
+            .map(|i| format!("{} ({}, {:.2} s)", i.name, i.status.as_str(), i.seconds))
+            .collect();
+        let _ = write!(
+            html,
+            r#"<tr><td>{id}</td><td>{kind}</td><td><span class="status" style="background:{bg}">{st}</span></td><td class="num">{secs:.2}</td><td>{reason}</td><td>{items}</td></tr>"#,
+            id = escape(&n.id),
+            kind = escape(&n.kind),
+            bg = status_colour(n.status),
+            st = n.status.as_str(),
+            secs = n.seconds,
+            reason = escape(n.reason.as_deref().unwrap_or("")),
+            items = escape(&items.join(", "))
+        );
+    }
+    html.push_str("</table></section>");
+    Ok(())
+}
+
+fn section_metrics(data: &ReportData, html: &mut String) {
+    html.push_str("<section id=\"metrics\"><h2>Metrics</h2>");
+    let Some(metrics) = &data.metrics else {
+        html.push_str("<p>This run did not evaluate.</p></section>");
+        return;
+    };
+    html.push_str("<table id=\"metrics-table\"><tr><th></th>");
+    for (header, _) in metrics.scene.columns() {
+        let _ = write!(html, "<th>{}</th>", escape(header));
+    }
+    html.push_str("</tr>");
+    html.push_str(&metrics_row("scene", &metrics.scene));
+    for object in &metrics.objects {
+        html.push_str(&metrics_row(&object.display_name(), &object.values));
+    }
+    html.push_str("</table></section>");
+}
+
+fn section_views(data: &ReportData, html: &mut String) -> Result<()> {
+    let scale = if data.error_scale == 0.0 {
+        DEFAULT_ERROR_SCALE
+    } else {
+        data.error_scale
+    };
+    ensure!(
+        scale.is_finite() && scale > 0.0,
+        "report error_scale must be a positive number, got {scale}"
+    );
+    let _ = write!(
+        html,
+        "<section id=\"views\"><h2>Test views</h2><p>Ground truth, render, and mean absolute RGB error (black = 0, pale yellow ≥ {scale}).</p>"
+    );
+    if data.views.is_empty() {
+        html.push_str("<p>No test views.</p>");
+    }
+    for view in &data.views {
+        let t = render_triplet(&view.ground_truth, &view.render, scale as f32)
+            .with_context(|| format!("test view {}", view.name))?;
+        let name = escape(&view.name);
+        let _ = write!(
+            html,
+            r#"<h3>{name} <small>PSNR {psnr:.2} dB</small></h3><div class="triplet" data-view="{name}"><figure><img alt="{name} ground truth" src="{gt}"><figcaption>ground truth</figcaption></figure><figure><img alt="{name} render" src="{r}"><figcaption>render</figcaption></figure><figure><img alt="{name} error" src="{e}"><figcaption>error</figcaption></figure></div>"#,
+            psnr = t.psnr,
+            gt = t.ground_truth,
+            r = t.render,
+            e = t.error
+        );
+    }
+    html.push_str("</section>");
+    Ok(())
+}
+
+fn section_plots(data: &ReportData, html: &mut String) {
+    let mut notes = Vec::new();
+    let loss: Vec<Series> = data
+        .curves
+        .iter()
+        .map(|c| {
+            finite_series(
+                &c.component,
+                c.points
+                    .iter()
+                    .filter_map(|p| p.loss.map(|l| (p.iteration as f64, l))),
+                &mut notes,
+            )
+        })
+        .collect();
+    let psnr: Vec<Series> = data
+        .curves
+        .iter()
+        .map(|c| {
+            finite_series(
+                &c.component,
+                c.points
+                    .iter()
+                    .filter_map(|p| p.psnr.map(|v| (p.iteration as f64, v))),
+                &mut notes,
+            )
+        })
+        .collect();
+    let mut series_names: Vec<&str> = Vec::new();
+    for p in &data.runtime_vs_error {
+        if !series_names.contains(&p.series.as_str()) {
+            series_names.push(&p.series);
+        }
+    }
+    let runtime: Vec<Series> = series_names
+        .iter()
+        .map(|s| {
+            let points = data
+                .runtime_vs_error
+                .iter()
+                .filter(|p| p.series == *s)
+                .map(|p| (p.seconds, p.psnr));
+            finite_series(s, points, &mut notes)
+        })
+        .collect();
+
+    html.push_str("<section id=\"curves\"><h2>Training curves</h2><div class=\"plots\">");
+    html.push_str(&line_plot_svg(&PlotSpec {
+        title: "Training loss".into(),
+        x_label: "iteration".into(),
+        y_label: "loss".into(),
+        series: loss,
+        markers: false,
+    }));
+    html.push_str(&line_plot_svg(&PlotSpec {
+        title: "Held-out PSNR".into(),
+        x_label: "iteration".into(),
+        y_label: "PSNR (dB)".into(),
+        series: psnr,
+        markers: true,
+    }));
+    html.push_str("</div></section><section id=\"runtime\"><h2>Run time against error</h2>");
+    html.push_str(&line_plot_svg(&PlotSpec {
+        title: "PSNR against wall time".into(),
+        x_label: "wall time (s)".into(),
+        y_label: "PSNR (dB)".into(),
+        series: runtime,
+        markers: true,
+    }));
+    if !data.runtime_vs_error.is_empty() {
+        html.push_str("<table id=\"runtime-table\"><tr><th>series</th><th>configuration</th><th>seconds</th><th>PSNR (dB)</th></tr>");
+        for p in &data.runtime_vs_error {
+            let _ = write!(
+                html,
+                r#"<tr><td>{}</td><td>{}</td><td class="num">{:.2}</td><td class="num">{:.2}</td></tr>"#,
+                escape(&p.series),
+                escape(&p.label),
+                p.seconds,
+                p.psnr
+            );
+        }
+        html.push_str("</table>");
+    }
+    for note in notes {
+        let _ = write!(html, "<p class=\"note\">{}</p>", escape(&note));
+    }
+    html.push_str("</section>");
+}
+
+/// Builds the page's HTML.
+pub fn report_html(data: &ReportData) -> Result<String> {
+    for n in &data.run.nodes {
+        if !(n.seconds.is_finite() && n.seconds >= 0.0) {
+            bail!(
+                "run report: node {} has invalid seconds {}",
+                n.id,
+                n.seconds
+            );
+        }
+    }
+    let title = escape(&data.title);
+    let mut html = format!(
+        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\"><title>{title}</title><style>{STYLE}</style></head><body><h1>{title}</h1>"
+    );
+    section_run(data, &mut html)?;
+    section_metrics(data, &mut html);
+    section_views(data, &mut html)?;
+    section_plots(data, &mut html);
+    html.push_str("</body></html>\n");
+    Ok(html)
+}
+
+/// Writes `<out_dir>/index.html` and returns its path.
+pub fn render_report(out_dir: &Path, data: &ReportData) -> Result<PathBuf> {
+    let html = report_html(data).context("cannot build the HTML report")?;
+    std::fs::create_dir_all(out_dir)
+        .with_context(|| format!("{}: cannot create folder", out_dir.display()))?;
+    let path = out_dir.join(REPORT_FILE);
+    std::fs::write(&path, html)
+        .with_context(|| format!("{}: cannot write report", path.display()))?;
+    Ok(path)
+}

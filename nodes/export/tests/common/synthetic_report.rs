@@ -1,0 +1,168 @@
+//! A synthetic run for report tests: a pipeline graph with every status, metrics, two test
+//! views written as PNGs, training curves and run-time points.
+
+use objectsplat_core::Image;
+use objectsplat_export::report::*;
+use std::path::Path;
+
+/// Test views are 64×48; the render is the ground truth plus 0.2 in a 16×16 block at (8, 8).
+pub const VIEW_W: u32 = 64;
+pub const VIEW_H: u32 = 48;
+
+pub fn ground_truth_image(seed: u32) -> Image {
+    Image::from_fn(VIEW_W, VIEW_H, 3, |x, y, c| {
+        ((x * 4 + y * 3 + c * 40 + seed * 17) % 200) as f32 / 255.0
+    })
+}
+
+pub fn render_image(seed: u32) -> Image {
+    let gt = ground_truth_image(seed);
+    Image::from_fn(VIEW_W, VIEW_H, 3, |x, y, c| {
+        let inside = (8..24).contains(&x) && (8..24).contains(&y);
+        gt.get(x, y, c) + if inside { 51.0 / 255.0 } else { 0.0 }
+    })
+}
+
+fn node(id: &str, kind: &str, status: NodeStatus, seconds: f64, reason: Option<&str>) -> NodeRun {
+    NodeRun {
+        id: id.into(),
+        kind: kind.into(),
+        status,
+        seconds,
+        reason: reason.map(Into::into),
+        items: Vec::new(),
+    }
+}
+
+fn edge(from: &str, to: &str) -> GraphEdge {
+    GraphEdge {
+        from: from.into(),
+        to: to.into(),
+    }
+}
+
+pub fn report_data(dir: &Path) -> ReportData {
+    let mut views = Vec::new();
+    for seed in 0..2 {
+        let gt = dir.join(format!("gt_{seed}.png"));
+        let render = dir.join(format!("render_{seed}.png"));
+        ground_truth_image(seed).save_png8(&gt).unwrap();
+        render_image(seed).save_png8(&render).unwrap();
+        views.push(ViewTriplet {
+            name: format!("DSC0{seed}"),
+            ground_truth: gt,
+            render,
+        });
+    }
+    let mut train = node("train", "train", NodeStatus::Ran, 120.5, None);
+    train.items = vec![
+        ItemRun {
+            name: "obj_3_chair".into(),
+            status: NodeStatus::Ran,
+            seconds: 60.0,
+        },
+        ItemRun {
+            name: "background".into(),
+            status: NodeStatus::Cached,
+            seconds: 0.0,
+        },
+    ];
+    let curve = |component: &str, scale: f64| TrainingCurve {
+        component: component.into(),
+        points: (0..=30)
+            .map(|i| CurvePoint {
+                iteration: i * 1000,
+                loss: Some(if i == 17 {
+                    f64::NAN
+                } else {
+                    scale * (-(i as f64) / 8.0).exp() + 0.01
+                }),
+                psnr: (i % 5 == 0).then(|| 18.0 + 8.0 * (1.0 - (-(i as f64) / 10.0).exp()) + scale),
+            })
+            .collect(),
+    };
+    ReportData {
+        title: "Synthetic run <0a5c013435>".into(),
+        run: RunSummary {
+            nodes: vec![
+                node("scene", "scannetpp", NodeStatus::Cached, 0.0, None),
+                node("masks", "masks_from_mesh", NodeStatus::Cached, 0.0, None),
+                node("decompose", "decompose", NodeStatus::Ran, 2.25, None),
+                node(
+                    "complete",
+                    "complete_surfaces",
+                    NodeStatus::Skipped,
+                    0.01,
+                    Some("no planar support surface"),
+                ),
+                train,
+                node("compose", "compose", NodeStatus::Ran, 0.5, None),
+                node("export", "export_gltf", NodeStatus::Ran, 0.2, None),
+                node(
+                    "evaluate",
+                    "evaluate",
+                    NodeStatus::Failed,
+                    3.0,
+                    Some("LPIPS weights missing"),
+                ),
+                node("report", "report", NodeStatus::Ran, 0.1, None),
+            ],
+            edges: vec![
+                edge("scene", "masks"),
+                edge("scene", "decompose"),
+                edge("masks", "decompose"),
+                edge("decompose", "complete"),
+                edge("complete", "train"),
+                edge("train", "compose"),
+                edge("compose", "export"),
+                edge("compose", "evaluate"),
+                edge("scene", "evaluate"),
+                edge("evaluate", "report"),
+            ],
+        },
+        metrics: Some(MetricsTable {
+            scene: MetricValues {
+                psnr: Some(24.3125),
+                ssim: Some(0.8123),
+                lpips: None,
+                fscore: Some(0.6543),
+                precision: Some(0.7),
+                recall: Some(0.61),
+                tau: Some(0.05),
+            },
+            objects: vec![ObjectMetrics {
+                name: None,
+                object_id: Some(3),
+                label: Some("chair".into()),
+                values: MetricValues {
+                    psnr: Some(27.5),
+                    fscore: Some(0.81),
+                    ..Default::default()
+                },
+            }],
+        }),
+        views,
+        error_scale: 0.0,
+        curves: vec![curve("obj_3_chair", 1.0), curve("background", 2.0)],
+        runtime_vs_error: vec![
+            RuntimePoint {
+                series: "cpu".into(),
+                label: "5k it".into(),
+                seconds: 30.0,
+                psnr: 21.0,
+            },
+            RuntimePoint {
+                series: "cpu".into(),
+                label: "30k it".into(),
+                seconds: 180.0,
+                psnr: 24.3,
+            },
+            RuntimePoint {
+                series: "wgpu".into(),
+                label: "30k it".into(),
+                seconds: 40.0,
+                psnr: 24.2,
+            },
+        ],
+    }
+}

@@ -1,0 +1,136 @@
+//! Report inputs: the run's own JSON files deserialise into `ReportData`, and inconsistent
+//! input is an error that names the problem (never a panic or a half-drawn page).
+
+mod common;
+
+use objectsplat_export::report::*;
+
+#[test]
+fn run_report_and_metrics_json_deserialise() {
+    let run: RunSummary = serde_json::from_str(
+        r#"{"nodes": [
+            {"id": "scene", "kind": "scannetpp", "status": "cached", "seconds": 0.0, "reason": null, "items": []},
+            {"id": "train", "kind": "train", "status": "ran", "seconds": 12.5, "reason": null,
+             "items": [{"name": "obj_3_chair", "status": "ran", "seconds": 12.0}]},
+            {"id": "complete", "kind": "complete_surfaces", "status": "skipped", "seconds": 0.0, "reason": "no holes"}
+        ], "edges": [{"from": "scene", "to": "train"}]}"#,
+    )
+    .unwrap();
+    assert_eq!(run.nodes[1].items[0].seconds, 12.0);
+    assert_eq!(run.nodes[2].status, NodeStatus::Skipped);
+    assert_eq!(run.nodes[2].reason.as_deref(), Some("no holes"));
+
+    let metrics: MetricsTable = serde_json::from_str(
+        r#"{"psnr": 24.1, "ssim": 0.8, "lpips": null, "fscore": 0.6, "precision": 0.7, "recall": 0.5, "tau": 0.05,
+            "objects": [{"object_id": 3, "label": "desk lamp", "psnr": 26.0, "ssim": 0.9, "lpips": null,
+                         "fscore": 0.7, "precision": 0.8, "recall": 0.6, "tau": 0.05, "extra": 1}]}"#,
+    )
+    .unwrap();
+    assert_eq!(metrics.scene.psnr, Some(24.1));
+    assert_eq!(metrics.scene.lpips, None);
+    assert_eq!(metrics.objects[0].display_name(), "obj_3_desk_lamp");
+    assert_eq!(metrics.objects[0].values.recall, Some(0.6));
+}
+
+#[test]
+fn report_data_roundtrips_through_json() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut data = common::synthetic_report::report_data(dir.path());
+    // JSON has no NaN (a logged NaN arrives as null), and serde_json's default float parser
+    // may be 1 ulp off, so use dyadic values that print and parse exactly.
+    let dyadic = |v: f64| (v * 1024.0).round() / 1024.0;
+    for p in data.curves.iter_mut().flat_map(|c| &mut c.points) {
+        p.loss = p.loss.filter(|l| l.is_finite()).map(dyadic);
+        p.psnr = p.psnr.map(dyadic);
+    }
+    let text = serde_json::to_string(&data).unwrap();
+    assert_eq!(serde_json::from_str::<ReportData>(&text).unwrap(), data);
+}
+
+fn error_of(data: &ReportData) -> String {
+    let dir = tempfile::tempdir().unwrap();
+    format!(
+        "{:#}",
+        render_report(dir.path(), data).expect_err("must be rejected")
+    )
+}
+
+#[test]
+fn cyclic_graph_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut data = common::synthetic_report::report_data(dir.path());
+    data.run.edges.push(GraphEdge {
+        from: "train".into(),
+        to: "decompose".into(),
+    });
+    let e = error_of(&data);
+    assert!(
+        e.contains("cycle") && e.contains("train") && e.contains("decompose"),
+        "{e}"
+    );
+}
+
+#[test]
+fn edge_to_an_unknown_node_is_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut data = common::synthetic_report::report_data(dir.path());
+    data.run.edges.push(GraphEdge {
+        from: "train".into(),
+        to: "ghost".into(),
+    });
+    let e = error_of(&data);
+    assert!(
+        e.contains("train → ghost") && e.contains("not in the run report"),
+        "{e}"
+    );
+}
+
+#[test]
+fn mismatched_view_sizes_name_both_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut data = common::synthetic_report::report_data(dir.path());
+    let small = dir.path().join("small.png");
+    objectsplat_core::Image::new(10, 10, 3)
+        .save_png8(&small)
+        .unwrap();
+    data.views[1].render = small;
+    let e = error_of(&data);
+    assert!(
+        e.contains("DSC01") && e.contains("small.png is 10×10") && e.contains("gt_1.png is 64×48"),
+        "{e}"
+    );
+}
+
+#[test]
+fn missing_view_image_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut data = common::synthetic_report::report_data(dir.path());
+    data.views[0].ground_truth = dir.path().join("nowhere.png");
+    let e = error_of(&data);
+    assert!(e.contains("nowhere.png"), "{e}");
+}
+
+#[test]
+fn invalid_node_seconds_are_rejected() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut data = common::synthetic_report::report_data(dir.path());
+    data.run.nodes[0].seconds = f64::NAN;
+    let e = error_of(&data);
+    assert!(e.contains("node scene has invalid seconds NaN"), "{e}");
+}
+
+#[test]
+fn an_empty_run_still_renders() {
+    let dir = tempfile::tempdir().unwrap();
+    let data = ReportData {
+        title: "empty".into(),
+        ..Default::default()
+    };
+    let path = render_report(dir.path(), &data).unwrap();
+    let html = std::fs::read_to_string(path).unwrap();
+    assert!(
+        !html.contains("<section id=\"run\">"),
+        "no run summary, no Run section"
+    );
+    assert!(html.contains("This run did not evaluate") && html.contains("no data"));
+}

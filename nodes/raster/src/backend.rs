@@ -1,0 +1,258 @@
+//! The rendering interface every backend implements (the CPU reference
+//! backend here; a wgpu backend later), with its settings, outputs and the
+//! gradients it returns.
+
+use crate::model::{Model, ModelGrads};
+use crate::real::Real;
+use anyhow::{Result, bail};
+use objectsplat_core::{Camera, Image};
+use std::any::Any;
+
+/// Rendering parameters. Every threshold of the reference renderer is a field,
+/// with the reference value as default.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderSettings {
+    /// Window sharpness σ (`I = (φ/φ(s))^σ`), scheduled by the trainer.
+    pub sigma: f64,
+    /// Active SH degree 0..=3.
+    pub sh_degree: u32,
+    /// Faces with any vertex at camera depth ≤ this are culled (they would
+    /// project through or behind the camera plane).
+    pub z_near: f64,
+    /// Faces whose centroid depth is ≤ this are culled.
+    pub min_centroid_depth: f64,
+    /// Faces seen almost edge-on, |cos(normal, view ray to centroid)| below this, are culled.
+    pub min_abs_cos: f64,
+    /// Faces whose opacity (min of the corners') is below this are culled.
+    pub min_opacity: f64,
+    /// Faces whose largest centroid-to-vertex screen distance exceeds this (px) are culled.
+    pub max_screen_extent: f64,
+    /// Faces whose largest centroid-to-vertex screen distance is below this (px) are culled.
+    pub min_screen_extent: f64,
+    /// Faces whose 2D inradius is below this (px) are culled.
+    pub min_inradius: f64,
+    /// α clamp `α = min(alpha_max, o·I)`, identical in forward and backward.
+    pub alpha_max: f64,
+    /// Fragments with α below this are skipped (both passes).
+    pub alpha_min: f64,
+    /// Compositing stops once the transmittance falls below this (both passes).
+    pub transmittance_min: f64,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            sigma: 1.0,
+            sh_degree: 3,
+            z_near: 0.01,
+            min_centroid_depth: 0.2,
+            min_abs_cos: 1e-3,
+            min_opacity: 0.01,
+            max_screen_extent: 1600.0,
+            min_screen_extent: 1.0,
+            min_inradius: 1.0,
+            alpha_max: 0.999,
+            alpha_min: 1.0 / 255.0,
+            transmittance_min: 1e-4,
+        }
+    }
+}
+
+impl RenderSettings {
+    /// Default thresholds with the model's own σ and SH degree.
+    pub fn for_model<R: Real>(model: &Model<R>) -> Self {
+        RenderSettings {
+            sigma: model.sigma,
+            sh_degree: model.sh_degree,
+            ..Default::default()
+        }
+    }
+
+    /// Scales the world-unit thresholds (depths) by `s`, for scenes not in metres.
+    pub fn with_world_scale(mut self, s: f64) -> Self {
+        self.z_near *= s;
+        self.min_centroid_depth *= s;
+        self
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        let named = [
+            ("sigma", self.sigma),
+            ("z_near", self.z_near),
+            ("min_centroid_depth", self.min_centroid_depth),
+            ("min_abs_cos", self.min_abs_cos),
+            ("min_opacity", self.min_opacity),
+            ("max_screen_extent", self.max_screen_extent),
+            ("min_screen_extent", self.min_screen_extent),
+            ("min_inradius", self.min_inradius),
+            ("alpha_max", self.alpha_max),
+            ("alpha_min", self.alpha_min),
+            ("transmittance_min", self.transmittance_min),
+        ];
+        for (name, v) in named {
+            if !v.is_finite() || v < 0.0 {
+                bail!("render setting {name} = {v} must be finite and non-negative");
+            }
+        }
+        if self.sigma <= 0.0 {
+            bail!("render setting sigma = {} must be positive", self.sigma);
+        }
+        if self.z_near <= 0.0 {
+            bail!("render setting z_near = {} must be positive", self.z_near);
+        }
+        if self.sh_degree > crate::model::MAX_SH_DEGREE {
+            bail!("render setting sh_degree = {} exceeds 3", self.sh_degree);
+        }
+        if !(self.alpha_max > 0.0 && self.alpha_max < 1.0) {
+            bail!(
+                "render setting alpha_max = {} must lie in (0, 1)",
+                self.alpha_max
+            );
+        }
+        if self.alpha_min > self.alpha_max {
+            bail!(
+                "render setting alpha_min {} exceeds alpha_max {}",
+                self.alpha_min,
+                self.alpha_max
+            );
+        }
+        if self.min_inradius <= 0.0 {
+            // The barycentric weights divide by the doubled area; a positive
+            // inradius floor keeps that away from zero.
+            bail!(
+                "render setting min_inradius = {} must be positive",
+                self.min_inradius
+            );
+        }
+        Ok(())
+    }
+}
+
+/// What a forward pass produces. Images are row-major; colour is H×W×3 interleaved.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RenderOutput<R: Real = f32> {
+    pub width: u32,
+    pub height: u32,
+    /// `Σ c_n w_n + T·b`.
+    pub color: Vec<R>,
+    /// `1 − T` (final transmittance).
+    pub alpha: Vec<R>,
+    /// Expected depth `Σ z_n w_n` (not normalised by alpha), camera z.
+    pub depth: Vec<R>,
+    /// Depth of the last contributor while the transmittance is still > 0.5; 0 where none.
+    pub median_depth: Vec<R>,
+    /// Per model face: the largest blending weight `α·T` over all pixels (0 when culled).
+    pub face_max_weight: Vec<R>,
+    /// Per model face: the number of pixels it contributed to.
+    pub face_pixel_count: Vec<u32>,
+}
+
+impl<R: Real> RenderOutput<R> {
+    /// The colour as an f32 RGB image.
+    pub fn color_image(&self) -> Image {
+        Image {
+            width: self.width,
+            height: self.height,
+            channels: 3,
+            data: self.color.iter().map(|v| v.f64() as f32).collect(),
+        }
+    }
+
+    /// The alpha as an f32 single-channel image.
+    pub fn alpha_image(&self) -> Image {
+        Image {
+            width: self.width,
+            height: self.height,
+            channels: 1,
+            data: self.alpha.iter().map(|v| v.f64() as f32).collect(),
+        }
+    }
+
+    /// True when no output holds NaN or ±Inf.
+    pub fn all_finite(&self) -> bool {
+        self.color
+            .iter()
+            .chain(&self.alpha)
+            .chain(&self.depth)
+            .chain(&self.median_depth)
+            .chain(&self.face_max_weight)
+            .all(|v| v.is_finite())
+    }
+}
+
+/// Upstream gradients of the loss with respect to the forward outputs.
+/// Colour is required; the others are optional (treated as zero).
+#[derive(Debug, Clone, Copy)]
+pub struct OutputGrads<'a, R: Real = f32> {
+    pub color: &'a [R],
+    pub alpha: Option<&'a [R]>,
+    pub depth: Option<&'a [R]>,
+    pub median_depth: Option<&'a [R]>,
+}
+
+impl<'a, R: Real> OutputGrads<'a, R> {
+    pub fn color_only(color: &'a [R]) -> Self {
+        OutputGrads {
+            color,
+            alpha: None,
+            depth: None,
+            median_depth: None,
+        }
+    }
+
+    /// Checks sizes and finiteness for an image of `pixels` pixels.
+    pub fn validate(&self, pixels: usize) -> Result<()> {
+        check_buffer("dL/dcolor", self.color, pixels * 3)?;
+        for (name, buf) in [
+            ("dL/dalpha", self.alpha),
+            ("dL/ddepth", self.depth),
+            ("dL/dmedian_depth", self.median_depth),
+        ] {
+            if let Some(b) = buf {
+                check_buffer(name, b, pixels)?;
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Checks that a buffer has `len` finite values.
+pub fn check_buffer<R: Real>(name: &str, buf: &[R], len: usize) -> Result<()> {
+    if buf.len() != len {
+        bail!("{name} has {} values, expected {len}", buf.len());
+    }
+    if let Some(i) = buf.iter().position(|v| !v.is_finite()) {
+        bail!("{name} value {i} is {} (not finite)", buf[i]);
+    }
+    Ok(())
+}
+
+/// Whatever a backend keeps from a forward pass for its backward pass.
+pub struct SavedForward {
+    /// The backend that produced it (checked by `backward`).
+    pub backend: &'static str,
+    pub state: Box<dyn Any + Send + Sync>,
+}
+
+/// A differentiable renderer. Object-safe: trainers hold `Box<dyn RenderBackend<f32>>`.
+pub trait RenderBackend<R: Real>: Send + Sync {
+    fn name(&self) -> &'static str;
+
+    /// Renders `model` from `camera` over a per-pixel `background` (H×W×3 interleaved).
+    fn forward(
+        &self,
+        model: &Model<R>,
+        camera: &Camera,
+        settings: &RenderSettings,
+        background: &[R],
+    ) -> Result<(RenderOutput<R>, SavedForward)>;
+
+    /// Back-propagates output gradients to the model parameters and the
+    /// background. `model` must be the one passed to the forward pass.
+    fn backward(
+        &self,
+        model: &Model<R>,
+        saved: &SavedForward,
+        grads: &OutputGrads<'_, R>,
+    ) -> Result<ModelGrads<R>>;
+}

@@ -1,0 +1,243 @@
+//! The per-pixel window/opacity evaluation shared by both passes, and the
+//! front-to-back compositing of one tile.
+
+use super::binning::{TILE, TILE_PIXELS, TileGrid};
+use super::preprocess::ScreenFace;
+use crate::backend::RenderSettings;
+use crate::real::Real;
+
+/// The thresholds of the pixel loop in the renderer's scalar type.
+#[derive(Debug, Clone, Copy)]
+pub struct PixelRules<R: Real> {
+    pub sigma: R,
+    pub alpha_max: R,
+    pub alpha_min: R,
+    pub transmittance_min: R,
+    pub half: R,
+}
+
+impl<R: Real> PixelRules<R> {
+    pub fn new(s: &RenderSettings) -> Self {
+        PixelRules {
+            sigma: R::of(s.sigma),
+            alpha_max: R::of(s.alpha_max),
+            alpha_min: R::of(s.alpha_min),
+            transmittance_min: R::of(s.transmittance_min),
+            half: R::of(0.5),
+        }
+    }
+}
+
+/// One face's contribution at one pixel.
+#[derive(Debug, Clone, Copy)]
+pub struct Fragment<R: Real> {
+    /// Local pixel position `p − origin`.
+    pub q: [R; 2],
+    /// Screen-space barycentrics.
+    pub lambda: [R; 3],
+    /// Window argument `G = min_k λ_k·P/L_k` (φ/φ(s)) and the corner attaining it.
+    pub g: R,
+    pub kstar: usize,
+    /// Window value `G^σ`.
+    pub intensity: R,
+    pub alpha: R,
+    /// `o·I > alpha_max`: α is the constant clamp there.
+    pub clamped: bool,
+}
+
+impl<R: Real> Fragment<R> {
+    #[inline(always)]
+    pub fn color(&self, f: &ScreenFace<R>) -> [R; 3] {
+        let l = self.lambda;
+        [0, 1, 2].map(|ch| l[0] * f.color[0][ch] + l[1] * f.color[1][ch] + l[2] * f.color[2][ch])
+    }
+
+    #[inline(always)]
+    pub fn depth(&self, f: &ScreenFace<R>) -> R {
+        self.lambda[0] * f.z[0] + self.lambda[1] * f.z[1] + self.lambda[2] * f.z[2]
+    }
+}
+
+/// Evaluates face `f` at the pixel centre `(px, py)`; `None` outside the
+/// window's support or below the α threshold.
+#[inline(always)]
+pub fn evaluate<R: Real>(
+    f: &ScreenFace<R>,
+    px: R,
+    py: R,
+    rules: &PixelRules<R>,
+) -> Option<Fragment<R>> {
+    let q = [px - f.origin[0], py - f.origin[1]];
+    let lambda = f.lam.map(|l| l[0] * q[0] + l[1] * q[1] + l[2]);
+    let g = [
+        lambda[0] * f.scale[0],
+        lambda[1] * f.scale[1],
+        lambda[2] * f.scale[2],
+    ];
+    let mut kstar = 0;
+    if g[1] < g[kstar] {
+        kstar = 1;
+    }
+    if g[2] < g[kstar] {
+        kstar = 2;
+    }
+    let gmin = g[kstar];
+    if !(gmin > R::zero()) {
+        return None;
+    }
+    let intensity = gmin.powf(rules.sigma);
+    let raw = f.opacity * intensity;
+    let clamped = raw > rules.alpha_max;
+    let alpha = if clamped { rules.alpha_max } else { raw };
+    if alpha < rules.alpha_min {
+        return None;
+    }
+    Some(Fragment {
+        q,
+        lambda,
+        g: gmin,
+        kstar,
+        intensity,
+        alpha,
+        clamped,
+    })
+}
+
+/// Forward results of one pixel, before scattering to row-major images.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct PixelOut<R: Real> {
+    pub color: [R; 3],
+    pub transmittance: R,
+    pub depth: R,
+    pub median_depth: R,
+}
+
+/// Per (tile, face) entry: the largest blending weight and pixel count in this tile.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct EntryStats<R: Real> {
+    pub max_weight: R,
+    pub pixels: u32,
+}
+
+/// The pixels of tile rectangle `tile` (`[x0, y0, x1, y1)`) that face `f` may cover:
+/// its pixel box clipped to the tile, as inclusive `(xa, xb, ya, yb)`.
+#[inline]
+pub fn clip_to_tile<R: Real>(f: &ScreenFace<R>, tile: [u32; 4]) -> Option<(u32, u32, u32, u32)> {
+    let xa = f.pixels[0].max(tile[0]);
+    let xb = f.pixels[2].min(tile[2] - 1);
+    let ya = f.pixels[1].max(tile[1]);
+    let yb = f.pixels[3].min(tile[3] - 1);
+    (xa <= xb && ya <= yb).then_some((xa, xb, ya, yb))
+}
+
+/// Narrows the inclusive pixel range `[xa, xb]` of row `y` to the pixels whose
+/// centres may lie inside the triangle. The test is `λ_k > −ε` for all k in
+/// f64 with ε = 1e-3 far above the rounding error of `evaluate`'s `λ_k > 0`
+/// (≈ 1e-6 in f32), so it never drops a pixel `evaluate` accepts.
+#[inline]
+pub fn row_span<R: Real>(f: &ScreenFace<R>, y: u32, xa: u32, xb: u32) -> Option<(u32, u32)> {
+    const EPS: f64 = 1e-3;
+    let qy = y as f64 + 0.5 - f.origin[1].f64();
+    let ox = f.origin[0].f64();
+    let (mut lo, mut hi) = (xa as f64, xb as f64);
+    for l in &f.lam {
+        let (a, b) = (l[0].f64(), l[1].f64() * qy + l[2].f64());
+        // λ(x) = a·(x + 0.5 − ox) + b > −ε.
+        if a > 0.0 {
+            lo = lo.max(ox - 0.5 + (-EPS - b) / a);
+        } else if a < 0.0 {
+            hi = hi.min(ox - 0.5 + (-EPS - b) / a);
+        } else if b < -EPS {
+            return None;
+        }
+    }
+    if !(lo <= hi) {
+        return None;
+    }
+    // Both ends now lie in [xa, xb] ⊂ [0, 2³²): integer rounding by casts.
+    let (lo, hi) = (lo.max(xa as f64), hi.min(xb as f64));
+    let lo_int = lo as u32 + u32::from((lo as u32 as f64) < lo);
+    Some((lo_int, hi as u32))
+}
+
+/// Composites one tile front to back. Faces are walked in depth order and
+/// each visits only the tile pixels it can cover, keeping per-pixel state;
+/// every pixel therefore sees its fragments in exactly the per-pixel order.
+/// `pixels` is the tile's 16×16 slot buffer (row-major inside the tile),
+/// `stats` parallels the tile's entries.
+#[allow(clippy::too_many_arguments)]
+pub fn render_tile<R: Real>(
+    grid: &TileGrid,
+    tile: usize,
+    faces: &[ScreenFace<R>],
+    entries: &[u32],
+    background: &[R],
+    rules: &PixelRules<R>,
+    pixels: &mut [PixelOut<R>],
+    stats: &mut [EntryStats<R>],
+) {
+    debug_assert_eq!(pixels.len(), TILE_PIXELS);
+    let rect = grid.tile_rect(tile);
+    let [x0, y0, x1, y1] = rect;
+    let mut t = [R::one(); TILE_PIXELS];
+    let mut done = [false; TILE_PIXELS];
+    for p in pixels.iter_mut() {
+        *p = PixelOut::default();
+    }
+    let mut remaining = ((x1 - x0) * (y1 - y0)) as usize;
+    for (slot, &fi) in entries.iter().enumerate() {
+        if remaining == 0 {
+            break;
+        }
+        let f = &faces[fi as usize];
+        let Some((xa, xb, ya, yb)) = clip_to_tile(f, rect) else {
+            continue;
+        };
+        let mut st = EntryStats::<R>::default();
+        for y in ya..=yb {
+            let Some((xs, xe)) = row_span(f, y, xa, xb) else {
+                continue;
+            };
+            let py = R::of(y as f64 + 0.5);
+            for x in xs..=xe {
+                let i = ((y - y0) * TILE + (x - x0)) as usize;
+                if done[i] {
+                    continue;
+                }
+                let Some(frag) = evaluate(f, R::of(x as f64 + 0.5), py, rules) else {
+                    continue;
+                };
+                let out = &mut pixels[i];
+                let w = frag.alpha * t[i];
+                let c = frag.color(f);
+                let z = frag.depth(f);
+                for ch in 0..3 {
+                    out.color[ch] += w * c[ch];
+                }
+                out.depth += w * z;
+                if t[i] > rules.half {
+                    out.median_depth = z;
+                }
+                st.max_weight = st.max_weight.max(w);
+                st.pixels += 1;
+                t[i] *= R::one() - frag.alpha;
+                if t[i] < rules.transmittance_min {
+                    done[i] = true;
+                    remaining -= 1;
+                }
+            }
+        }
+        stats[slot] = st;
+    }
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let i = ((y - y0) * TILE + (x - x0)) as usize;
+            let pix = ((y * grid.width + x) * 3) as usize;
+            let out = &mut pixels[i];
+            for ch in 0..3 {
+                out.color[ch] += t[i] * background[pix + ch];
+            }
+            out.transmittance = t[i];
+        }
+    }
+}

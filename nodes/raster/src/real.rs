@@ -1,0 +1,35 @@
+//! The scalar type the renderer is generic over: `f32` for speed, `f64` for
+//! gradient checks. One code path serves both.
+
+use num_traits::{Float, NumAssign};
+use std::fmt::{Debug, Display};
+
+/// A floating-point scalar usable by the rasterizer.
+pub trait Real: Float + NumAssign + Debug + Display + Default + Send + Sync + 'static {
+    /// Converts an `f64` constant or parameter (rounding for `f32`).
+    fn of(v: f64) -> Self;
+    /// Widens to `f64` (exact for both implementors).
+    fn f64(self) -> f64;
+}
+
+impl Real for f32 {
+    #[inline(always)]
+    fn of(v: f64) -> Self {
+        v as f32
+    }
+    #[inline(always)]
+    fn f64(self) -> f64 {
+        self as f64
+    }
+}
+
+impl Real for f64 {
+    #[inline(always)]
+    fn of(v: f64) -> Self {
+        v
+    }
+    #[inline(always)]
+    fn f64(self) -> f64 {
+        self
+    }
+}
