@@ -10,6 +10,10 @@ pub fn builtin_registry() -> Registry {
     let mut reg = Registry::new();
     types::register(&mut reg);
     imaging::register(&mut reg);
+    objectsplat_inputs::register(&mut reg);
+    objectsplat_synth::register(&mut reg);
+    objectsplat_completion::register(&mut reg);
+    objectsplat_export::register(&mut reg);
     reg
 }
 
@@ -18,6 +22,23 @@ mod tests {
     #[test]
     fn every_builtin_kind_registers() {
         let reg = super::builtin_registry();
-        assert!(reg.get("load_image").is_some() && reg.get("save_image").is_some());
+        for kind in [
+            "load_image",
+            "save_image",
+            "synthetic_scene",
+            "colmap_scene",
+            "nerfstudio_scene",
+            "scannetpp_scene",
+            "gt_masks",
+            "import_masks",
+            "partition",
+            "inpaint",
+            "fill_holes",
+            "surface_completion",
+            "inpaint_background",
+            "report",
+        ] {
+            assert!(reg.get(kind).is_some(), "{kind} is not registered");
+        }
     }
 }

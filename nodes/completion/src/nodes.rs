@@ -185,7 +185,7 @@ pub struct SurfaceCompletionNode;
 
 impl Node for SurfaceCompletionNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("surface_completion", "1")
+        NodeSpec::new("surface_completion", "2")
             .doc("Completes flat support surfaces (tables, desks, counters): hole-fills each surface mask per frame, adopts filled pixels owned by other objects, and inpaints their colours with NS as training targets. Qualitative use: the paper keeps it out of reported metrics.")
             .input("components", "[Component]", "the partition's components")
             .input("frames", "Frames", "the capture")

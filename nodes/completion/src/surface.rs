@@ -32,8 +32,11 @@ use std::path::{Path, PathBuf};
 
 /// Below this many points on a surface the planarity test is not attempted.
 pub const MIN_PLANE_POINTS: usize = 12;
-/// Fraction of a surface's points that must lie on the fitted plane.
-pub const MIN_INLIER_FRACTION: f64 = 0.8;
+/// Fraction of a surface's points that must lie on the fitted plane. A table is its top
+/// *and* its legs (the synthetic room's table keeps ~78% of its points on the top), so the
+/// test asks for a dominant plane, not a flat object; chairs and bumpy surfaces stay well
+/// below (their best plane holds under half the points).
+pub const MIN_INLIER_FRACTION: f64 = 0.6;
 const RANSAC_ITERATIONS: usize = 256;
 
 /// The file written into each completed component with what was done.

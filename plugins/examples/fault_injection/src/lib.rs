@@ -1,0 +1,117 @@
+//! A test fixture, not an example to copy: a plugin that misbehaves on request, so
+//! the host's refusals and failure isolation can be tested against a real library.
+//!
+//! - node `faulty_stage` (image → image) with `mode: "pass" | "error" | "panic"`;
+//! - `OBJECTSPLAT_FAULT_VARIANT` (read when the host loads the library) turns the
+//!   whole library bad: `wrong_abi` (entry table claims ABI v999), `malformed_describe`
+//!   (truncated JSON), `kind_collision` (declares the built-in `load_image`),
+//!   `unknown_type` (a port of type `Picture`);
+//! - feature `no_entry` builds it without the entry symbol.
+//!
+//! It builds its entry table by hand (what `export_plugin!` generates), which also
+//! documents the ABI for authors who do not use the macro.
+
+use objectsplat_plugin_sdk::abi::{
+    ABI_VERSION, EntryV1, HostV1, OwnedBuf, SDK_BUILD, STATUS_OK, StaticStr,
+};
+use objectsplat_plugin_sdk::prelude::*;
+
+fn faulty_stage(req: &mut Request) -> Result<Outcome> {
+    match req.param::<String>("mode")?.as_str() {
+        "error" => bail!("injected failure: faulty_stage refused its input"),
+        "panic" => panic!("injected panic in faulty_stage"),
+        _ => {
+            let image = read_image(req.input("image")?)?;
+            write_image(&req.output("image")?, &image, 8)?;
+            Ok(Outcome::Done)
+        }
+    }
+}
+
+fn variant() -> String {
+    std::env::var("OBJECTSPLAT_FAULT_VARIANT").unwrap_or_default()
+}
+
+fn plugin() -> &'static Plugin {
+    static PLUGIN: std::sync::OnceLock<Plugin> = std::sync::OnceLock::new();
+    PLUGIN.get_or_init(|| {
+        let (kind, port_type) = match variant().as_str() {
+            "kind_collision" => ("load_image", "Image"),
+            "unknown_type" => ("faulty_stage", "Picture"),
+            _ => ("faulty_stage", "Image"),
+        };
+        Plugin::new("fault_injection", "1").node(
+            NodeDecl::new(kind, faulty_stage)
+                .doc("Copies an image, or fails on purpose (mode error or panic).")
+                .input("image", port_type, "any image")
+                .output("image", "Image", "the same pixels, 8-bit")
+                .param(
+                    "mode",
+                    "enum(pass|error|panic)",
+                    Some("\"pass\""),
+                    "how to behave",
+                ),
+        )
+    })
+}
+
+unsafe extern "C" fn describe(out: *mut OwnedBuf) -> i32 {
+    if variant() == "malformed_describe" && !out.is_null() {
+        // SAFETY: the host passes a writable slot.
+        unsafe {
+            out.write(OwnedBuf::from_vec(
+                br#"{"plugin": "fault_injection", "nodes": ["#.to_vec(),
+            ))
+        };
+        return STATUS_OK;
+    }
+    // SAFETY: forwarded from the host, which upholds the contract.
+    unsafe { objectsplat_plugin_sdk::export::describe(plugin, out) }
+}
+
+unsafe extern "C" fn run(
+    request: *const u8,
+    len: usize,
+    host: *const HostV1,
+    out: *mut OwnedBuf,
+) -> i32 {
+    // SAFETY: forwarded from the host, which upholds the contract.
+    unsafe { objectsplat_plugin_sdk::export::run(plugin, request, len, host, out) }
+}
+
+const fn table(abi_version: u32) -> EntryV1 {
+    EntryV1 {
+        abi_version,
+        struct_size: std::mem::size_of::<EntryV1>(),
+        plugin_build: StaticStr::new(concat!(
+            env!("CARGO_PKG_NAME"),
+            " ",
+            env!("CARGO_PKG_VERSION")
+        )),
+        sdk_build: StaticStr::new(SDK_BUILD),
+        describe,
+        run,
+        free: objectsplat_plugin_sdk::export::free,
+    }
+}
+
+static ENTRY: EntryV1 = table(ABI_VERSION);
+static FUTURE_ENTRY: EntryV1 = table(999);
+
+/// The entry point, unless built with `no_entry`.
+#[cfg(not(feature = "no_entry"))]
+#[unsafe(no_mangle)]
+pub extern "C" fn objectsplat_plugin_entry_v1() -> *const EntryV1 {
+    // Reading the environment cannot panic (a missing or non-UTF-8 value is an Err).
+    if variant() == "wrong_abi" {
+        &FUTURE_ENTRY
+    } else {
+        &ENTRY
+    }
+}
+
+/// Keeps the tables referenced when the entry symbol is compiled out.
+#[cfg(feature = "no_entry")]
+pub fn tables() -> [&'static EntryV1; 2] {
+    [&ENTRY, &FUTURE_ENTRY]
+}

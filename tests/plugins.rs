@@ -1,0 +1,455 @@
+//! Plugins end to end: the example plugins are built with cargo as real shared
+//! libraries, then loaded by the `objectsplat` binary (and in-process through
+//! `plugin::load`). Covers graph runs, caching, failure isolation and refusals.
+//!
+//! Plugin builds use their own target dir (the outer cargo holds the workspace's
+//! build lock) and an unoptimised profile, since the test images are tiny and the
+//! build time dominates.
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::sync::Mutex;
+
+/// Serialises plugin builds: cargo locks the target dir anyway, and the copy that
+/// follows each build must see that build's library, not a concurrent variant's.
+static BUILD: Mutex<()> = Mutex::new(());
+
+fn workspace() -> &'static Path {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+}
+
+fn scratch_root() -> PathBuf {
+    PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("plugin-tests")
+}
+
+/// Builds `plugins/examples/<example>` with `features` and build-time `env`, and
+/// copies the library to `dest`.
+fn build_plugin(example: &str, features: &[&str], env: &[(&str, &str)], dest: &Path) {
+    let _guard = BUILD.lock().unwrap_or_else(|p| p.into_inner());
+    let target_dir = scratch_root().join("build");
+    let manifest = workspace()
+        .join("plugins/examples")
+        .join(example)
+        .join("Cargo.toml");
+    let mut cmd = Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()));
+    cmd.arg("build")
+        .arg("--manifest-path")
+        .arg(&manifest)
+        .arg("--target-dir")
+        .arg(&target_dir)
+        .args([
+            "--config",
+            "profile.dev.opt-level=0",
+            "--config",
+            "profile.dev.package.\"*\".opt-level=0",
+        ])
+        .args(["--config", "profile.dev.debug=0"])
+        .env_remove("OBJECTSPLAT_EXAMPLE_CODE_VERSION");
+    if !features.is_empty() {
+        cmd.arg("--features").arg(features.join(","));
+    }
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    let out = cmd.output().expect("cargo runs");
+    assert!(
+        out.status.success(),
+        "building {example} failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let lib = target_dir.join("debug").join(format!(
+        "{}{example}{}",
+        std::env::consts::DLL_PREFIX,
+        std::env::consts::DLL_SUFFIX
+    ));
+    std::fs::create_dir_all(dest.parent().expect("dest is a file path")).unwrap();
+    std::fs::copy(&lib, dest).unwrap_or_else(|e| panic!("{}: {e}", lib.display()));
+}
+
+fn objectsplat(args: &[&str], env: &[(&str, &str)], cwd: &Path) -> Output {
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_objectsplat"));
+    cmd.args(args)
+        .current_dir(cwd)
+        .env_remove("OBJECTSPLAT_FAULT_VARIANT");
+    for (k, v) in env {
+        cmd.env(k, v);
+    }
+    cmd.output().expect("objectsplat runs")
+}
+
+fn stderr(out: &Output) -> String {
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn report(path: &Path) -> Value {
+    serde_json::from_str(&std::fs::read_to_string(path).expect("the run wrote its JSON report"))
+        .unwrap()
+}
+
+fn status<'a>(report: &'a Value, node: &str) -> &'a str {
+    report["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|n| n["id"] == node)
+        .and_then(|n| n["status"].as_str())
+        .unwrap()
+}
+
+fn ran(report: &Value) -> Vec<String> {
+    let nodes = report["nodes"].as_array().unwrap();
+    nodes
+        .iter()
+        .filter(|n| n["status"] == "ran")
+        .map(|n| n["id"].as_str().unwrap().to_string())
+        .collect()
+}
+
+fn fresh_dir(name: &str) -> PathBuf {
+    let dir = scratch_root().join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn median_fixture(name: &str) -> PathBuf {
+    workspace()
+        .join("plugins/examples/median_inpaint/tests/fixtures")
+        .join(name)
+}
+
+#[test]
+fn median_plugin_runs_in_a_graph_is_cached_and_reruns_when_its_code_version_changes() {
+    let dir = fresh_dir("median");
+    for f in ["input.png", "mask.png", "expected.png"] {
+        std::fs::copy(median_fixture(f), dir.join(f)).unwrap();
+    }
+    let lib = dir.join("median_inpaint.so");
+    build_plugin("median_inpaint", &[], &[], &lib);
+    std::fs::write(
+        dir.join("graph.ron"),
+        r#"(
+  plugins: ["median_inpaint.so"],
+  nodes: {
+    "photo":    (kind: "load_image", params: (path: "input.png")),
+    "hole":     (kind: "load_mask", params: (path: "mask.png")),
+    "fill":     (kind: "median_inpaint", inputs: (image: "photo.image", mask: "hole.mask")),
+    "save":     (kind: "save_image", inputs: (image: "fill.image"), params: (path: "filled.png")),
+    "oracle":   (kind: "load_image", params: (path: "expected.png")),
+    "save_ref": (kind: "save_image", inputs: (image: "oracle.image"), params: (path: "expected.png")),
+  },
+  targets: ["save", "save_ref"],
+)"#,
+    )
+    .unwrap();
+    let args = [
+        "run",
+        "graph.ron",
+        "--cache",
+        "cache",
+        "--out",
+        "out",
+        "--json",
+        "report.json",
+        "-j",
+        "2",
+    ];
+
+    let first = objectsplat(&args, &[], &dir);
+    assert!(first.status.success(), "{}", stderr(&first));
+    let r = report(&dir.join("report.json"));
+    let mut all = ran(&r);
+    all.sort();
+    assert_eq!(all, ["fill", "hole", "oracle", "photo", "save", "save_ref"]);
+    let fill = r["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|n| n["id"] == "fill")
+        .unwrap();
+    assert_eq!(fill["kind"], "median_inpaint");
+    assert_eq!(fill["notes"]["filled_pixels"], "93");
+    // Both PNGs are re-encoded by the same built-in save_image, so equal bytes mean
+    // the plugin's pixels equal the NumPy oracle's.
+    let filled = std::fs::read(dir.join("out/save/file/filled.png")).unwrap();
+    assert_eq!(
+        filled,
+        std::fs::read(dir.join("out/save_ref/file/expected.png")).unwrap()
+    );
+
+    let second = objectsplat(&args, &[], &dir);
+    assert!(second.status.success(), "{}", stderr(&second));
+    let r = report(&dir.join("report.json"));
+    assert!(
+        ran(&r).is_empty(),
+        "second run should be fully cached: {:?}",
+        ran(&r)
+    );
+    assert_eq!(status(&r, "fill"), "cached");
+
+    build_plugin(
+        "median_inpaint",
+        &[],
+        &[("OBJECTSPLAT_EXAMPLE_CODE_VERSION", "2")],
+        &lib,
+    );
+    let third = objectsplat(&args, &[], &dir);
+    assert!(third.status.success(), "{}", stderr(&third));
+    let r = report(&dir.join("report.json"));
+    // Only the plugin node reruns; its output is byte-identical, so `save` stays cached.
+    assert_eq!(ran(&r), ["fill"]);
+    assert_eq!(status(&r, "save"), "cached");
+    let explain = objectsplat(
+        &["explain", "graph.ron", "fill", "--cache", "cache"],
+        &[],
+        &dir,
+    );
+    assert!(explain.status.success(), "{}", stderr(&explain));
+}
+
+#[test]
+fn colorkey_plugin_is_listed_with_its_interface_and_runs_through_the_host() {
+    let dir = fresh_dir("colorkey");
+    let lib = dir.join("colorkey_masks.so");
+    build_plugin("colorkey_masks", &[], &[], &lib);
+
+    let listing = objectsplat(&["nodes", "--plugin", lib.to_str().unwrap()], &[], &dir);
+    assert!(listing.status.success(), "{}", stderr(&listing));
+    let text = format!("\n{}", String::from_utf8_lossy(&listing.stdout));
+    let entry = text
+        .split("\ncolorkey_masks (")
+        .nth(1)
+        .expect("colorkey_masks is listed");
+    assert!(entry.starts_with("v1+lib."), "{entry}");
+    assert!(entry.contains("[plugin "), "{entry}");
+    assert!(
+        entry.contains("in  frames: Frames") && entry.contains("out masks: Masks"),
+        "{entry}"
+    );
+    assert!(
+        entry.contains("param keys: list(ron) (required)"),
+        "{entry}"
+    );
+
+    let mut reg = objectsplat_nodes::builtin_registry();
+    objectsplat_runtime::plugin::load(&mut reg, &lib).unwrap();
+    // Loading the same library again is a no-op, not a collision.
+    objectsplat_runtime::plugin::load(&mut reg, &lib).unwrap();
+    let node = reg.get("colorkey_masks").unwrap().node.clone();
+    let frames = workspace().join("plugins/examples/colorkey_masks/tests/fixtures/frames");
+    let keys = r#"(keys: [(id: 3, label: "chair", rgb: (200, 30, 30), tolerance: 12)])"#;
+    let run = objectsplat_runtime::testing::run_node(
+        node.as_ref(),
+        &[("frames", &frames)],
+        keys,
+        &dir.join("out"),
+        None,
+    )
+    .unwrap();
+    let masks = &run.outputs["masks"];
+    assert!(masks.join("view_a.png").is_file() && masks.join("view_b.png").is_file());
+    let labels: Value =
+        serde_json::from_str(&std::fs::read_to_string(masks.join("objects.json")).unwrap())
+            .unwrap();
+    assert_eq!(labels, serde_json::json!({"3": "chair"}));
+    let chair_pixels: u64 = run
+        .notes
+        .iter()
+        .find(|(k, _)| k == "pixels_chair")
+        .unwrap()
+        .1
+        .parse()
+        .unwrap();
+    assert!(
+        chair_pixels >= 2 * 35,
+        "two 5×7 keyed rectangles, found {chair_pixels}"
+    );
+
+    // It stands in for `gt_masks`: a graph wiring it into `partition` validates.
+    std::fs::write(
+        dir.join("graph.ron"),
+        r#"(
+  plugins: ["colorkey_masks.so"],
+  nodes: {
+    "scene": (kind: "synthetic_scene", params: (seed: 7, views: 8)),
+    "masks": (kind: "colorkey_masks", inputs: (frames: "scene.frames"),
+              params: (keys: [(id: 1, label: "chair", rgb: (200, 30, 30), tolerance: 12)])),
+    "parts": (kind: "partition", inputs: (frames: "scene.frames", masks: "masks.masks")),
+  },
+  targets: ["parts"],
+)"#,
+    )
+    .unwrap();
+    let check = objectsplat(&["check", "graph.ron"], &[], &dir);
+    assert!(check.status.success(), "{}", stderr(&check));
+
+    let missing = objectsplat_runtime::testing::run_node(
+        node.as_ref(),
+        &[("frames", &frames)],
+        "()",
+        &dir.join("o2"),
+        None,
+    );
+    assert!(
+        missing
+            .err()
+            .unwrap()
+            .to_string()
+            .contains("required param `keys` missing")
+    );
+}
+
+#[test]
+fn a_failing_or_panicking_plugin_node_fails_alone_and_the_run_exits_non_zero() {
+    let dir = fresh_dir("faults");
+    std::fs::copy(median_fixture("input.png"), dir.join("input.png")).unwrap();
+    let lib = dir.join("fault_injection.so");
+    build_plugin("fault_injection", &[], &[], &lib);
+    std::fs::write(
+        dir.join("graph.ron"),
+        r#"(
+  plugins: ["fault_injection.so"],
+  nodes: {
+    "photo":      (kind: "load_image", params: (path: "input.png")),
+    "bad":        (kind: "faulty_stage", inputs: (image: "photo.image")),
+    "save_bad":   (kind: "save_image", inputs: (image: "bad.image"), params: (path: "bad.png")),
+    "small":      (kind: "resize_image", inputs: (image: "photo.image"), params: (factor: 2)),
+    "save_small": (kind: "save_image", inputs: (image: "small.image"), params: (path: "small.png")),
+  },
+  targets: ["save_bad", "save_small"],
+)"#,
+    )
+    .unwrap();
+    for (mode, message) in [
+        ("error", "injected failure: faulty_stage refused its input"),
+        ("panic", "panicked: injected panic in faulty_stage"),
+    ] {
+        let set = format!("bad.mode=\"{mode}\"");
+        let args = [
+            "run",
+            "graph.ron",
+            "--cache",
+            "cache",
+            "--out",
+            "out",
+            "--json",
+            "report.json",
+            "--set",
+            &set,
+        ];
+        let out = objectsplat(&args, &[], &dir);
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "a failed node exits 1, never by a signal: {}",
+            stderr(&out)
+        );
+        let err = stderr(&out);
+        assert!(
+            err.lines()
+                .any(|l| l.starts_with("error:") && l.contains(message)),
+            "{err}"
+        );
+        let r = report(&dir.join("report.json"));
+        assert_eq!(r["ok"], false);
+        assert_eq!(status(&r, "bad"), "failed");
+        assert_ne!(status(&r, "save_bad"), "ran");
+        assert!(
+            ["ran", "cached"].contains(&status(&r, "save_small")),
+            "other branches finish"
+        );
+        let save_small = r["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|n| n["id"] == "save_small")
+            .unwrap();
+        assert!(
+            save_small["outputs"]["file"].is_string(),
+            "save_small produced its file: {save_small}"
+        );
+    }
+    let out = objectsplat(
+        &["run", "graph.ron", "--cache", "cache", "--out", "out"],
+        &[],
+        &dir,
+    );
+    assert!(out.status.success(), "mode pass works: {}", stderr(&out));
+}
+
+#[test]
+fn libraries_that_are_not_valid_plugins_are_refused_with_a_clear_message() {
+    let dir = fresh_dir("refusals");
+    let refused = |lib: &Path, env: &[(&str, &str)], expected: &str| {
+        let out = objectsplat(&["nodes", "--plugin", lib.to_str().unwrap()], env, &dir);
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "refusal exits 1, never by a signal: {}",
+            stderr(&out)
+        );
+        let err = stderr(&out);
+        assert!(
+            err.starts_with(&format!("error: plugin {}: ", lib.display())),
+            "{err}"
+        );
+        assert!(err.contains(expected), "expected {expected:?} in {err}");
+    };
+
+    let text = dir.join("notes.so");
+    std::fs::write(&text, "this is not a library\n").unwrap();
+    refused(&text, &[], "not a shared library this system can load");
+
+    let no_entry = dir.join("no_entry.so");
+    build_plugin("fault_injection", &["no_entry"], &[], &no_entry);
+    refused(
+        &no_entry,
+        &[],
+        "not an ObjectSplat plugin: no `objectsplat_plugin_entry_v1` symbol",
+    );
+
+    let lib = dir.join("fault_injection.so");
+    build_plugin("fault_injection", &[], &[], &lib);
+    let variant = |v| [("OBJECTSPLAT_FAULT_VARIANT", v)];
+    refused(
+        &lib,
+        &variant("wrong_abi"),
+        "built for ABI v999, this objectsplat speaks v1",
+    );
+    refused(
+        &lib,
+        &variant("malformed_describe"),
+        "its describe text is malformed: EOF while parsing a list",
+    );
+    refused(
+        &lib,
+        &variant("kind_collision"),
+        "node kind `load_image` is already defined by a built-in node",
+    );
+    refused(
+        &lib,
+        &variant("unknown_type"),
+        "node `faulty_stage` port `image` has unknown type `Picture`",
+    );
+
+    // The same refusal when the library comes from a graph's `plugins` list.
+    std::fs::write(
+        dir.join("graph.ron"),
+        r#"(plugins: ["fault_injection.so"], nodes: {"a": (kind: "load_image", params: (path: "x.png"))}, targets: ["a"])"#,
+    )
+    .unwrap();
+    let out = objectsplat(&["check", "graph.ron"], &variant("wrong_abi"), &dir);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(
+        stderr(&out).contains("built for ABI v999, this objectsplat speaks v1"),
+        "{}",
+        stderr(&out)
+    );
+    let out = objectsplat(&["check", "graph.ron"], &[], &dir);
+    assert!(
+        out.status.success(),
+        "the same library loads without the fault: {}",
+        stderr(&out)
+    );
+}
