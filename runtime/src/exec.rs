@@ -91,9 +91,8 @@ pub fn run(plan: &Plan, store: &Store, opts: &RunOptions) -> Result<RunReport> {
         if corrupt {
             continue;
         }
-        if report.ok
-            && let Some(out) = &opts.out_dir
-        {
+        // Targets that succeeded are written out even when another branch failed.
+        if let Some(out) = &opts.out_dir {
             match materialize_targets(plan, store, &report, out) {
                 Ok(()) => report.out = Some(out.display().to_string()),
                 Err(e) if e.downcast_ref::<Corrupt>().is_some() => {

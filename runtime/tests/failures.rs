@@ -44,6 +44,8 @@ fn failure_is_contained_and_retried_next_run() {
             Some("upstream `bad` failed")
         );
         assert_eq!(status(&r, "other"), Status::Ran);
+        // The branch that succeeded is still written out.
+        assert_eq!(ws.num("other", "out"), 11);
         // The failure was not cached: the same graph retries it (and fails again).
         let r = ws.run(&[]);
         assert_eq!(ran(&r), Vec::<String>::new());

@@ -1,0 +1,376 @@
+//! Scene edits: move, rotate, scale, duplicate, remove and recolor members, given in RON.
+//!
+//! ```ron
+//! [
+//!     Move(target: Id(3), by: (0.5, 0.0, 0.0)),
+//!     Rotate(target: Label("chair"), axis: (0, 0, 1), degrees: 90),
+//!     Scale(target: Id(2), factor: 1.5),
+//!     Duplicate(target: Id(4), offset: (1, 0, 0)),
+//!     Remove(target: Label("cup")),
+//!     Recolor(target: Name("background"), rgb: (1, 0, 0)),
+//! ]
+//! ```
+//!
+//! - Targets: `Id(n)` the object with that id; `Label("chair")` every object with that
+//!   label; `Name("obj_3_chair")` the member of that name (the only way to reach the
+//!   background). A target that matches nothing is an error naming the edit.
+//! - Edits apply in list order; each sees the result of the previous ones.
+//! - `Rotate` and `Scale` act about the member's centroid (mean vertex position);
+//!   rotation also rotates the view-dependent SH colour, so the object looks the
+//!   same from the rotated viewpoints. `Scale` is uniform and must be positive.
+//! - `Duplicate` adds a copy shifted by `offset` with the next free object id
+//!   (largest id in the scene + 1) and the name `obj_<id>_<label>`.
+//! - `Recolor` sets a view-independent sRGB colour in [0, 1] (SH DC term; higher
+//!   bands zeroed); opacities are kept.
+
+use crate::scene::{Scene, SceneEntry, SceneObject};
+use crate::sh_rotation::ShRotation;
+use anyhow::{Context, Result, bail, ensure};
+use glam::{DMat3, DVec3};
+use objectsplat_core::ComponentKind;
+use objectsplat_raster::SH_COEFFS;
+use objectsplat_raster::sh::SH_DC;
+use serde::Deserialize;
+use std::fmt;
+
+/// A number written either as an integer or a float in RON (`1` or `1.0`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Num(pub f64);
+
+impl<'de> Deserialize<'de> for Num {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Num, D::Error> {
+        struct V;
+        impl serde::de::Visitor<'_> for V {
+            type Value = Num;
+            fn expecting(&self, f: &mut fmt::Formatter) -> fmt::Result {
+                f.write_str("a number")
+            }
+            fn visit_f64<E>(self, v: f64) -> Result<Num, E> {
+                Ok(Num(v))
+            }
+            fn visit_i64<E>(self, v: i64) -> Result<Num, E> {
+                Ok(Num(v as f64))
+            }
+            fn visit_u64<E>(self, v: u64) -> Result<Num, E> {
+                Ok(Num(v as f64))
+            }
+        }
+        d.deserialize_any(V)
+    }
+}
+
+impl fmt::Display for Num {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+pub enum Target {
+    Id(u16),
+    Label(String),
+    Name(String),
+}
+
+impl fmt::Display for Target {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        match self {
+            Target::Id(id) => write!(f, "Id({id})"),
+            Target::Label(l) => write!(f, "Label({l:?})"),
+            Target::Name(n) => write!(f, "Name({n:?})"),
+        }
+    }
+}
+
+#[derive(Debug, Clone, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub enum Edit {
+    Move {
+        target: Target,
+        by: [Num; 3],
+    },
+    Rotate {
+        target: Target,
+        axis: [Num; 3],
+        degrees: Num,
+    },
+    Scale {
+        target: Target,
+        factor: Num,
+    },
+    Duplicate {
+        target: Target,
+        offset: [Num; 3],
+    },
+    Remove {
+        target: Target,
+    },
+    Recolor {
+        target: Target,
+        rgb: [Num; 3],
+    },
+}
+
+fn vec3(v: &[Num; 3]) -> DVec3 {
+    DVec3::new(v[0].0, v[1].0, v[2].0)
+}
+
+fn show3(v: &[Num; 3]) -> String {
+    format!("({}, {}, {})", v[0], v[1], v[2])
+}
+
+impl fmt::Display for Edit {
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        match self {
+            Edit::Move { target, by } => write!(f, "Move(target: {target}, by: {})", show3(by)),
+            Edit::Rotate {
+                target,
+                axis,
+                degrees,
+            } => write!(
+                f,
+                "Rotate(target: {target}, axis: {}, degrees: {degrees})",
+                show3(axis)
+            ),
+            Edit::Scale { target, factor } => {
+                write!(f, "Scale(target: {target}, factor: {factor})")
+            }
+            Edit::Duplicate { target, offset } => {
+                write!(f, "Duplicate(target: {target}, offset: {})", show3(offset))
+            }
+            Edit::Remove { target } => write!(f, "Remove(target: {target})"),
+            Edit::Recolor { target, rgb } => {
+                write!(f, "Recolor(target: {target}, rgb: {})", show3(rgb))
+            }
+        }
+    }
+}
+
+impl Edit {
+    pub fn target(&self) -> &Target {
+        match self {
+            Edit::Move { target, .. }
+            | Edit::Rotate { target, .. }
+            | Edit::Scale { target, .. }
+            | Edit::Duplicate { target, .. }
+            | Edit::Remove { target }
+            | Edit::Recolor { target, .. } => target,
+        }
+    }
+
+    /// Rejects non-finite numbers, a zero rotation axis, a non-positive scale and colours outside [0, 1].
+    pub fn validate(&self) -> Result<()> {
+        let finite3 = |name: &str, v: &[Num; 3]| -> Result<()> {
+            ensure!(
+                v.iter().all(|x| x.0.is_finite()),
+                "{name} {} must be finite",
+                show3(v)
+            );
+            Ok(())
+        };
+        match self {
+            Edit::Move { by, .. } => finite3("by", by),
+            Edit::Duplicate { offset, .. } => finite3("offset", offset),
+            Edit::Rotate { axis, degrees, .. } => {
+                finite3("axis", axis)?;
+                ensure!(
+                    vec3(axis).length() > 1e-12,
+                    "axis {} has zero length",
+                    show3(axis)
+                );
+                ensure!(degrees.0.is_finite(), "degrees {degrees} must be finite");
+                Ok(())
+            }
+            Edit::Scale { factor, .. } => {
+                ensure!(
+                    factor.0.is_finite() && factor.0 > 0.0,
+                    "factor {factor} must be finite and positive"
+                );
+                Ok(())
+            }
+            Edit::Remove { .. } => Ok(()),
+            Edit::Recolor { rgb, .. } => {
+                ensure!(
+                    rgb.iter().all(|x| (0.0..=1.0).contains(&x.0)),
+                    "rgb {} must lie in [0, 1]",
+                    show3(rgb)
+                );
+                Ok(())
+            }
+        }
+    }
+}
+
+/// Parses the `edits` list, one item at a time so an error names the bad item.
+pub fn parse_edits(items: &[objectsplat_runtime::Value]) -> Result<Vec<Edit>> {
+    items
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let edit: Edit = v
+                .deserialize()
+                .map_err(|e| anyhow::anyhow!("edit {i} `{}`: {e}", v.to_ron()))?;
+            edit.validate()
+                .with_context(|| format!("edit {i} `{edit}`"))?;
+            Ok(edit)
+        })
+        .collect()
+}
+
+/// What the edits did, for the run report and for background filling.
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct EditLog {
+    /// Names of members whose geometry moved away from where they were trained
+    /// (moved, rotated, scaled or removed): what they covered may now be revealed.
+    pub displaced: Vec<String>,
+    /// Names of the members the duplicates created.
+    pub added: Vec<String>,
+    pub removed: Vec<String>,
+}
+
+fn resolve(scene: &Scene, target: &Target) -> Result<Vec<usize>> {
+    let found: Vec<usize> = match target {
+        Target::Id(id) => scene.find_id(*id).into_iter().collect(),
+        Target::Label(label) => (0..scene.objects.len())
+            .filter(|&i| scene.objects[i].entry.label.as_deref() == Some(label.as_str()))
+            .collect(),
+        Target::Name(name) => (0..scene.objects.len())
+            .filter(|&i| scene.objects[i].entry.name == *name)
+            .collect(),
+    };
+    if found.is_empty() {
+        let known: Vec<String> = scene
+            .objects
+            .iter()
+            .map(|o| match (o.entry.id, &o.entry.label) {
+                (Some(id), Some(label)) => format!("{} (id {id}, label {label:?})", o.entry.name),
+                _ => o.entry.name.clone(),
+            })
+            .collect();
+        let what = match target {
+            Target::Id(id) => format!("no object has id {id}"),
+            Target::Label(label) => format!("no object has label {label:?}"),
+            Target::Name(name) => format!("no scene member is named {name:?}"),
+        };
+        bail!("{what}; the scene has: {}", known.join(", "));
+    }
+    Ok(found)
+}
+
+/// Mean vertex position (the origin for an empty model).
+fn centroid(object: &SceneObject) -> DVec3 {
+    let n = object.model.vertices.len();
+    if n == 0 {
+        return DVec3::ZERO;
+    }
+    let sum: DVec3 = object
+        .model
+        .vertices
+        .iter()
+        .map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64))
+        .sum();
+    sum / n as f64
+}
+
+fn map_vertices(object: &mut SceneObject, f: impl Fn(DVec3) -> DVec3) {
+    for v in &mut object.model.vertices {
+        let p = f(DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64));
+        *v = [p.x as f32, p.y as f32, p.z as f32];
+    }
+}
+
+/// Applies `edits` in order. On error the scene is left partially edited; callers
+/// work on a copy (the nodes always do).
+pub fn apply_edits(scene: &mut Scene, edits: &[Edit]) -> Result<EditLog> {
+    let mut log = EditLog::default();
+    for (i, edit) in edits.iter().enumerate() {
+        apply_one(scene, edit, &mut log).with_context(|| format!("edit {i} `{edit}`"))?;
+    }
+    *scene = Scene::new(std::mem::take(&mut scene.objects))?;
+    Ok(log)
+}
+
+fn note_displaced(log: &mut EditLog, name: &str) {
+    if !log.displaced.iter().any(|n| n == name) {
+        log.displaced.push(name.to_string());
+    }
+}
+
+fn apply_one(scene: &mut Scene, edit: &Edit, log: &mut EditLog) -> Result<()> {
+    edit.validate()?;
+    let targets = resolve(scene, edit.target())?;
+    match edit {
+        Edit::Move { by, .. } => {
+            let by = vec3(by);
+            for &t in &targets {
+                map_vertices(&mut scene.objects[t], |p| p + by);
+                note_displaced(log, &scene.objects[t].entry.name.clone());
+            }
+        }
+        Edit::Rotate { axis, degrees, .. } => {
+            let rotation = DMat3::from_axis_angle(vec3(axis).normalize(), degrees.0.to_radians());
+            let sh = ShRotation::new(rotation)?;
+            for &t in &targets {
+                let c = centroid(&scene.objects[t]);
+                let object = &mut scene.objects[t];
+                map_vertices(object, |p| c + rotation * (p - c));
+                for rows in &mut object.model.sh {
+                    *rows = sh.apply(rows);
+                }
+                note_displaced(log, &object.entry.name.clone());
+            }
+        }
+        Edit::Scale { factor, .. } => {
+            for &t in &targets {
+                let c = centroid(&scene.objects[t]);
+                map_vertices(&mut scene.objects[t], |p| c + (p - c) * factor.0);
+                note_displaced(log, &scene.objects[t].entry.name.clone());
+            }
+        }
+        Edit::Duplicate { offset, .. } => {
+            let offset = vec3(offset);
+            for &t in &targets {
+                let original = &scene.objects[t];
+                ensure!(
+                    original.entry.kind == ComponentKind::Object,
+                    "{:?} is the background; only objects can be duplicated",
+                    original.entry.name
+                );
+                let next = u32::from(scene.max_id()) + 1;
+                ensure!(
+                    next <= 65534,
+                    "no free object id is left for a copy of {:?}",
+                    original.entry.name
+                );
+                // Fits in u16: checked against 65534 above.
+                let id = next as u16;
+                let label = original.entry.label.clone().unwrap_or_default();
+                let mut copy = SceneObject {
+                    entry: SceneEntry::object(id, &label, &original.entry.source),
+                    model: original.model.clone(),
+                };
+                map_vertices(&mut copy, |p| p + offset);
+                log.added.push(copy.entry.name.clone());
+                scene.objects.push(copy);
+            }
+        }
+        Edit::Remove { .. } => {
+            // Remove from the back so earlier indices stay valid.
+            for &t in targets.iter().rev() {
+                let removed = scene.objects.remove(t);
+                note_displaced(log, &removed.entry.name);
+                log.removed.push(removed.entry.name);
+            }
+        }
+        Edit::Recolor { rgb, .. } => {
+            let dc = rgb.map(|c| ((c.0 - 0.5) / SH_DC) as f32);
+            for &t in &targets {
+                for rows in &mut scene.objects[t].model.sh {
+                    *rows = [[0.0; 3]; SH_COEFFS];
+                    rows[0] = dc;
+                }
+            }
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,409 @@
+//! Dataflow nodes: `compose`, `edit_scene`, `render`, `evaluate` and `export_gltf`.
+//!
+//! (`report` is registered by `objectsplat-export`, which owns the report library.)
+
+use crate::edit::{apply_edits, parse_edits};
+use crate::evaluate::{EvaluateSettings, GroundTruth, evaluate_scene};
+use crate::render::{Backdrop, orbit_cameras, render_view};
+use crate::scene::{
+    FILLS_DIR, Scene, SceneEntry, SceneObject, component_of_item, load_scene, save_scene,
+};
+use crate::surface::{display_colors, visible_faces};
+use anyhow::{Context as _, Result, bail};
+use objectsplat_core::frames::frame_stem;
+use objectsplat_core::{Frames, Image, Split, read_mesh_artifact};
+use objectsplat_export::{ExportObject, SrgbColors, write_glb};
+use objectsplat_metrics::{Lpips, MeshEvalParams, SampleCount, SsimMode};
+use objectsplat_raster::load_model;
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, Value};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+
+fn check_cancel(ctx: &Context) -> Result<()> {
+    if ctx.cancelled() {
+        bail!("interrupted");
+    }
+    Ok(())
+}
+
+/// `compose`: the trained components side by side, as one separable scene.
+pub struct Compose;
+
+impl Node for Compose {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("compose", "1")
+            .doc("The union of the trained component models in the shared world frame: one scene member per component (object id, label), no re-optimization.")
+            .input("models", "[Model]", "one trained model per component; items named `background` or `obj_<id>_<label>` (or model.json metadata.component says which)")
+            .output("scene", "Scene", "scene.json + objects/<name>/ (one Model folder per member)")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let items = ctx.input_items("models")?.to_vec();
+        if items.is_empty() {
+            bail!("the models collection is empty; there is nothing to compose");
+        }
+        let mut objects = Vec::with_capacity(items.len());
+        for (k, (item, dir)) in items.iter().enumerate() {
+            check_cancel(ctx)?;
+            ctx.progress(k as u64, items.len() as u64, item);
+            let model = load_model(dir).with_context(|| format!("models item {item:?}"))?;
+            let info = component_of_item(item, &model)?;
+            objects.push(SceneObject {
+                entry: SceneEntry::from_component(&info, item),
+                model,
+            });
+        }
+        let scene = Scene::new(objects)?;
+        save_scene(&scene, &ctx.output("scene")?)?;
+        ctx.progress(items.len() as u64, items.len() as u64, "composed");
+        ctx.note("members", scene.objects.len());
+        ctx.note("triangles", scene.face_count());
+        Ok(Outcome::Done)
+    }
+}
+
+/// Copies the PNGs of `from` into `to` (created), returning how many.
+fn copy_pngs(from: &Path, to: &Path) -> Result<usize> {
+    let mut names: Vec<PathBuf> = std::fs::read_dir(from)
+        .with_context(|| format!("{}: cannot list", from.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.is_file() && p.extension().is_some_and(|x| x.eq_ignore_ascii_case("png")))
+        .collect();
+    names.sort();
+    std::fs::create_dir_all(to).with_context(|| format!("{}: cannot create", to.display()))?;
+    for p in &names {
+        // `names` holds files listed by read_dir, so each has a file name.
+        let name = p.file_name().unwrap_or_default();
+        std::fs::copy(p, to.join(name)).with_context(|| format!("{}: cannot copy", p.display()))?;
+    }
+    Ok(names.len())
+}
+
+/// `edit_scene`: move / rotate / scale / duplicate / remove / recolor members.
+pub struct EditScene;
+
+const EDITS_DOC: &str = "list of edits applied in order, e.g. [Move(target: Id(3), by: (0.5, 0, 0)), Rotate(target: Label(\"chair\"), axis: (0, 0, 1), degrees: 90), Scale(target: Id(2), factor: 1.5), Duplicate(target: Id(4), offset: (1, 0, 0)), Remove(target: Label(\"cup\")), Recolor(target: Id(3), rgb: (1, 0, 0))]; targets Id(n), Label(\"…\") (all objects with it) or Name(\"…\") (a member, e.g. \"background\")";
+
+impl Node for EditScene {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("edit_scene", "1")
+            .doc("Edits a composed scene. Rotation and scale act about the member's centroid; a duplicate gets the next free id. When `fills` (inpainted background views) is wired, it is stored with the scene and `render` shows it wherever no triangle covers a pixel, e.g. where a moved object used to be.")
+            .input("scene", "Scene", "the scene to edit")
+            .optional_input("fills", "Images", "per-frame inpainted background images (<frame stem>.png)")
+            .output("scene", "Scene", "the edited scene")
+            .param("edits", ParamType::Ron("list of edits".into()), Some("[]"), EDITS_DOC)
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let items = match ctx.params().value("edits") {
+            Some(Value::List(items)) => items.clone(),
+            Some(other) => bail!(
+                "parameter `edits` must be a list of edits, found {}",
+                other.shape()
+            ),
+            None => bail!("parameter `edits` is not declared"),
+        };
+        let edits = parse_edits(&items)?;
+        let input = ctx.input("scene")?.to_path_buf();
+        if edits.is_empty() && ctx.input_opt("fills").is_none() {
+            ctx.forward("scene", "scene")?;
+            return Ok(Outcome::Skipped(
+                "no edits given; the scene is passed on unchanged".into(),
+            ));
+        }
+        let mut scene = load_scene(&input)?;
+        let log = apply_edits(&mut scene, &edits)?;
+        let out = ctx.output("scene")?;
+        save_scene(&scene, &out)?;
+        let fills = match ctx.input_opt("fills") {
+            Some(dir) => Some(dir.to_path_buf()),
+            None => Some(input.join(FILLS_DIR)).filter(|d| d.is_dir()),
+        };
+        let fill_count = match &fills {
+            Some(dir) => copy_pngs(dir, &out.join(FILLS_DIR))?,
+            None => 0,
+        };
+        ctx.note("edits", edits.len());
+        ctx.note("members", scene.objects.len());
+        if !log.added.is_empty() {
+            ctx.note("added", log.added.join(", "));
+        }
+        if !log.removed.is_empty() {
+            ctx.note("removed", log.removed.join(", "));
+        }
+        if !log.displaced.is_empty() {
+            ctx.note("displaced", log.displaced.join(", "));
+            if fill_count == 0 {
+                ctx.note(
+                    "revealed areas",
+                    "no background fills wired: uncovered pixels show the render's backdrop colour",
+                );
+            }
+        }
+        if fill_count > 0 {
+            ctx.note("background fills", fill_count);
+        }
+        Ok(Outcome::Done)
+    }
+}
+
+/// `render`: the scene from the frames' cameras or an orbit, as PNGs.
+pub struct Render;
+
+impl Node for Render {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("render", "1")
+            .doc("Renders the (composed or edited) scene: all members' triangles in one pass, the renderer's depth order deciding. Views: the frames' test/train/all cameras (PNG per frame, <frame stem>.png) or an orbit (orbit_000.png …) around the objects at the frames' mean height and distance. Where no triangle covers a pixel it shows the background fill of that frame (the `fills` input, else the scene's stored fills), else the `background` colour.")
+            .input("scene", "Scene", "the scene to render")
+            .input("frames", "Frames", "cameras (and intrinsics/scale for the orbit)")
+            .optional_input("fills", "Images", "per-frame background images (<frame stem>.png), e.g. from inpaint_background")
+            .output("images", "Images", "one PNG per view")
+            .param("views", ParamType::enumeration(&["test", "train", "all", "orbit"]), Some("\"test\""), "which cameras to render")
+            .param("orbit_count", ParamType::int_range(1, 3600), Some("36"), "number of orbit views (views: \"orbit\")")
+            .param("backend", ParamType::enumeration(&["auto", "cpu", "wgpu"]), Some("\"auto\""), "render backend; only cpu is built, auto picks it")
+            .param("background", ParamType::list(ParamType::float_range(0.0, 1.0)), Some("[0.0, 0.0, 0.0]"), "sRGB colour [r, g, b] where nothing (and no fill) covers a pixel")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let views: String = ctx.param("views")?;
+        let orbit_count: i64 = ctx.param("orbit_count")?;
+        let backend: String = ctx.param("backend")?;
+        let background: Vec<f64> = ctx.param("background")?;
+        match backend.as_str() {
+            "wgpu" => bail!("the wgpu backend is not built yet; use backend \"cpu\" or \"auto\""),
+            "auto" => ctx.note("backend", "cpu (auto: the wgpu backend is not built yet)"),
+            _ => ctx.note("backend", "cpu"),
+        }
+        let &[r, g, b] = background.as_slice() else {
+            bail!(
+                "parameter `background` must have 3 values [r, g, b], found {}",
+                background.len()
+            );
+        };
+        let uniform = [r as f32, g as f32, b as f32];
+        let scene_dir = ctx.input("scene")?.to_path_buf();
+        let scene = load_scene(&scene_dir)?;
+        let frames = Frames::read(ctx.input("frames")?)?;
+        let merged = scene.merged_model()?.model;
+        let fills = match ctx.input_opt("fills") {
+            Some(dir) => Some(dir.to_path_buf()),
+            None => Some(scene_dir.join(FILLS_DIR)).filter(|d| d.is_dir()),
+        };
+        let out = ctx.output("images")?;
+        let threads = ctx.threads();
+
+        let jobs: Vec<(String, objectsplat_core::Camera, Option<PathBuf>)> = if views == "orbit" {
+            orbit_cameras(&scene, &frames.frames, orbit_count as usize)?
+                .into_iter()
+                .enumerate()
+                .map(|(k, cam)| (format!("orbit_{k:03}"), cam, None))
+                .collect()
+        } else {
+            let wanted = |s: Split| match views.as_str() {
+                "test" => s == Split::Test,
+                "train" => s == Split::Train,
+                _ => true,
+            };
+            frames
+                .frames
+                .iter()
+                .filter(|f| wanted(f.split))
+                .map(|f| {
+                    let stem = frame_stem(&f.name).to_string();
+                    let fill = fills
+                        .as_ref()
+                        .map(|d| d.join(format!("{stem}.png")))
+                        .filter(|p| p.is_file());
+                    (stem, f.camera(), fill)
+                })
+                .collect()
+        };
+        if jobs.is_empty() {
+            bail!(
+                "{}: no frame has split {views:?}; nothing to render",
+                frames.root.display()
+            );
+        }
+        let mut filled = 0usize;
+        for (k, (stem, camera, fill)) in jobs.iter().enumerate() {
+            check_cancel(ctx)?;
+            ctx.progress(k as u64, jobs.len() as u64, stem);
+            let fill_image = match fill {
+                Some(path) => Some(Image::load(path)?),
+                None => None,
+            };
+            let backdrop = match &fill_image {
+                Some(img) => {
+                    filled += 1;
+                    Backdrop::Image(img)
+                }
+                None => Backdrop::Uniform(uniform),
+            };
+            let image =
+                render_view(&merged, camera, &backdrop, threads).with_context(|| match fill {
+                    Some(p) => format!("view {stem} (background fill {})", p.display()),
+                    None => format!("view {stem}"),
+                })?;
+            image.save_png8(&out.join(format!("{stem}.png")))?;
+        }
+        ctx.progress(jobs.len() as u64, jobs.len() as u64, "rendered");
+        ctx.note("views", jobs.len());
+        ctx.note("triangles", merged.face_count());
+        if filled > 0 {
+            ctx.note("views over a background fill", filled);
+        }
+        Ok(Outcome::Done)
+    }
+}
+
+/// `evaluate`: image metrics of the test renders and mesh F-score, scene and per object.
+pub struct Evaluate;
+
+impl Node for Evaluate {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("evaluate", "1")
+            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id. Writes metrics.json and metrics.csv.")
+            .input("images", "Images", "renders of the test frames (<frame stem>.png)")
+            .input("frames", "Frames", "the capture; its test split is the ground truth")
+            .input("scene", "Scene", "the scene whose surface is scored")
+            .optional_input("mesh", "Mesh", "ground-truth mesh; per-object F-score needs its object ids")
+            .optional_input("masks", "Masks", "ground-truth object-id maps of the test frames, for per-object image metrics")
+            .output("metrics", "Metrics", "metrics.json + metrics.csv")
+            .param("tau", ParamType::float_range(1e-6, 10.0), Some("0.05"), "F-score distance threshold (m)")
+            .param("voxel", ParamType::float_range(1e-6, 10.0), Some("0.02"), "voxel size for down-sampling both point sets (m)")
+            .param("samples", ParamType::float_range(1.0, 1e8), Some("10000.0"), "surface samples per square metre")
+            .param("seed", ParamType::int_range(0, i64::MAX), Some("0"), "seed of the surface sampling")
+            .param("ssim", ParamType::enumeration(&["gs3d", "cropped"]), Some("\"gs3d\""), "SSIM border convention: 3DGS zero padding, or scikit-image's 5-pixel crop")
+            .param("lpips_weights", ParamType::optional(ParamType::Path), Some("None"), "AlexNet LPIPS weights (safetensors); LPIPS is skipped without it")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let tau: f64 = ctx.param("tau")?;
+        let voxel: f64 = ctx.param("voxel")?;
+        let samples: f64 = ctx.param("samples")?;
+        let seed: i64 = ctx.param("seed")?;
+        let ssim: String = ctx.param("ssim")?;
+        let lpips_path: Option<String> = ctx.param("lpips_weights")?;
+        let ssim = if ssim == "cropped" {
+            SsimMode::Cropped
+        } else {
+            SsimMode::Gs3d
+        };
+        let lpips = match &lpips_path {
+            Some(p) => Some(
+                Lpips::load(Path::new(p))
+                    .with_context(|| format!("{p}: cannot load LPIPS weights"))?,
+            ),
+            None => None,
+        };
+        let frames = Frames::read(ctx.input("frames")?)?;
+        let scene = load_scene(ctx.input("scene")?)?;
+        let gt_mesh = match ctx.input_opt("mesh") {
+            Some(dir) => Some(read_mesh_artifact(dir)?),
+            None => None,
+        };
+        let truth = GroundTruth {
+            mesh: gt_mesh.as_ref().map(|(m, l)| (m, l)),
+            masks: ctx.input_opt("masks"),
+        };
+        let settings = EvaluateSettings {
+            mesh: MeshEvalParams {
+                tau,
+                voxel,
+                samples: SampleCount::PerArea(samples),
+                // Non-negative: the param range starts at 0.
+                seed: seed as u64,
+            },
+            ssim,
+            lpips: lpips.as_ref(),
+        };
+        ctx.progress(0, 1, "evaluating");
+        let (report, summary) =
+            evaluate_scene(ctx.input("images")?, &frames, &scene, &truth, &settings)?;
+        report.write(&ctx.output("metrics")?)?;
+        ctx.progress(1, 1, "evaluated");
+        ctx.note("test images", summary.test_images);
+        ctx.note("images with object masks", summary.images_with_masks);
+        ctx.note("objects", summary.objects);
+        ctx.note(
+            "lpips",
+            if lpips.is_some() {
+                "computed"
+            } else {
+                "skipped: no weights"
+            },
+        );
+        if gt_mesh.is_none() {
+            ctx.note("mesh F-score", "skipped: no ground-truth mesh wired");
+        }
+        Ok(Outcome::Done)
+    }
+}
+
+/// `export_gltf`: the scene as one .glb plus one PLY per member.
+pub struct ExportGltf;
+
+pub const GLB_FILE: &str = "scene.glb";
+pub const PLY_DIR: &str = "ply";
+
+/// The scene's members as export objects: visible faces, display colours (sRGB).
+pub fn export_objects(scene: &Scene) -> Vec<ExportObject> {
+    scene
+        .objects
+        .iter()
+        .map(|o| ExportObject {
+            component: o.entry.component(),
+            positions: o.model.vertices.clone(),
+            faces: visible_faces(&o.model),
+            colors_srgb: SrgbColors::F32(display_colors(&o.model)),
+        })
+        .collect()
+}
+
+impl Node for ExportGltf {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("export_gltf", "1")
+            .doc("Exports the scene as scene.glb (a node per member named obj_<id>_<label> or background, extras with id and label, linear vertex colours from the SH DC term, unlit material, Z-up → Y-up root) and ply/<member>.ply (capture frame, 8-bit sRGB). Faces too faint for the renderer to draw (opacity < 0.01) are left out.")
+            .input("scene", "Scene", "the scene to export")
+            .output("file", "File", "scene.glb + ply/<member>.ply")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let scene = load_scene(ctx.input("scene")?)?;
+        let objects = export_objects(&scene);
+        let out = ctx.output("file")?;
+        let extras = serde_json::json!({
+            "generator": "objectsplat export_gltf",
+            "members": scene.objects.len(),
+        });
+        ctx.progress(0, 2, "writing scene.glb");
+        let written = write_glb(&out.join(GLB_FILE), &objects, Some(&extras))?;
+        ctx.progress(1, 2, "writing PLYs");
+        objectsplat_export::ply::write_component_plys(&out.join(PLY_DIR), &objects)?;
+        ctx.progress(2, 2, "exported");
+        ctx.note("members", written.len());
+        ctx.note(
+            "triangles",
+            written.iter().map(|c| c.triangles).sum::<usize>(),
+        );
+        let dropped: usize = written.iter().map(|c| c.degenerate_faces_dropped).sum();
+        if dropped > 0 {
+            ctx.note("degenerate faces dropped", dropped);
+        }
+        Ok(Outcome::Done)
+    }
+}
+
+pub fn register(reg: &mut Registry) {
+    // Each kind is registered once here; a clash means another crate took the same kind.
+    reg.add_node(Arc::new(Compose))
+        .expect("node kind `compose` is registered once");
+    reg.add_node(Arc::new(EditScene))
+        .expect("node kind `edit_scene` is registered once");
+    reg.add_node(Arc::new(Render))
+        .expect("node kind `render` is registered once");
+    reg.add_node(Arc::new(Evaluate))
+        .expect("node kind `evaluate` is registered once");
+    reg.add_node(Arc::new(ExportGltf))
+        .expect("node kind `export_gltf` is registered once");
+}

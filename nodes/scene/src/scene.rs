@@ -1,0 +1,319 @@
+//! The Scene artifact: the trained components side by side in the shared world frame.
+//!
+//! Encoding (a folder, see the crate README):
+//! - `scene.json`: `{"objects": [{"name", "kind": "object" | "background", "id", "label",
+//!   "source"}]}`, background entries first, then objects by id;
+//! - `objects/<name>/`: one Model folder per entry (`model.ply` + `model.json`);
+//! - `fills/<frame stem>.png` (optional, written by `edit_scene`): background images
+//!   that `render` shows wherever no triangle covers a pixel.
+
+use anyhow::{Context, Result, bail, ensure};
+use objectsplat_core::{ComponentInfo, ComponentKind};
+use objectsplat_raster::{Model, load_model, save_model};
+use serde::{Deserialize, Serialize};
+use std::collections::HashSet;
+use std::path::Path;
+
+pub const SCENE_JSON: &str = "scene.json";
+pub const OBJECTS_DIR: &str = "objects";
+pub const FILLS_DIR: &str = "fills";
+
+/// One entry of `scene.json`.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SceneEntry {
+    /// Unique within the scene; also the folder name under `objects/`.
+    pub name: String,
+    pub kind: ComponentKind,
+    /// Object id (1..=65534); null for the background.
+    pub id: Option<u16>,
+    /// Object label; null for the background.
+    pub label: Option<String>,
+    /// The component (collection item) the model was trained as; a duplicate keeps its original's.
+    pub source: String,
+}
+
+impl SceneEntry {
+    pub fn from_component(info: &ComponentInfo, source: &str) -> SceneEntry {
+        SceneEntry {
+            name: info.name.clone(),
+            kind: info.kind,
+            id: info.object_id,
+            label: info.label.clone(),
+            source: source.to_string(),
+        }
+    }
+
+    /// An object entry named by the core naming rule `obj_<id>_<label>`.
+    pub fn object(id: u16, label: &str, source: &str) -> SceneEntry {
+        SceneEntry::from_component(&ComponentInfo::object(id, label), source)
+    }
+
+    pub fn component(&self) -> ComponentInfo {
+        ComponentInfo {
+            name: self.name.clone(),
+            kind: self.kind,
+            object_id: self.id,
+            label: self.label.clone(),
+        }
+    }
+
+    /// Background entries sort before objects, objects by id; names break ties.
+    fn order_key(&self) -> (u8, u16, String) {
+        match self.kind {
+            ComponentKind::Background => (0, 0, self.name.clone()),
+            ComponentKind::Object => (1, self.id.unwrap_or(0), self.name.clone()),
+        }
+    }
+}
+
+#[derive(Debug, Serialize, Deserialize)]
+struct SceneJson {
+    objects: Vec<SceneEntry>,
+}
+
+/// One member of a scene: its description and its model (world coordinates).
+#[derive(Debug, Clone, PartialEq)]
+pub struct SceneObject {
+    pub entry: SceneEntry,
+    pub model: Model<f32>,
+}
+
+/// A composed scene: separable members in the deterministic order of `scene.json`.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Scene {
+    pub objects: Vec<SceneObject>,
+}
+
+/// The union of a scene's models as one model, and which member each face came from.
+#[derive(Debug, Clone)]
+pub struct MergedModel {
+    pub model: Model<f32>,
+    /// Per merged face, the index of its member in `Scene::objects`.
+    pub face_owner: Vec<usize>,
+}
+
+impl Scene {
+    /// Builds a scene, sorting members into the canonical order and checking the entries.
+    pub fn new(mut objects: Vec<SceneObject>) -> Result<Scene> {
+        objects.sort_by_key(|o| o.entry.order_key());
+        let scene = Scene { objects };
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    /// Names unique and usable as folder names, ids present exactly on objects and unique,
+    /// every model valid.
+    pub fn validate(&self) -> Result<()> {
+        let mut names = HashSet::new();
+        let mut ids = HashSet::new();
+        for o in &self.objects {
+            let e = &o.entry;
+            ensure!(
+                !e.name.is_empty()
+                    && e.name
+                        .chars()
+                        .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'),
+                "scene member name {:?} must be non-empty and use only [A-Za-z0-9_-]",
+                e.name
+            );
+            ensure!(
+                names.insert(e.name.as_str()),
+                "scene member {:?} appears twice",
+                e.name
+            );
+            match (e.kind, e.id) {
+                (ComponentKind::Object, Some(id)) => {
+                    ensure!(
+                        (1..=65534).contains(&id),
+                        "object {:?} has id {id}; ids are 1..=65534",
+                        e.name
+                    );
+                    ensure!(
+                        ids.insert(id),
+                        "object id {id} is used by two scene members"
+                    );
+                }
+                (ComponentKind::Object, None) => bail!("object {:?} has no id", e.name),
+                (ComponentKind::Background, Some(id)) => {
+                    bail!("background {:?} must not carry an object id ({id})", e.name)
+                }
+                (ComponentKind::Background, None) => {}
+            }
+            o.model
+                .validate()
+                .with_context(|| format!("scene member {:?}", e.name))?;
+        }
+        Ok(())
+    }
+
+    pub fn find_id(&self, id: u16) -> Option<usize> {
+        self.objects.iter().position(|o| o.entry.id == Some(id))
+    }
+
+    /// The largest object id in use (0 when there is none).
+    pub fn max_id(&self) -> u16 {
+        self.objects
+            .iter()
+            .filter_map(|o| o.entry.id)
+            .max()
+            .unwrap_or(0)
+    }
+
+    pub fn face_count(&self) -> usize {
+        self.objects.iter().map(|o| o.model.face_count()).sum()
+    }
+
+    /// Concatenates all members' triangles into one model (no re-optimization).
+    ///
+    /// The members keep their opacities: the merged opacity floor is the smallest member
+    /// floor and each member's logits are re-mapped to it. Colours above a member's own
+    /// SH degree are zeroed so that rendering at the largest member degree shows each
+    /// member as trained. σ is the largest member σ (members trained on one schedule agree).
+    pub fn merged_model(&self) -> Result<MergedModel> {
+        let mut merged = Model::<f32>::empty();
+        let floor = self
+            .objects
+            .iter()
+            .map(|o| o.model.opacity_floor)
+            .fold(f64::INFINITY, f64::min);
+        merged.opacity_floor = if floor.is_finite() { floor } else { 0.0 };
+        merged.sh_degree = self
+            .objects
+            .iter()
+            .map(|o| o.model.sh_degree)
+            .max()
+            .unwrap_or(0);
+        merged.sigma = self
+            .objects
+            .iter()
+            .map(|o| o.model.sigma)
+            .fold(f64::NAN, f64::max);
+        if !merged.sigma.is_finite() {
+            merged.sigma = 1.0;
+        }
+        let mut face_owner = Vec::with_capacity(self.face_count());
+        for (index, o) in self.objects.iter().enumerate() {
+            let mut m = o.model.clone();
+            // Re-mapping clamps extreme logits, so members already on the floor keep theirs.
+            if m.opacity_floor != merged.opacity_floor {
+                m.set_opacity_floor(merged.opacity_floor)
+                    .with_context(|| format!("scene member {:?}", o.entry.name))?;
+            }
+            let active = objectsplat_raster::sh::coeff_count(m.sh_degree);
+            let base = merged.vertices.len();
+            ensure!(
+                base + m.vertices.len() <= u32::MAX as usize,
+                "the merged scene has more vertices than u32 indices can address"
+            );
+            merged.vertices.extend_from_slice(&m.vertices);
+            merged.sh.extend(m.sh.iter().map(|rows| {
+                let mut rows = *rows;
+                for row in rows.iter_mut().skip(active) {
+                    *row = [0.0; 3];
+                }
+                rows
+            }));
+            merged.opacity_logits.extend_from_slice(&m.opacity_logits);
+            // `base` fits in u32: checked above.
+            let offset = base as u32;
+            merged
+                .faces
+                .extend(m.faces.iter().map(|f| f.map(|v| v + offset)));
+            face_owner.extend(std::iter::repeat_n(index, m.faces.len()));
+        }
+        Ok(MergedModel {
+            model: merged,
+            face_owner,
+        })
+    }
+}
+
+/// Writes `scene.json` and `objects/<name>/` into `dir` (created if missing).
+pub fn save_scene(scene: &Scene, dir: &Path) -> Result<()> {
+    scene
+        .validate()
+        .context("refusing to save an invalid scene")?;
+    let mut sorted = scene.clone();
+    sorted.objects.sort_by_key(|o| o.entry.order_key());
+    std::fs::create_dir_all(dir.join(OBJECTS_DIR))
+        .with_context(|| format!("{}: cannot create scene folder", dir.display()))?;
+    for o in &sorted.objects {
+        save_model(&o.model, &dir.join(OBJECTS_DIR).join(&o.entry.name))
+            .with_context(|| format!("{}: scene member {:?}", dir.display(), o.entry.name))?;
+    }
+    let json = SceneJson {
+        objects: sorted.objects.iter().map(|o| o.entry.clone()).collect(),
+    };
+    let path = dir.join(SCENE_JSON);
+    std::fs::write(&path, serde_json::to_string_pretty(&json)? + "\n")
+        .with_context(|| format!("{}: cannot write", path.display()))
+}
+
+/// Reads a Scene folder written by [`save_scene`] and validates it.
+pub fn load_scene(dir: &Path) -> Result<Scene> {
+    let path = dir.join(SCENE_JSON);
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    let json: SceneJson = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not a valid scene description", path.display()))?;
+    let mut objects = Vec::with_capacity(json.objects.len());
+    for entry in json.objects {
+        // Checked before the name is used as a path, so it cannot leave the folder.
+        ensure!(
+            !entry.name.is_empty()
+                && entry
+                    .name
+                    .chars()
+                    .all(|c| c.is_ascii_alphanumeric() || c == '_' || c == '-'),
+            "{}: member name {:?} must use only [A-Za-z0-9_-]",
+            path.display(),
+            entry.name
+        );
+        let model = load_model(&dir.join(OBJECTS_DIR).join(&entry.name))
+            .with_context(|| format!("{}: member {:?}", path.display(), entry.name))?;
+        objects.push(SceneObject { entry, model });
+    }
+    let scene = Scene { objects };
+    scene
+        .validate()
+        .with_context(|| format!("{}: invalid scene", path.display()))?;
+    Ok(scene)
+}
+
+/// The component a collection item stands for: model.json's `metadata.component`
+/// (a ComponentInfo) when present, else parsed from the item name
+/// (`background` or `obj_<id>_<label>`).
+pub fn component_of_item(item: &str, model: &Model<f32>) -> Result<ComponentInfo> {
+    if let Some(value) = model.metadata.get("component") {
+        let info: ComponentInfo = serde_json::from_value(value.clone()).with_context(|| {
+            format!("item {item:?}: model.json metadata.component is not a component description")
+        })?;
+        return Ok(info);
+    }
+    parse_item_name(item)
+}
+
+/// `background` (or `background_<anything>`) → the background; `obj_<id>_<label>` → that object.
+pub fn parse_item_name(item: &str) -> Result<ComponentInfo> {
+    if item == "background" || item.starts_with("background_") {
+        let mut info = ComponentInfo::background();
+        info.name = item.to_string();
+        return Ok(info);
+    }
+    let bad = || {
+        anyhow::anyhow!(
+            "item {item:?} is neither `background` nor `obj_<id>_<label>`, and its model.json has no metadata.component"
+        )
+    };
+    let rest = item.strip_prefix("obj_").ok_or_else(bad)?;
+    let (id_text, label) = rest.split_once('_').unwrap_or((rest, ""));
+    let id: u16 = id_text.parse().map_err(|_| bad())?;
+    ensure!(
+        (1..=65534).contains(&id),
+        "item {item:?}: object id {id} is outside 1..=65534"
+    );
+    let mut info = ComponentInfo::object(id, label);
+    // The member keeps the item's own name, so a scene member is traceable to its item.
+    info.name = item.to_string();
+    Ok(info)
+}

@@ -1,0 +1,139 @@
+//! Hand-made scenes for the node tests: a few opaque triangles per member.
+#![allow(dead_code)]
+
+use glam::DVec3;
+use objectsplat_core::{Camera, Frame, Frames, Split};
+use objectsplat_raster::sh::SH_DC;
+use objectsplat_raster::{Model, SH_COEFFS, save_model};
+use std::path::Path;
+
+/// Logit of an almost opaque vertex (sigmoid(8) ≈ 0.9997).
+pub const OPAQUE: f32 = 8.0;
+
+/// A flat square of two triangles in the plane y = `at.y` (seen by cameras on the
+/// −Y side), `size` wide, in one view-independent sRGB colour. σ is tiny so the
+/// window is ≈ 1 over the whole triangle: the render shows the flat colour.
+pub fn square(at: [f32; 3], size: f32, rgb: [f32; 3]) -> Model<f32> {
+    let h = size / 2.0;
+    let [x, y, z] = at;
+    let mut m = Model::<f32>::empty();
+    m.vertices = vec![
+        [x - h, y, z - h],
+        [x + h, y, z - h],
+        [x + h, y, z + h],
+        [x - h, y, z + h],
+    ];
+    m.faces = vec![[0, 1, 2], [0, 2, 3]];
+    let mut rows = [[0.0f32; 3]; SH_COEFFS];
+    rows[0] = rgb.map(|c| ((c as f64 - 0.5) / SH_DC) as f32);
+    m.sh = vec![rows; 4];
+    m.opacity_logits = vec![OPAQUE; 4];
+    m.sigma = 1e-3;
+    m
+}
+
+/// Writes a `[Model]` collection: background wall far away, chair (id 3), cup (id 5), lamp (id 4).
+pub fn write_models(dir: &Path) {
+    save_model(
+        &square([0.0, 3.0, 0.0], 6.0, [0.2, 0.3, 0.8]),
+        &dir.join("background"),
+    )
+    .unwrap();
+    save_model(
+        &square([-0.6, 0.0, 0.0], 0.5, [0.9, 0.1, 0.1]),
+        &dir.join("obj_3_chair"),
+    )
+    .unwrap();
+    save_model(
+        &square([0.6, 0.0, 0.0], 0.4, [0.1, 0.9, 0.1]),
+        &dir.join("obj_5_cup"),
+    )
+    .unwrap();
+    save_model(
+        &square([0.0, 0.5, 0.6], 0.3, [0.9, 0.9, 0.1]),
+        &dir.join("obj_4_lamp"),
+    )
+    .unwrap();
+}
+
+/// A camera on the −Y axis looking at the origin, Z up.
+pub fn front_camera(width: u32, height: u32) -> Camera {
+    Camera::look_at(
+        width,
+        height,
+        width as f64,
+        width as f64,
+        DVec3::new(0.0, -4.0, 0.0),
+        DVec3::ZERO,
+        DVec3::Z,
+    )
+}
+
+/// A Frames folder with the given cameras (images are written as grey placeholders
+/// unless the caller overwrites them).
+pub fn write_frames(dir: &Path, cameras: &[(String, Camera, Split)]) {
+    std::fs::create_dir_all(dir.join("images")).unwrap();
+    let frames: Vec<Frame> = cameras
+        .iter()
+        .map(|(name, cam, split)| {
+            let image = format!("images/{name}.png");
+            objectsplat_core::Image::from_fn(cam.width, cam.height, 3, |_, _, _| 0.5)
+                .save_png8(&dir.join(&image))
+                .unwrap();
+            Frame::new(name, &image, cam, *split)
+        })
+        .collect();
+    Frames::write_json(dir, &frames).unwrap();
+}
+
+/// Every file under `dir` with its bytes, by relative path.
+pub fn files(dir: &Path) -> std::collections::BTreeMap<String, Vec<u8>> {
+    let mut out = std::collections::BTreeMap::new();
+    fn walk(root: &Path, d: &Path, out: &mut std::collections::BTreeMap<String, Vec<u8>>) {
+        for e in std::fs::read_dir(d).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                walk(root, &p, out);
+            } else {
+                let rel = p.strip_prefix(root).unwrap().to_string_lossy().into_owned();
+                out.insert(rel, std::fs::read(&p).unwrap());
+            }
+        }
+    }
+    walk(dir, dir, &mut out);
+    out
+}
+
+/// The pixel whose centre is nearest the projection of `p`.
+pub fn pixel_of(camera: &Camera, p: [f64; 3]) -> (u32, u32) {
+    let (u, v, _) = camera.project(DVec3::from_array(p)).unwrap();
+    (u.floor() as u32, v.floor() as u32)
+}
+
+/// Runs `compose` on the test collection, returning the scene folder.
+pub fn composed_scene(tmp: &Path) -> std::path::PathBuf {
+    let models = tmp.join("models");
+    write_models(&models);
+    let run = objectsplat_runtime::testing::run_node(
+        &objectsplat_scene::nodes::Compose,
+        &[("models", &models)],
+        "()",
+        &tmp.join("compose"),
+        None,
+    )
+    .unwrap();
+    run.outputs["scene"].clone()
+}
+
+/// Runs `edit_scene` with `edits` (RON list) on `scene`, returning the result or the error text.
+pub fn edited(scene: &Path, edits: &str, out: &Path) -> Result<std::path::PathBuf, String> {
+    objectsplat_runtime::testing::run_node(
+        &objectsplat_scene::nodes::EditScene,
+        &[("scene", scene)],
+        &format!("(edits: {edits})"),
+        out,
+        None,
+    )
+    .map(|run| run.outputs["scene"].clone())
+    .map_err(|e| format!("{e:#}"))
+}

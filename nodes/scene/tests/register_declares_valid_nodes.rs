@@ -1,0 +1,18 @@
+//! `register` adds the five scene nodes, and the registry accepts their specs
+//! (known types, unique ports, defaults that parse and fit their types).
+
+use objectsplat_runtime::Registry;
+
+#[test]
+fn all_scene_nodes_register_with_checked_specs() {
+    let mut reg = Registry::new();
+    for t in [
+        "Model", "Scene", "Images", "Frames", "Mesh", "Masks", "Metrics", "File",
+    ] {
+        reg.add_type(t, "test type");
+    }
+    objectsplat_scene::register(&mut reg);
+    for kind in ["compose", "edit_scene", "render", "evaluate", "export_gltf"] {
+        assert!(reg.get(kind).is_some(), "{kind} missing");
+    }
+}

@@ -1,0 +1,158 @@
+//! `render` draws every member from the frames' cameras: object pixels show the object's
+//! colour, uncovered pixels the backdrop colour or, when wired, the frame's background
+//! fill; an orbit circles the objects; the unbuilt wgpu backend is a clear error.
+
+mod common;
+
+use objectsplat_core::{Image, Split};
+use objectsplat_runtime::testing::run_node;
+use objectsplat_scene::load_scene;
+use objectsplat_scene::nodes::Render;
+use objectsplat_scene::render::orbit_cameras;
+
+fn near(a: &[f32], b: [f32; 3], tol: f32) -> bool {
+    a.iter().zip(b).all(|(x, y)| (x - y).abs() <= tol)
+}
+
+#[test]
+fn a_moved_object_reveals_the_fill_where_it_was() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = common::composed_scene(tmp.path());
+    let cam = common::front_camera(64, 64);
+    let frames = tmp.path().join("frames");
+    common::write_frames(
+        &frames,
+        &[
+            ("f0".into(), cam, Split::Test),
+            ("f1".into(), cam, Split::Train),
+        ],
+    );
+    let moved = common::edited(
+        &scene,
+        "[Move(target: Id(3), by: (0, 0, 1.2))]",
+        &tmp.path().join("edit"),
+    )
+    .unwrap();
+    // A fill with a colour no member has.
+    let fills = tmp.path().join("fills");
+    std::fs::create_dir_all(&fills).unwrap();
+    Image::from_fn(64, 64, 3, |_, _, c| [0.4, 0.0, 0.4][c as usize])
+        .save_png8(&fills.join("f0.png"))
+        .unwrap();
+
+    let run = run_node(
+        &Render,
+        &[("scene", &moved), ("frames", &frames), ("fills", &fills)],
+        "(background: [1.0, 1.0, 1.0])",
+        &tmp.path().join("render"),
+        None,
+    )
+    .unwrap();
+    let out = &run.outputs["images"];
+    assert!(
+        out.join("f0.png").is_file() && !out.join("f1.png").exists(),
+        "test views only by default"
+    );
+    let img = Image::load(&out.join("f0.png")).unwrap();
+    let px = |(x, y): (u32, u32)| img.data[((y * 64 + x) * 3) as usize..][..3].to_vec();
+    // Where the chair was (centroid of its first triangle), the wall is behind it, so the
+    // wall shows; the wall does not cover the image corner, where the fill shows instead
+    // of the white backdrop colour.
+    let was_chair = common::pixel_of(&cam, [-0.6 + 0.25 / 3.0, 0.0, -0.25 / 3.0]);
+    assert!(
+        near(&px(was_chair), [0.2, 0.3, 0.8], 0.02),
+        "{:?}",
+        px(was_chair)
+    );
+    assert!(near(&px((0, 0)), [0.4, 0.0, 0.4], 0.01), "{:?}", px((0, 0)));
+    let now_chair = common::pixel_of(&cam, [-0.6 + 0.25 / 3.0, 0.0, 1.2 - 0.25 / 3.0]);
+    assert!(
+        near(&px(now_chair), [0.9, 0.1, 0.1], 0.02),
+        "{:?}",
+        px(now_chair)
+    );
+    let cup = common::pixel_of(&cam, [0.6 + 0.2 / 3.0, 0.0, -0.2 / 3.0]);
+    assert!(near(&px(cup), [0.1, 0.9, 0.1], 0.02), "{:?}", px(cup));
+
+    // Without a fill, the uncovered corner shows the backdrop colour.
+    let run = run_node(
+        &Render,
+        &[("scene", &moved), ("frames", &frames)],
+        "(views: \"all\")",
+        &tmp.path().join("r2"),
+        None,
+    )
+    .unwrap();
+    let img = Image::load(&run.outputs["images"].join("f1.png")).unwrap();
+    assert!(near(&img.data[..3], [0.0, 0.0, 0.0], 0.01));
+}
+
+#[test]
+fn orbit_cameras_circle_the_objects_at_the_frames_distance() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene_dir = common::composed_scene(tmp.path());
+    let scene = load_scene(&scene_dir).unwrap();
+    let cam = common::front_camera(48, 32);
+    let frame = objectsplat_core::Frame::new("f0", "images/f0.png", &cam, Split::Test);
+    let cams = orbit_cameras(&scene, &[frame], 8).unwrap();
+    assert_eq!(cams.len(), 8);
+    // Objects span x ∈ [−0.85, 0.8], y ∈ [0, 0.5], z ∈ [−0.25, 0.75]: focus (−0.025, 0.25, 0.25).
+    let focus = glam::DVec3::new(-0.025, 0.25, 0.25);
+    let expected_radius = (cam.center() - focus).truncate().length();
+    for c in &cams {
+        let (u, v, _) = c.project(focus).unwrap();
+        assert!(
+            (u - 24.0).abs() < 1e-4 && (v - 16.0).abs() < 1e-4,
+            "focus at ({u}, {v})"
+        );
+        let offset = c.center() - focus;
+        assert!((offset.z - (cam.center().z - focus.z)).abs() < 1e-6);
+        assert!((offset.truncate().length() - expected_radius).abs() < 1e-6);
+    }
+    assert!(
+        (cams[0].center() - cam.center()).length() < 1e-6,
+        "the orbit starts at the first frame"
+    );
+
+    let frames = tmp.path().join("frames");
+    common::write_frames(&frames, &[("f0".into(), cam, Split::Test)]);
+    let run = run_node(
+        &Render,
+        &[("scene", &scene_dir), ("frames", &frames)],
+        "(views: \"orbit\", orbit_count: 3)",
+        &tmp.path().join("r"),
+        None,
+    )
+    .unwrap();
+    let names: Vec<String> = std::fs::read_dir(&run.outputs["images"])
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect::<std::collections::BTreeSet<_>>()
+        .into_iter()
+        .collect();
+    assert_eq!(names, ["orbit_000.png", "orbit_001.png", "orbit_002.png"]);
+}
+
+#[test]
+fn the_wgpu_backend_is_reported_as_not_built() {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = common::composed_scene(tmp.path());
+    let frames = tmp.path().join("frames");
+    common::write_frames(
+        &frames,
+        &[("f0".into(), common::front_camera(16, 16), Split::Test)],
+    );
+    let err = run_node(
+        &Render,
+        &[("scene", &scene), ("frames", &frames)],
+        "(backend: \"wgpu\")",
+        &tmp.path().join("r"),
+        None,
+    )
+    .err()
+    .unwrap();
+    assert!(
+        format!("{err:#}").contains("the wgpu backend is not built yet"),
+        "{err:#}"
+    );
+}
