@@ -1,0 +1,199 @@
+//! Adam with per-group learning rates and row-resizable state.
+//!
+//! Every parameter group is a row-major table (one row per vertex, `width`
+//! values per row). Pruning removes rows by a keep mask and densification
+//! appends rows, so the moments of surviving rows must follow their rows.
+
+use anyhow::{Result, bail};
+
+/// One parameter group: its learning rate and the first/second moments of its rows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct AdamGroup {
+    pub name: String,
+    pub lr: f64,
+    /// Values per row (3 for positions, 48 for SH, 1 for opacity logits).
+    pub width: usize,
+    /// Number of `step` calls applied to this group (bias correction).
+    pub steps: u64,
+    m: Vec<f32>,
+    v: Vec<f32>,
+}
+
+impl AdamGroup {
+    pub fn rows(&self) -> usize {
+        self.m.len() / self.width
+    }
+
+    pub fn first_moment(&self) -> &[f32] {
+        &self.m
+    }
+
+    pub fn second_moment(&self) -> &[f32] {
+        &self.v
+    }
+}
+
+#[derive(Debug, Clone, PartialEq)]
+pub struct Adam {
+    pub beta1: f64,
+    pub beta2: f64,
+    pub eps: f64,
+    pub groups: Vec<AdamGroup>,
+}
+
+impl Adam {
+    /// The reference settings: β = (0.9, 0.999), ε = 1e-15.
+    pub fn new() -> Adam {
+        Adam {
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-15,
+            groups: Vec::new(),
+        }
+    }
+
+    /// Adds a group of `rows` rows of `width` values with zero moments; returns its index.
+    pub fn add_group(&mut self, name: &str, lr: f64, width: usize, rows: usize) -> usize {
+        self.groups.push(AdamGroup {
+            name: name.into(),
+            lr,
+            width: width.max(1),
+            steps: 0,
+            m: vec![0.0; rows * width.max(1)],
+            v: vec![0.0; rows * width.max(1)],
+        });
+        self.groups.len() - 1
+    }
+
+    pub fn set_lr(&mut self, group: usize, lr: f64) -> Result<()> {
+        if !lr.is_finite() || lr < 0.0 {
+            bail!("learning rate {lr} must be finite and non-negative");
+        }
+        self.group_mut(group)?.lr = lr;
+        Ok(())
+    }
+
+    fn group_mut(&mut self, group: usize) -> Result<&mut AdamGroup> {
+        let n = self.groups.len();
+        self.groups
+            .get_mut(group)
+            .ok_or_else(|| anyhow::anyhow!("Adam has {n} groups, no group {group}"))
+    }
+
+    /// One Adam update of `params` (the group's rows, flattened) with `grads`.
+    ///
+    /// `m ← β1·m + (1−β1)·g`, `v ← β2·v + (1−β2)·g²`,
+    /// `p ← p − lr·m̂/(√v̂ + ε)` with `m̂ = m/(1−β1^t)`, `v̂ = v/(1−β2^t)`.
+    pub fn step(&mut self, group: usize, params: &mut [f32], grads: &[f32]) -> Result<()> {
+        let (b1, b2, eps) = (self.beta1, self.beta2, self.eps);
+        let g = self.group_mut(group)?;
+        if params.len() != g.m.len() || grads.len() != g.m.len() {
+            bail!(
+                "Adam group {:?}: {} params and {} grads for a state of {} values",
+                g.name,
+                params.len(),
+                grads.len(),
+                g.m.len()
+            );
+        }
+        if let Some(i) = grads.iter().position(|x| !x.is_finite()) {
+            bail!(
+                "Adam group {:?}: gradient {i} is {} (not finite)",
+                g.name,
+                grads[i]
+            );
+        }
+        g.steps += 1;
+        let t = g.steps as i32;
+        let bc1 = 1.0 - b1.powi(t);
+        let bc2 = 1.0 - b2.powi(t);
+        let lr = g.lr;
+        for ((p, &gr), (m, v)) in params
+            .iter_mut()
+            .zip(grads)
+            .zip(g.m.iter_mut().zip(g.v.iter_mut()))
+        {
+            let gr = gr as f64;
+            let m_new = b1 * (*m as f64) + (1.0 - b1) * gr;
+            let v_new = b2 * (*v as f64) + (1.0 - b2) * gr * gr;
+            *m = m_new as f32;
+            *v = v_new as f32;
+            let update = lr * (m_new / bc1) / ((v_new / bc2).sqrt() + eps);
+            *p = (*p as f64 - update) as f32;
+        }
+        Ok(())
+    }
+
+    /// Keeps the rows whose mask entry is true, in order, in every group.
+    pub fn retain_rows(&mut self, keep: &[bool]) -> Result<()> {
+        for g in &mut self.groups {
+            if keep.len() != g.rows() {
+                bail!(
+                    "Adam group {:?} has {} rows but the keep mask has {}",
+                    g.name,
+                    g.rows(),
+                    keep.len()
+                );
+            }
+        }
+        for g in &mut self.groups {
+            let w = g.width;
+            let filter = |src: &[f32]| -> Vec<f32> {
+                src.chunks_exact(w)
+                    .zip(keep)
+                    .filter(|(_, k)| **k)
+                    .flat_map(|(row, _)| row.iter().copied())
+                    .collect()
+            };
+            g.m = filter(&g.m);
+            g.v = filter(&g.v);
+        }
+        Ok(())
+    }
+
+    /// Appends `rows` rows with zero moments to every group.
+    pub fn append_rows(&mut self, rows: usize) {
+        for g in &mut self.groups {
+            let n = g.m.len() + rows * g.width;
+            g.m.resize(n, 0.0);
+            g.v.resize(n, 0.0);
+        }
+    }
+}
+
+impl Default for Adam {
+    fn default() -> Self {
+        Adam::new()
+    }
+}
+
+/// Log-linear decay from `start` at iteration 0 to `end` at `total`
+/// (`exp(lerp(ln start, ln end, t))`), constant at `end` afterwards.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LogLinearDecay {
+    pub start: f64,
+    pub end: f64,
+    pub total: u64,
+}
+
+impl LogLinearDecay {
+    pub fn validate(&self) -> Result<()> {
+        if !(self.start.is_finite() && self.end.is_finite() && self.start > 0.0 && self.end > 0.0) {
+            bail!(
+                "learning-rate decay {} → {} needs finite positive ends",
+                self.start,
+                self.end
+            );
+        }
+        Ok(())
+    }
+
+    pub fn at(&self, iteration: u64) -> f64 {
+        let t = if self.total == 0 {
+            1.0
+        } else {
+            (iteration as f64 / self.total as f64).clamp(0.0, 1.0)
+        };
+        (self.start.ln() * (1.0 - t) + self.end.ln() * t).exp()
+    }
+}

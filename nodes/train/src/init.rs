@@ -1,0 +1,252 @@
+//! Initialization from sparse points: one small triangle per point, and the
+//! choice of which points seed a component.
+
+use anyhow::{Context, Result, bail};
+use glam::{DQuat, DVec3};
+use kiddo::ImmutableKdTree;
+use kiddo::SquaredEuclidean;
+use objectsplat_core::component::{COMPONENT_JSON, IGNORE, OWN};
+use objectsplat_core::{ComponentInfo, Frames, Points, Split};
+use objectsplat_raster::Model;
+use objectsplat_raster::model::{SH_COEFFS, inverse_sigmoid};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use std::num::NonZero;
+use std::path::Path;
+
+/// `Y_0^0`: SH DC coefficient ↔ colour offset from 0.5.
+pub const SH_C0: f64 = 0.282_094_791_773_878_14;
+
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct InitSettings {
+    /// Triangle circumradius = this × RMS distance to the `neighbors` nearest points.
+    pub radius_factor: f64,
+    pub neighbors: usize,
+    pub opacity: f64,
+    pub seed: u64,
+}
+
+impl Default for InitSettings {
+    fn default() -> Self {
+        InitSettings {
+            radius_factor: 2.23,
+            neighbors: 3,
+            opacity: 0.28,
+            seed: 0,
+        }
+    }
+}
+
+/// RMS distance from each point to its `k` nearest other points (0 for a lone point).
+pub fn rms_neighbor_distance(points: &[[f32; 3]], k: usize) -> Vec<f64> {
+    if points.len() < 2 || k == 0 {
+        return vec![0.0; points.len()];
+    }
+    let tree: ImmutableKdTree<f32, 3> = ImmutableKdTree::new_from_slice(points);
+    let want = (k + 1).min(points.len());
+    points
+        .iter()
+        .enumerate()
+        .map(|(i, p)| {
+            // want ≥ 2 because points.len() ≥ 2.
+            let found = tree.nearest_n::<SquaredEuclidean>(
+                p,
+                NonZero::new(want).unwrap_or(NonZero::<usize>::MIN),
+            );
+            let others: Vec<f64> = found
+                .iter()
+                .filter(|n| n.item as usize != i)
+                .take(k)
+                .map(|n| n.distance as f64)
+                .collect();
+            if others.is_empty() {
+                0.0
+            } else {
+                (others.iter().sum::<f64>() / others.len() as f64).sqrt()
+            }
+        })
+        .collect()
+}
+
+/// A uniformly random rotation (normalized 4D Gaussian quaternion, Box–Muller).
+fn random_rotation(rng: &mut Pcg64Mcg) -> DQuat {
+    loop {
+        let mut g = [0.0f64; 4];
+        for pair in g.chunks_mut(2) {
+            let u1: f64 = 1.0 - rng.random::<f64>();
+            let u2: f64 = rng.random::<f64>();
+            let r = (-2.0 * u1.ln()).sqrt();
+            pair[0] = r * (std::f64::consts::TAU * u2).cos();
+            pair[1] = r * (std::f64::consts::TAU * u2).sin();
+        }
+        let q = DQuat::from_xyzw(g[0], g[1], g[2], g[3]);
+        if q.length() > 1e-9 {
+            return q.normalize();
+        }
+    }
+}
+
+/// One right isosceles triangle per point, inscribed in a circle of radius
+/// `radius_factor × RMS 3-NN distance` around it, randomly oriented; SH DC from
+/// the point colour, higher bands zero, opacity `opacity` (floor 0).
+pub fn init_model(points: &Points, settings: &InitSettings) -> Result<Model<f32>> {
+    if points.positions.is_empty() {
+        bail!("no points to initialize from");
+    }
+    if points.colors.len() != points.positions.len() {
+        bail!(
+            "{} points but {} colours",
+            points.positions.len(),
+            points.colors.len()
+        );
+    }
+    if let Some(i) = points
+        .positions
+        .iter()
+        .position(|p| p.iter().any(|c| !c.is_finite()))
+    {
+        bail!("point {i} {:?} is not finite", points.positions[i]);
+    }
+    if !(settings.opacity > 0.0 && settings.opacity < 1.0) {
+        bail!("initial opacity {} must lie in (0, 1)", settings.opacity);
+    }
+    if !(settings.radius_factor.is_finite() && settings.radius_factor > 0.0) {
+        bail!(
+            "radius factor {} must be finite and positive",
+            settings.radius_factor
+        );
+    }
+    let radii = rms_neighbor_distance(&points.positions, settings.neighbors);
+    // A point alone (or duplicated) gets the median radius so its triangle is not degenerate.
+    let mut positive: Vec<f64> = radii.iter().copied().filter(|r| *r > 0.0).collect();
+    positive.sort_by(f64::total_cmp);
+    let fallback = positive.get(positive.len() / 2).copied().unwrap_or(1e-2);
+    let theta = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+    let template = [
+        DVec3::new(0.0, 0.0, 1.0),
+        DVec3::new(theta.cos(), theta.sin(), 0.0),
+        DVec3::new(0.0, 0.0, -1.0),
+    ];
+    let mut rng = Pcg64Mcg::seed_from_u64(settings.seed);
+    let logit = inverse_sigmoid(settings.opacity) as f32;
+    let mut model = Model::<f32>::empty();
+    for (i, (p, rgb)) in points.positions.iter().zip(&points.colors).enumerate() {
+        let r = settings.radius_factor * if radii[i] > 0.0 { radii[i] } else { fallback };
+        let rot = random_rotation(&mut rng);
+        let centre = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+        let base = model.vertices.len() as u32;
+        for d in template {
+            let v = centre + rot * d * r;
+            model.vertices.push([v.x as f32, v.y as f32, v.z as f32]);
+            let mut sh = [[0.0f32; 3]; SH_COEFFS];
+            for c in 0..3 {
+                sh[0][c] = ((rgb[c] as f64 / 255.0 - 0.5) / SH_C0) as f32;
+            }
+            model.sh.push(sh);
+            model.opacity_logits.push(logit);
+        }
+        model.faces.push([base, base + 1, base + 2]);
+    }
+    model.validate().context("initialized model")?;
+    Ok(model)
+}
+
+/// Per-frame ownership masks of a component, loaded from `masks/<stem>.png`.
+pub struct ComponentMasks {
+    pub info: ComponentInfo,
+    pub frames: Frames,
+    /// One 8-bit mask per frame of `frames`, row-major.
+    pub masks: Vec<Vec<u8>>,
+}
+
+impl ComponentMasks {
+    pub fn read(dir: &Path) -> Result<ComponentMasks> {
+        let info_path = dir.join(COMPONENT_JSON);
+        let text = std::fs::read_to_string(&info_path)
+            .with_context(|| format!("{}: cannot read", info_path.display()))?;
+        let info: ComponentInfo = serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a component description", info_path.display()))?;
+        let frames = Frames::read(dir)?;
+        let mut masks = Vec::with_capacity(frames.frames.len());
+        for f in &frames.frames {
+            let stem = objectsplat_core::frames::frame_stem(&f.name);
+            let path = dir.join("masks").join(format!("{stem}.png"));
+            let img = image::open(&path)
+                .with_context(|| format!("{}: cannot read the component mask", path.display()))?
+                .to_luma8();
+            if img.width() != f.width || img.height() != f.height {
+                bail!(
+                    "{}: mask is {}×{} but frame {:?} is {}×{}",
+                    path.display(),
+                    img.width(),
+                    img.height(),
+                    f.name,
+                    f.width,
+                    f.height
+                );
+            }
+            masks.push(img.into_raw());
+        }
+        Ok(ComponentMasks {
+            info,
+            frames,
+            masks,
+        })
+    }
+
+    /// Indices of the points that project inside this component's OWN pixels in
+    /// a strict majority of the training views where they are visible (in front of
+    /// the camera, inside the image, not on an IGNORE pixel).
+    pub fn select_points(&self, points: &Points) -> Vec<usize> {
+        let views: Vec<(objectsplat_core::Camera, &Vec<u8>)> = self
+            .frames
+            .frames
+            .iter()
+            .zip(&self.masks)
+            .filter(|(f, _)| f.split == Split::Train)
+            .map(|(f, m)| (f.camera(), m))
+            .collect();
+        let mut selected = Vec::new();
+        for (i, p) in points.positions.iter().enumerate() {
+            let world = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            let (mut visible, mut own) = (0usize, 0usize);
+            for (cam, mask) in &views {
+                let Some((u, v, _)) = cam.project(world) else {
+                    continue;
+                };
+                if !(u >= 0.0 && v >= 0.0 && u < cam.width as f64 && v < cam.height as f64) {
+                    continue;
+                }
+                let label = mask[v as usize * cam.width as usize + u as usize];
+                if label == IGNORE {
+                    continue;
+                }
+                visible += 1;
+                if label == OWN {
+                    own += 1;
+                }
+            }
+            if visible > 0 && 2 * own > visible {
+                selected.push(i);
+            }
+        }
+        selected
+    }
+
+    /// This component's points, or an error naming the component when none qualifies.
+    pub fn component_points(&self, points: &Points) -> Result<Points> {
+        let chosen = self.select_points(points);
+        if chosen.is_empty() {
+            bail!(
+                "component {:?}: none of the {} sparse points projects inside its own mask in most \
+                 training views where it is visible, so there is nothing to initialize from",
+                self.info.name,
+                points.positions.len()
+            );
+        }
+        Ok(Points {
+            positions: chosen.iter().map(|&i| points.positions[i]).collect(),
+            colors: chosen.iter().map(|&i| points.colors[i]).collect(),
+        })
+    }
+}

@@ -1,0 +1,25 @@
+//! The mesh-splatting trainer's building blocks (see docs/trainer.md):
+//!
+//! - [`adam`]: Adam with per-group learning rates and row-resizable state;
+//! - [`schedule`]: every scheduled number, scaled to the iteration budget;
+//! - [`densify`]: midpoint-subdivision densification and pruning;
+//! - [`delaunay`] + [`connectivity`]: the restricted Delaunay connectivity step;
+//! - [`init`]: triangles from sparse points, and a component's point selection.
+
+// Negated comparisons are deliberate: NaN must fail every acceptance test.
+// Numerical loops index several parallel arrays with one index.
+#![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
+
+pub mod adam;
+pub mod connectivity;
+pub mod delaunay;
+pub mod densify;
+pub mod init;
+pub mod schedule;
+
+pub use adam::{Adam, LogLinearDecay};
+pub use schedule::Schedule;
+pub mod node;
+pub mod trainer;
+
+pub use node::register;

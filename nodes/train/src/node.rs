@@ -1,0 +1,176 @@
+//! The `train` node: one component (fanned out over `[Component]` in graphs)
+//! and the sparse points → a trained Model.
+
+use crate::init::{ComponentMasks, InitSettings};
+use crate::schedule::Schedule;
+use crate::trainer::{ComponentData, TrainSettings, train_component};
+use anyhow::{Result, bail};
+use objectsplat_core::Points;
+use objectsplat_raster::{CpuBackend, RenderBackend, save_model};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use serde_json::{Map, Number, Value};
+use std::collections::BTreeMap;
+use std::sync::Arc;
+
+/// Numbers from the graph as JSON: whole numbers as integers (iteration counts
+/// are integers in the schedule), the rest as floats.
+fn schedule_overrides(given: &BTreeMap<String, f64>) -> Result<Map<String, Value>> {
+    let mut map = Map::new();
+    for (name, &v) in given {
+        if !v.is_finite() {
+            bail!("schedule setting `{name}` = {v} is not finite");
+        }
+        let number = if v.fract() == 0.0 && v.abs() < 9.0e15 {
+            Number::from(v as i64)
+        } else {
+            Number::from_f64(v).ok_or_else(|| anyhow::anyhow!("schedule setting `{name}` = {v}"))?
+        };
+        map.insert(name.clone(), Value::Number(number));
+    }
+    Ok(map)
+}
+
+pub fn register(reg: &mut Registry) {
+    let node: Arc<dyn Node> = Arc::new(TrainNode);
+    // The kind is unique within this crate; a clash means another crate
+    // registered `train` first, which the catalogue's tests catch.
+    if let Err(e) = reg.add_node(node) {
+        panic!("registering train: {e}");
+    }
+}
+
+pub struct TrainNode;
+
+/// Picks the render backend named by the `backend` parameter.
+pub fn choose_backend(
+    name: &str,
+    threads: usize,
+) -> Result<(Box<dyn RenderBackend<f32>>, Option<String>)> {
+    match name {
+        "cpu" => Ok((Box::new(CpuBackend::new(threads)), None)),
+        "auto" => Ok((
+            Box::new(CpuBackend::new(threads)),
+            Some("cpu (auto: the GPU backend is not built yet)".into()),
+        )),
+        "wgpu" => bail!("backend \"wgpu\" is not built yet; use \"cpu\" or \"auto\""),
+        other => bail!("unknown backend {other:?}; expected \"auto\", \"cpu\" or \"wgpu\""),
+    }
+}
+
+impl Node for TrainNode {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("train", "1")
+            .doc(
+                "Mesh-splatting optimization of one component, initialized from the sparse points \
+                  that fall inside its mask; objects are trained with background randomization.",
+            )
+            .input(
+                "component",
+                "Component",
+                "the component to train (fan out over [Component])",
+            )
+            .input("points", "Points", "sparse SfM points of the scene")
+            .output(
+                "model",
+                "Model",
+                "the best model on the component's held-out views",
+            )
+            .param(
+                "iterations",
+                ParamType::int_range(1, 10_000_000),
+                Some("3000"),
+                "iteration budget; every schedule number scales with it",
+            )
+            .param(
+                "seed",
+                ParamType::int_range(0, i64::MAX),
+                Some("0"),
+                "seed of initialization, view order, background colours and sampling",
+            )
+            .param(
+                "background_randomization",
+                ParamType::Bool,
+                Some("true"),
+                "draw the background colour uniformly every iteration (false: black)",
+            )
+            .param(
+                "backend",
+                ParamType::enumeration(&["auto", "cpu", "wgpu"]),
+                Some("\"auto\""),
+                "render backend",
+            )
+            .param(
+                "world_scale",
+                ParamType::float_range(1e-9, 1e9),
+                Some("1.0"),
+                "scene units per metre, scales the renderer's depth thresholds",
+            )
+            .param(
+                "schedule",
+                ParamType::Ron("map of schedule settings".into()),
+                Some("{}"),
+                "overrides of the scaled reference schedule by field name, e.g. \
+                 {\"lr_sh_dc\": 0.03, \"patience\": 300} (see objectsplat_train::Schedule)",
+            )
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let iterations: i64 = ctx.param("iterations")?;
+        let seed: i64 = ctx.param("seed")?;
+        let randomize: bool = ctx.param("background_randomization")?;
+        let backend_name: String = ctx.param("backend")?;
+        let world_scale: f64 = ctx.param("world_scale")?;
+        let overrides: BTreeMap<String, f64> = ctx.param("schedule")?;
+        let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
+        let (backend, note) = choose_backend(&backend_name, ctx.threads())?;
+        if let Some(n) = note {
+            ctx.note("backend", n);
+        }
+        let component_dir = ctx.input("component")?.to_path_buf();
+        let points_path = ctx.input("points")?.join("points.ply");
+        let all_points = Points::read_ply(&points_path)?;
+        let masks = ComponentMasks::read(&component_dir)?;
+        let points = masks.component_points(&all_points)?;
+        ctx.note(
+            "points",
+            format!(
+                "{} of {}",
+                points.positions.len(),
+                all_points.positions.len()
+            ),
+        );
+        let data = ComponentData::read(&component_dir)?;
+        let settings = TrainSettings {
+            schedule,
+            seed: seed as u64,
+            background_randomization: randomize,
+            fixed_background: [0.0; 3],
+            init: InitSettings::default(),
+            world_scale,
+        };
+        let report = {
+            let ctx_ref = &*ctx;
+            train_component(
+                backend.as_ref(),
+                &data,
+                &points,
+                &settings,
+                |done, total| {
+                    if done % 50 == 0 || done == total {
+                        ctx_ref.progress(done, total, "training");
+                    }
+                    !ctx_ref.cancelled()
+                },
+            )?
+        };
+        ctx.note("iterations", report.iterations_run);
+        ctx.note("best_iteration", report.best_iteration);
+        ctx.note("best_score", format!("{:.5}", report.best_score));
+        ctx.note("faces", report.model.face_count());
+        for n in &report.notes {
+            ctx.note("schedule", n);
+        }
+        save_model(&report.model, &ctx.output("model")?)?;
+        Ok(Outcome::Done)
+    }
+}

@@ -1,0 +1,275 @@
+//! Every scheduled number of the trainer, with the reference defaults (a 30k
+//! iteration budget) scaled linearly to the actual budget.
+//!
+//! Iteration counts (starts, ends, periods) scale with `iterations / 30000`
+//! (periods never below 1); rates, thresholds and fractions do not scale.
+//! Any field can be overridden by name (`Schedule::new(iterations, overrides)`).
+
+use anyhow::{Context, Result, bail};
+use serde::{Deserialize, Serialize};
+use serde_json::{Map, Value};
+
+/// The iteration budget the reference numbers are given for.
+pub const REFERENCE_ITERATIONS: u64 = 30_000;
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Schedule {
+    pub iterations: u64,
+
+    /// Vertex learning rate, decaying log-linearly over the run.
+    pub lr_vertices_start: f64,
+    pub lr_vertices_end: f64,
+    pub lr_sh_dc: f64,
+    /// The higher SH bands learn at `lr_sh_dc / sh_rest_lr_divisor`.
+    pub sh_rest_lr_divisor: f64,
+    pub lr_opacity: f64,
+
+    /// Window sharpness σ, linear from start (iteration 0) to end (last iteration).
+    pub sigma_start: f64,
+    pub sigma_end: f64,
+
+    /// SH degree grows by one every this many iterations, up to `sh_max_degree`.
+    pub sh_degree_every: u64,
+    pub sh_max_degree: u32,
+
+    /// The opacity floor is 0 before `floor_start`; from then on, every
+    /// `floor_every` iterations, `m = floor_base + floor_gain·min(1, (it − floor_start)/floor_ramp)`.
+    pub floor_start: u64,
+    pub floor_every: u64,
+    pub floor_base: f64,
+    pub floor_gain: f64,
+    pub floor_ramp: u64,
+    /// After the connectivity step the floor pauses for this many iterations.
+    pub floor_pause_after_connectivity: u64,
+
+    /// Pruning every `prune_every` iterations from `prune_start` until the connectivity step.
+    pub prune_start: u64,
+    pub prune_every: u64,
+    /// Threshold `prune_threshold + prune_threshold_step·⌊(it − prune_threshold_rise_start)/prune_every⌋`
+    /// (the increment counts only once the rise has started).
+    pub prune_threshold: f64,
+    pub prune_threshold_step: f64,
+    pub prune_threshold_rise_start: u64,
+    /// Faces whose screen extent (px) exceeds this in any view are pruned.
+    pub prune_max_screen_extent: f64,
+
+    /// Densification at `densify_start`, `+densify_every`, … up to `densify_until` (inclusive).
+    pub densify_start: u64,
+    pub densify_every: u64,
+    pub densify_until: u64,
+    /// Fraction of faces added (faces split = ⌊(1 + growth)·T⌋ − T).
+    pub densify_growth: f64,
+    /// Faces with a 3D area below this are never sampled.
+    pub densify_min_area: f64,
+    /// The largest-area faces always split at each densification.
+    pub densify_always_largest: usize,
+    /// Densification stops adding once the model has this many vertices.
+    pub max_vertices: usize,
+
+    /// Iteration at whose start the restricted Delaunay connectivity step runs.
+    pub connectivity_at: u64,
+
+    /// After training, faces whose max blending weight over the training views is ≤ this are removed.
+    pub final_prune_threshold: f64,
+
+    /// Held-out evaluation (best checkpoint) every this many iterations.
+    pub eval_every: u64,
+    /// Early stop when the held-out score has not improved for this many iterations
+    /// (counted only after the connectivity step).
+    pub patience: u64,
+}
+
+/// A reference iteration count scaled to the budget.
+fn scale_at(reference: u64, iterations: u64) -> u64 {
+    ((reference as f64) * iterations as f64 / REFERENCE_ITERATIONS as f64).round() as u64
+}
+
+/// A reference period scaled to the budget, never below 1.
+fn scale_every(reference: u64, iterations: u64) -> u64 {
+    scale_at(reference, iterations).max(1)
+}
+
+impl Schedule {
+    /// The reference schedule scaled to `iterations`.
+    pub fn scaled(iterations: u64) -> Schedule {
+        let at = |r| scale_at(r, iterations);
+        let every = |r| scale_every(r, iterations);
+        Schedule {
+            iterations,
+            lr_vertices_start: 1.5e-3,
+            lr_vertices_end: 1.5e-5,
+            lr_sh_dc: 1.6e-3,
+            sh_rest_lr_divisor: 20.0,
+            lr_opacity: 0.03,
+            sigma_start: 1.0,
+            sigma_end: 1e-4,
+            sh_degree_every: every(1000),
+            sh_max_degree: 3,
+            floor_start: at(5000),
+            floor_every: every(500),
+            floor_base: 0.1,
+            floor_gain: 0.8999,
+            floor_ramp: every(19_000),
+            floor_pause_after_connectivity: at(1000),
+            prune_start: at(4000),
+            prune_every: every(500),
+            prune_threshold: 0.235,
+            prune_threshold_step: 0.01,
+            prune_threshold_rise_start: at(5000),
+            prune_max_screen_extent: 1400.0,
+            densify_start: at(1000),
+            densify_every: every(500),
+            densify_until: at(9500),
+            densify_growth: 0.23,
+            densify_min_area: 7.5e-5,
+            densify_always_largest: 100,
+            max_vertices: 4_000_000,
+            // The reference runs it at the start of iteration densify_until + 1000 + 1 (11001).
+            connectivity_at: at(11_000) + 1,
+            final_prune_threshold: 0.5,
+            eval_every: every(500),
+            patience: every(3000),
+        }
+    }
+
+    /// The scaled schedule with named fields replaced (unknown names are an error).
+    pub fn new(iterations: u64, overrides: &Map<String, Value>) -> Result<Schedule> {
+        let base = Schedule::scaled(iterations);
+        let mut value = serde_json::to_value(&base).context("serialising the schedule")?;
+        let Value::Object(fields) = &mut value else {
+            bail!("the schedule did not serialise to an object");
+        };
+        for (k, v) in overrides {
+            if k == "iterations" {
+                bail!("schedule override `iterations`: set it through the iteration budget");
+            }
+            if !fields.contains_key(k) {
+                bail!("unknown schedule setting `{k}`");
+            }
+            fields.insert(k.clone(), v.clone());
+        }
+        let s: Schedule = serde_json::from_value(value).context("schedule overrides")?;
+        s.validate()?;
+        Ok(s)
+    }
+
+    pub fn validate(&self) -> Result<()> {
+        let positive = [
+            ("lr_vertices_start", self.lr_vertices_start),
+            ("lr_vertices_end", self.lr_vertices_end),
+            ("sh_rest_lr_divisor", self.sh_rest_lr_divisor),
+            ("sigma_start", self.sigma_start),
+            ("sigma_end", self.sigma_end),
+        ];
+        for (name, v) in positive {
+            if !v.is_finite() || v <= 0.0 {
+                bail!("schedule {name} = {v} must be finite and positive");
+            }
+        }
+        let non_negative = [
+            ("lr_sh_dc", self.lr_sh_dc),
+            ("lr_opacity", self.lr_opacity),
+            ("floor_base", self.floor_base),
+            ("floor_gain", self.floor_gain),
+            ("prune_threshold", self.prune_threshold),
+            ("prune_threshold_step", self.prune_threshold_step),
+            ("prune_max_screen_extent", self.prune_max_screen_extent),
+            ("densify_growth", self.densify_growth),
+            ("densify_min_area", self.densify_min_area),
+            ("final_prune_threshold", self.final_prune_threshold),
+        ];
+        for (name, v) in non_negative {
+            if !v.is_finite() || v < 0.0 {
+                bail!("schedule {name} = {v} must be finite and non-negative");
+            }
+        }
+        if self.floor_base + self.floor_gain >= 1.0 {
+            bail!(
+                "schedule floor_base + floor_gain = {} must stay below 1",
+                self.floor_base + self.floor_gain
+            );
+        }
+        for (name, v) in [
+            ("sh_degree_every", self.sh_degree_every),
+            ("floor_every", self.floor_every),
+            ("floor_ramp", self.floor_ramp),
+            ("prune_every", self.prune_every),
+            ("densify_every", self.densify_every),
+            ("eval_every", self.eval_every),
+        ] {
+            if v == 0 {
+                bail!("schedule {name} must be at least 1");
+            }
+        }
+        if self.sh_max_degree > 3 {
+            bail!("schedule sh_max_degree {} exceeds 3", self.sh_max_degree);
+        }
+        Ok(())
+    }
+
+    pub fn lr_vertices(&self, it: u64) -> f64 {
+        crate::adam::LogLinearDecay {
+            start: self.lr_vertices_start,
+            end: self.lr_vertices_end,
+            total: self.iterations,
+        }
+        .at(it)
+    }
+
+    pub fn sigma(&self, it: u64) -> f64 {
+        let t = if self.iterations == 0 {
+            1.0
+        } else {
+            (it as f64 / self.iterations as f64).min(1.0)
+        };
+        self.sigma_start + (self.sigma_end - self.sigma_start) * t
+    }
+
+    pub fn sh_degree(&self, it: u64) -> u32 {
+        ((it / self.sh_degree_every).min(self.sh_max_degree as u64)) as u32
+    }
+
+    /// The new floor to apply at the start of iteration `it`, if it changes then.
+    pub fn floor_update(&self, it: u64) -> Option<f64> {
+        if it < self.floor_start || !(it - self.floor_start).is_multiple_of(self.floor_every) {
+            return None;
+        }
+        let paused_from = self.connectivity_at;
+        let paused_until = self.connectivity_at + self.floor_pause_after_connectivity;
+        if (paused_from..paused_until).contains(&it) {
+            return None;
+        }
+        let ramp = ((it - self.floor_start) as f64 / self.floor_ramp as f64).min(1.0);
+        Some(self.floor_base + self.floor_gain * ramp)
+    }
+
+    /// The pruning threshold at iteration `it`, when pruning happens then.
+    pub fn prune_at(&self, it: u64) -> Option<f64> {
+        if it < self.prune_start
+            || it >= self.connectivity_at
+            || !(it - self.prune_start).is_multiple_of(self.prune_every)
+        {
+            return None;
+        }
+        Some(self.prune_threshold_at(it))
+    }
+
+    pub fn prune_threshold_at(&self, it: u64) -> f64 {
+        let steps = it.saturating_sub(self.prune_threshold_rise_start) / self.prune_every;
+        self.prune_threshold + self.prune_threshold_step * steps as f64
+    }
+
+    /// Whether densification happens at the start of iteration `it`.
+    pub fn densify_at(&self, it: u64) -> bool {
+        it >= self.densify_start
+            && it <= self.densify_until
+            && it < self.connectivity_at
+            && (it - self.densify_start).is_multiple_of(self.densify_every)
+    }
+
+    /// Number of faces to split for a model of `faces` faces.
+    pub fn densify_count(&self, faces: usize) -> usize {
+        (((1.0 + self.densify_growth) * faces as f64).floor() as usize).saturating_sub(faces)
+    }
+}

@@ -1,0 +1,446 @@
+//! The training loop for one component (an object or the background).
+//!
+//! Each step renders one random training view. Object components keep their
+//! own pixels and supervise every OTHER pixel toward the background colour,
+//! drawn uniformly at random every iteration when background randomization is
+//! on; the background component gives OTHER pixels zero weight; IGNORE pixels
+//! are never supervised. The schedule drives σ, the SH degree, the opacity
+//! floor, densification, pruning and the connectivity step; the best model on
+//! the held-out views is kept and training stops early after `patience`.
+
+use crate::adam::Adam;
+use crate::connectivity::{ConnectivityOptions, restricted_delaunay};
+use crate::densify::{
+    DensifyPolicy, VertexEdit, prune_faces, select_faces_to_split, subdivide_faces,
+};
+use crate::init::{ComponentMasks, InitSettings, init_model};
+use crate::schedule::Schedule;
+use anyhow::{Context, Result, bail};
+use objectsplat_core::component::{IGNORE, OTHER, OWN};
+use objectsplat_core::{Camera, ComponentKind, Image, Points, Split};
+use objectsplat_raster::loss::{DEFAULT_LAMBDA_DSSIM, Dims, photometric};
+use objectsplat_raster::model::SH_COEFFS;
+use objectsplat_raster::{Model, OutputGrads, RenderBackend, RenderSettings};
+use rand::{Rng, SeedableRng};
+use rand_pcg::Pcg64Mcg;
+use std::path::Path;
+
+/// One supervised view of a component.
+pub struct View {
+    pub name: String,
+    pub camera: Camera,
+    /// Target colours, H×W×3 (the frame image, or the component's replacement targets).
+    pub target: Vec<f32>,
+    /// Per-pixel ownership label (OWN / OTHER / IGNORE).
+    pub labels: Vec<u8>,
+    pub split: Split,
+}
+
+/// What a component is trained on.
+pub struct ComponentData {
+    pub name: String,
+    pub kind: ComponentKind,
+    pub views: Vec<View>,
+}
+
+impl ComponentData {
+    /// Reads a Component folder: frames, images, masks and optional replacement targets.
+    pub fn read(dir: &Path) -> Result<ComponentData> {
+        let masks = ComponentMasks::read(dir)?;
+        let mut views = Vec::new();
+        for (frame, labels) in masks.frames.frames.iter().zip(&masks.masks) {
+            let mut target = masks.frames.load_rgb(frame)?.data;
+            let stem = objectsplat_core::frames::frame_stem(&frame.name);
+            let replacement = dir.join("targets").join(format!("{stem}.png"));
+            if replacement.exists() {
+                let img = Image::load(&replacement)?.to_rgb();
+                if img.width != frame.width || img.height != frame.height {
+                    bail!(
+                        "{}: target is {}×{} but the frame is {}×{}",
+                        replacement.display(),
+                        img.width,
+                        img.height,
+                        frame.width,
+                        frame.height
+                    );
+                }
+                for (p, &l) in labels.iter().enumerate() {
+                    if l == OWN {
+                        target[3 * p..3 * p + 3].copy_from_slice(&img.data[3 * p..3 * p + 3]);
+                    }
+                }
+            }
+            if let Some(i) = target.iter().position(|v| !v.is_finite()) {
+                bail!("frame {:?}: target value {i} is not finite", frame.name);
+            }
+            views.push(View {
+                name: frame.name.clone(),
+                camera: frame.camera(),
+                target,
+                labels: labels.clone(),
+                split: frame.split,
+            });
+        }
+        Ok(ComponentData {
+            name: masks.info.name.clone(),
+            kind: masks.info.kind,
+            views,
+        })
+    }
+}
+
+#[derive(Debug, Clone)]
+pub struct TrainSettings {
+    pub schedule: Schedule,
+    pub seed: u64,
+    /// Draw the background colour uniformly in [0,1]³ every iteration (else `fixed_background`).
+    pub background_randomization: bool,
+    pub fixed_background: [f32; 3],
+    pub init: InitSettings,
+    /// Scales the renderer's depth thresholds for scenes not in metres.
+    pub world_scale: f64,
+}
+
+/// The trained model and what happened.
+pub struct TrainReport {
+    pub model: Model<f32>,
+    pub iterations_run: u64,
+    pub best_iteration: u64,
+    /// Held-out photometric loss of the returned (finally pruned) model; lower is better.
+    pub best_score: f64,
+    pub notes: Vec<String>,
+}
+
+/// Pixel weights and targets of one view under background colour `b`.
+pub fn supervision(view: &View, kind: ComponentKind, b: [f32; 3]) -> (Vec<f32>, Vec<f32>) {
+    let mut target = view.target.clone();
+    let weights = view
+        .labels
+        .iter()
+        .enumerate()
+        .map(|(p, &l)| match (l, kind) {
+            (OWN, _) => 1.0,
+            (OTHER, ComponentKind::Object) => {
+                target[3 * p..3 * p + 3].copy_from_slice(&b);
+                1.0
+            }
+            (IGNORE, _) | (OTHER, ComponentKind::Background) => 0.0,
+            // Any other grey value is an unowned pixel: treated as not supervised.
+            _ => 0.0,
+        })
+        .collect();
+    (target, weights)
+}
+
+struct Optim {
+    adam: Adam,
+    vertices: usize,
+    sh_dc: usize,
+    sh_rest: usize,
+    opacity: usize,
+}
+
+impl Optim {
+    fn new(schedule: &Schedule, rows: usize) -> Optim {
+        let mut adam = Adam::new();
+        let vertices = adam.add_group("vertices", schedule.lr_vertices_start, 3, rows);
+        let sh_dc = adam.add_group("sh_dc", schedule.lr_sh_dc, 3, rows);
+        let sh_rest = adam.add_group(
+            "sh_rest",
+            schedule.lr_sh_dc / schedule.sh_rest_lr_divisor,
+            3 * (SH_COEFFS - 1),
+            rows,
+        );
+        let opacity = adam.add_group("opacity", schedule.lr_opacity, 1, rows);
+        Optim {
+            adam,
+            vertices,
+            sh_dc,
+            sh_rest,
+            opacity,
+        }
+    }
+
+    fn apply_edit(&mut self, edit: &VertexEdit) -> Result<()> {
+        self.adam.retain_rows(&edit.keep)?;
+        self.adam.append_rows(edit.appended);
+        Ok(())
+    }
+
+    fn step(
+        &mut self,
+        model: &mut Model<f32>,
+        grads: &objectsplat_raster::ModelGrads<f32>,
+    ) -> Result<()> {
+        let mut pos: Vec<f32> = model.vertices.iter().flatten().copied().collect();
+        let g: Vec<f32> = grads.vertices.iter().flatten().copied().collect();
+        self.adam.step(self.vertices, &mut pos, &g)?;
+        for (v, p) in model.vertices.iter_mut().zip(pos.chunks_exact(3)) {
+            v.copy_from_slice(p);
+        }
+        let mut dc: Vec<f32> = model.sh.iter().flat_map(|s| s[0]).collect();
+        let gdc: Vec<f32> = grads.sh.iter().flat_map(|s| s[0]).collect();
+        self.adam.step(self.sh_dc, &mut dc, &gdc)?;
+        let mut rest: Vec<f32> = model
+            .sh
+            .iter()
+            .flat_map(|s| s[1..].iter().flatten().copied())
+            .collect();
+        let grest: Vec<f32> = grads
+            .sh
+            .iter()
+            .flat_map(|s| s[1..].iter().flatten().copied())
+            .collect();
+        self.adam.step(self.sh_rest, &mut rest, &grest)?;
+        for (v, s) in model.sh.iter_mut().enumerate() {
+            s[0].copy_from_slice(&dc[3 * v..3 * v + 3]);
+            for k in 1..SH_COEFFS {
+                let o = v * 3 * (SH_COEFFS - 1) + 3 * (k - 1);
+                s[k].copy_from_slice(&rest[o..o + 3]);
+            }
+        }
+        self.adam.step(
+            self.opacity,
+            &mut model.opacity_logits,
+            &grads.opacity_logits,
+        )
+    }
+}
+
+fn render_settings(model: &Model<f32>, settings: &TrainSettings) -> RenderSettings {
+    RenderSettings::for_model(model).with_world_scale(settings.world_scale)
+}
+
+/// Mean photometric loss over the held-out views (training views when none is
+/// held out), over a black background: stray coverage of OTHER pixels costs.
+pub fn held_out_score(
+    backend: &dyn RenderBackend<f32>,
+    model: &Model<f32>,
+    data: &ComponentData,
+    settings: &TrainSettings,
+) -> Result<f64> {
+    let test: Vec<&View> = data
+        .views
+        .iter()
+        .filter(|v| v.split == Split::Test)
+        .collect();
+    let views: Vec<&View> = if test.is_empty() {
+        data.views
+            .iter()
+            .filter(|v| v.split == Split::Train)
+            .collect()
+    } else {
+        test
+    };
+    let mut total = 0.0;
+    for view in &views {
+        let pixels = view.labels.len();
+        let bg = vec![0.0f32; 3 * pixels];
+        let (out, _) =
+            backend.forward(model, &view.camera, &render_settings(model, settings), &bg)?;
+        let (target, weights) = supervision(view, data.kind, [0.0; 3]);
+        let dims = Dims::rgb(view.camera.width, view.camera.height);
+        total += photometric(
+            dims,
+            &out.color,
+            &target,
+            Some(&weights),
+            DEFAULT_LAMBDA_DSSIM,
+        )?
+        .value as f64;
+    }
+    Ok(total / views.len().max(1) as f64)
+}
+
+/// Per face, the largest blending weight over all training views (what pruning,
+/// densification and the final prune judge faces by).
+fn max_weight_over_views(
+    backend: &dyn RenderBackend<f32>,
+    model: &Model<f32>,
+    views: &[&View],
+    settings: &TrainSettings,
+) -> Result<Vec<f32>> {
+    let mut max_weight = vec![0.0f32; model.face_count()];
+    for view in views {
+        let bg = vec![0.0f32; 3 * view.labels.len()];
+        let (out, _) =
+            backend.forward(model, &view.camera, &render_settings(model, settings), &bg)?;
+        for (m, &w) in max_weight.iter_mut().zip(&out.face_max_weight) {
+            *m = m.max(w);
+        }
+    }
+    Ok(max_weight)
+}
+
+/// Trains one component from its sparse points. `progress(done, total)` returns
+/// false to interrupt the run (an error).
+pub fn train_component(
+    backend: &dyn RenderBackend<f32>,
+    data: &ComponentData,
+    points: &Points,
+    settings: &TrainSettings,
+    mut progress: impl FnMut(u64, u64) -> bool,
+) -> Result<TrainReport> {
+    let s = &settings.schedule;
+    s.validate()?;
+    if !(settings.world_scale.is_finite() && settings.world_scale > 0.0) {
+        bail!(
+            "world_scale {} must be finite and positive",
+            settings.world_scale
+        );
+    }
+    let train: Vec<usize> = (0..data.views.len())
+        .filter(|&i| data.views[i].split == Split::Train)
+        .collect();
+    if train.is_empty() {
+        bail!("component {:?} has no training views", data.name);
+    }
+    let mut model = init_model(
+        points,
+        &InitSettings {
+            seed: settings.seed,
+            ..settings.init
+        },
+    )
+    .with_context(|| format!("initializing component {:?}", data.name))?;
+    let mut optim = Optim::new(s, model.vertex_count());
+    let mut rng = Pcg64Mcg::seed_from_u64(settings.seed ^ 0x9e37_79b9_7f4a_7c15);
+    let train_views: Vec<&View> = train.iter().map(|&i| &data.views[i]).collect();
+    let mut best: Option<(f64, u64, Model<f32>)> = None;
+    let mut notes = Vec::new();
+    let mut it = 0;
+    while it < s.iterations {
+        if it == s.connectivity_at && model.face_count() > 0 {
+            model.faces = restricted_delaunay(
+                &model.vertices,
+                &model.faces,
+                ConnectivityOptions {
+                    include_hull_faces: true,
+                    seed: settings.seed,
+                },
+            )?;
+            notes.push(format!(
+                "connectivity step at {it}: {} faces",
+                model.face_count()
+            ));
+            // Scores before the connected mesh are not comparable: start over.
+            best = None;
+        }
+        if let Some(m) = s.floor_update(it) {
+            model.set_opacity_floor(m)?;
+        }
+        model.sigma = s.sigma(it);
+        model.sh_degree = s.sh_degree(it);
+        if let Some(threshold) = s.prune_at(it) {
+            let face_max_weight = max_weight_over_views(backend, &model, &train_views, settings)?;
+            let keep: Vec<bool> = (0..model.face_count())
+                .map(|f| {
+                    model.face_opacity(f) as f64 > threshold
+                        && face_max_weight[f] as f64 > threshold
+                })
+                .collect();
+            // Never prune the model away entirely; the held-out score decides what survives.
+            if keep.iter().any(|&k| k) {
+                let edit = prune_faces(&mut model, &keep)?;
+                optim.apply_edit(&edit)?;
+            }
+        }
+        if s.densify_at(it) && model.vertex_count() < s.max_vertices {
+            let policy = DensifyPolicy {
+                count: s.densify_count(model.face_count()),
+                min_area: s.densify_min_area * settings.world_scale * settings.world_scale,
+                always_largest: s.densify_always_largest,
+            };
+            let face_max_weight = max_weight_over_views(backend, &model, &train_views, settings)?;
+            let chosen = select_faces_to_split(&model, &face_max_weight, policy, &mut rng)?;
+            let edit = subdivide_faces(&mut model, &chosen)?;
+            optim.apply_edit(&edit)?;
+        }
+        optim.adam.set_lr(optim.vertices, s.lr_vertices(it))?;
+
+        let view = &data.views[train[rng.random_range(0..train.len())]];
+        let b = if settings.background_randomization {
+            [
+                rng.random::<f32>(),
+                rng.random::<f32>(),
+                rng.random::<f32>(),
+            ]
+        } else {
+            settings.fixed_background
+        };
+        let pixels = view.labels.len();
+        let bg: Vec<f32> = (0..3 * pixels).map(|i| b[i % 3]).collect();
+        let (out, saved) = backend.forward(
+            &model,
+            &view.camera,
+            &render_settings(&model, settings),
+            &bg,
+        )?;
+        let (target, weights) = supervision(view, data.kind, b);
+        let dims = Dims::rgb(view.camera.width, view.camera.height);
+        let loss = photometric(
+            dims,
+            &out.color,
+            &target,
+            Some(&weights),
+            DEFAULT_LAMBDA_DSSIM,
+        )?;
+        let grads = backend.backward(&model, &saved, &OutputGrads::color_only(&loss.grad))?;
+        optim.step(&mut model, &grads)?;
+        it += 1;
+        if !progress(it, s.iterations) {
+            bail!(
+                "training of {:?} was interrupted at iteration {it}",
+                data.name
+            );
+        }
+
+        if it % s.eval_every == 0 || it == s.iterations {
+            let score = held_out_score(backend, &model, data, settings)?;
+            if best.as_ref().is_none_or(|(b, _, _)| score < *b) {
+                best = Some((score, it, model.clone()));
+            }
+            if let Some((_, best_it, _)) = &best
+                && it > s.connectivity_at
+                && it - best_it >= s.patience
+            {
+                notes.push(format!(
+                    "early stop at {it}: no held-out improvement since {best_it}"
+                ));
+                break;
+            }
+        }
+    }
+    let (best_iteration, mut model) = match best {
+        Some((_, best_it, best_model)) => (best_it, best_model),
+        None => (it, model),
+    };
+    // Final prune: faces that never reach a blending weight above the threshold in any training view.
+    let max_weight = max_weight_over_views(backend, &model, &train_views, settings)?;
+    let keep: Vec<bool> = max_weight
+        .iter()
+        .map(|&w| w as f64 > s.final_prune_threshold)
+        .collect();
+    let removed = keep.iter().filter(|k| !**k).count();
+    if removed == keep.len() {
+        // Short runs end before opacities saturate; an empty model helps no one.
+        notes.push(format!(
+            "final prune skipped: no face reaches a blending weight above {}",
+            s.final_prune_threshold
+        ));
+    } else {
+        prune_faces(&mut model, &keep)?;
+        notes.push(format!(
+            "final prune removed {removed} faces, {} remain",
+            model.face_count()
+        ));
+    }
+    let best_score = held_out_score(backend, &model, data, settings)?;
+    Ok(TrainReport {
+        model,
+        iterations_run: it,
+        best_iteration,
+        best_score,
+        notes,
+    })
+}

@@ -1,0 +1,131 @@
+//! Adam updates against hand-computed steps, and the resizable state.
+
+use objectsplat_train::{Adam, LogLinearDecay};
+
+/// First step: m̂ = g and v̂ = g², so every value moves by exactly lr·sign(g).
+#[test]
+fn first_step_moves_by_the_learning_rate() {
+    let mut adam = Adam::new();
+    let g = adam.add_group("x", 0.01, 2, 2);
+    let mut p = vec![1.0f32, 2.0, 3.0, 4.0];
+    adam.step(g, &mut p, &[0.5, -2.0, 1e-3, -7.0]).unwrap();
+    let want = [0.99f32, 2.01, 2.99, 4.01];
+    for (a, b) in p.iter().zip(want) {
+        assert!((a - b).abs() < 1e-6, "{p:?} vs {want:?}");
+    }
+}
+
+/// Second step with the gradient reversed: m = 0.09 − 0.1 = −0.01, m̂ = −0.01/0.19,
+/// v = 0.000999 + 0.001 = 0.001999 = 1 − 0.999², v̂ = 1, so the step is +lr/19.
+#[test]
+fn second_step_matches_the_hand_computation() {
+    let mut adam = Adam::new();
+    let g = adam.add_group("x", 0.1, 1, 1);
+    let mut p = vec![0.0f32];
+    adam.step(g, &mut p, &[1.0]).unwrap();
+    assert!((p[0] + 0.1).abs() < 1e-7);
+    adam.step(g, &mut p, &[-1.0]).unwrap();
+    let want = -0.1 + 0.1 / 19.0;
+    assert!((p[0] as f64 - want).abs() < 1e-6, "{} vs {want}", p[0]);
+}
+
+/// Groups keep their own learning rates.
+#[test]
+fn groups_use_their_own_learning_rates() {
+    let mut adam = Adam::new();
+    let a = adam.add_group("a", 0.5, 1, 1);
+    let b = adam.add_group("b", 0.001, 3, 1);
+    let mut pa = vec![0.0f32];
+    let mut pb = vec![0.0f32; 3];
+    adam.step(a, &mut pa, &[3.0]).unwrap();
+    adam.step(b, &mut pb, &[3.0, -3.0, 0.0]).unwrap();
+    assert!((pa[0] + 0.5).abs() < 1e-6);
+    assert!((pb[0] + 0.001).abs() < 1e-7 && (pb[1] - 0.001).abs() < 1e-7);
+    assert_eq!(
+        pb[2], 0.0,
+        "a zero gradient with zero moments does not move"
+    );
+    adam.set_lr(a, 0.25).unwrap();
+    assert_eq!(adam.groups[a].lr, 0.25);
+    assert!(adam.set_lr(a, f64::NAN).is_err());
+}
+
+/// Removing rows keeps the survivors' moments: the run continues exactly as an
+/// optimizer that only ever saw the surviving rows.
+#[test]
+fn pruned_rows_continue_like_an_optimizer_of_the_survivors() {
+    let grads =
+        |k: usize| -> Vec<f32> { (0..8).map(|i| ((i * 7 + k * 3) % 5) as f32 - 2.1).collect() };
+    let keep = [true, false, true, true, false, false, true, true];
+    let mut full = Adam::new();
+    let gf = full.add_group("x", 0.05, 2, 4);
+    let mut pf: Vec<f32> = (0..8).map(|i| i as f32).collect();
+    let mut alone = Adam::new();
+    let ga = alone.add_group("x", 0.05, 2, 2);
+    // Rows 0 and 2 of four (values 0,1 and 4,5) are the ones kept below.
+    let rows_kept = [0usize, 1, 4, 5];
+    let mut pa: Vec<f32> = rows_kept.iter().map(|&i| i as f32).collect();
+    for k in 0..3 {
+        let g = grads(k);
+        full.step(gf, &mut pf, &g).unwrap();
+        let ga_grads: Vec<f32> = rows_kept.iter().map(|&i| g[i]).collect();
+        alone.step(ga, &mut pa, &ga_grads).unwrap();
+    }
+    let row_keep = [true, false, true, false];
+    full.retain_rows(&row_keep).unwrap();
+    let mut pf: Vec<f32> = rows_kept.iter().map(|&i| pf[i]).collect();
+    assert_eq!(
+        full.groups[gf].first_moment(),
+        alone.groups[ga].first_moment()
+    );
+    let g: Vec<f32> = keep.iter().take(4).map(|_| 0.7).collect();
+    full.step(gf, &mut pf, &g).unwrap();
+    alone.step(ga, &mut pa, &g).unwrap();
+    assert_eq!(pf, pa);
+    assert!(
+        full.retain_rows(&[true]).is_err(),
+        "a mask of the wrong length is refused"
+    );
+}
+
+/// Appended rows start with zero moments; existing rows are untouched.
+#[test]
+fn appended_rows_start_from_zero_moments() {
+    let mut adam = Adam::new();
+    let g = adam.add_group("x", 0.01, 3, 2);
+    let mut p = vec![0.0f32; 6];
+    adam.step(g, &mut p, &[1.0; 6]).unwrap();
+    let before = adam.groups[g].first_moment().to_vec();
+    adam.append_rows(2);
+    let grp = &adam.groups[g];
+    assert_eq!(grp.rows(), 4);
+    assert_eq!(&grp.first_moment()[..6], &before[..]);
+    assert!(grp.first_moment()[6..].iter().all(|&m| m == 0.0));
+    assert!(grp.second_moment()[6..].iter().all(|&v| v == 0.0));
+    let mut p = vec![0.0f32; 12];
+    assert!(
+        adam.step(g, &mut p, &[0.0; 11]).is_err(),
+        "size mismatch is refused"
+    );
+    let mut bad = vec![0.0f32; 12];
+    bad[3] = f32::NAN;
+    assert!(
+        adam.step(g, &mut p, &bad).is_err(),
+        "NaN gradients are refused"
+    );
+}
+
+/// 1.5e-3 → 1.5e-5 over the run: the midpoint is the geometric mean.
+#[test]
+fn position_learning_rate_decays_log_linearly() {
+    let d = LogLinearDecay {
+        start: 1.5e-3,
+        end: 1.5e-5,
+        total: 30_000,
+    };
+    assert!((d.at(0) - 1.5e-3).abs() < 1e-15);
+    assert!((d.at(15_000) - 1.5e-4).abs() < 1e-12);
+    assert!((d.at(30_000) - 1.5e-5).abs() < 1e-15);
+    assert!((d.at(40_000) - 1.5e-5).abs() < 1e-15);
+    assert!((d.at(7_500) - 1.5e-3 * 0.01f64.powf(0.25)).abs() < 1e-12);
+}

@@ -1,0 +1,100 @@
+//! A tiny synthetic capture: a red square plate seen from a few cameras above it,
+//! written as a Component folder plus a Points folder.
+
+#![allow(dead_code)]
+
+use glam::DVec3;
+use objectsplat_core::component::{OTHER, OWN};
+use objectsplat_core::{Camera, ComponentInfo, Frame, Frames, Image, Points, Split};
+use std::path::Path;
+
+pub const W: u32 = 64;
+pub const H: u32 = 48;
+pub const RED: [f32; 3] = [0.8, 0.2, 0.2];
+pub const GREY: [f32; 3] = [0.5, 0.5, 0.5];
+
+pub fn cameras() -> Vec<(Camera, Split)> {
+    let eyes = [
+        (DVec3::new(0.0, -0.4, 2.2), Split::Train),
+        (DVec3::new(0.5, 0.2, 2.0), Split::Train),
+        (DVec3::new(-0.5, 0.3, 2.1), Split::Train),
+        (DVec3::new(0.2, -0.5, 2.3), Split::Train),
+        (DVec3::new(-0.2, 0.1, 2.2), Split::Test),
+    ];
+    eyes.iter()
+        .map(|&(eye, split)| {
+            (
+                Camera::look_at(W, H, 56.0, 56.0, eye, DVec3::ZERO, DVec3::Y),
+                split,
+            )
+        })
+        .collect()
+}
+
+/// Whether the ray through pixel (i, j) hits the square |x|, |y| ≤ 0.5 in the plane z = 0.
+pub fn pixel_sees_square(cam: &Camera, i: u32, j: u32) -> bool {
+    let d_cam = DVec3::new(
+        (i as f64 + 0.5 - cam.cx) / cam.fx,
+        (j as f64 + 0.5 - cam.cy) / cam.fy,
+        1.0,
+    );
+    let d = cam.rotation().transpose() * d_cam;
+    let o = cam.center();
+    if d.z.abs() < 1e-12 {
+        return false;
+    }
+    let t = -o.z / d.z;
+    let p = o + d * t;
+    t > 0.0 && p.x.abs() <= 0.5 && p.y.abs() <= 0.5
+}
+
+pub fn write_component(dir: &Path) {
+    let info = ComponentInfo::object(1, "plate");
+    std::fs::write(
+        dir.join("component.json"),
+        serde_json::to_string(&info).unwrap(),
+    )
+    .unwrap();
+    std::fs::create_dir_all(dir.join("masks")).unwrap();
+    std::fs::create_dir_all(dir.join("images")).unwrap();
+    let mut frames = Vec::new();
+    for (k, (cam, split)) in cameras().into_iter().enumerate() {
+        let name = format!("v{k}");
+        let img = Image::from_fn(W, H, 3, |i, j, c| {
+            if pixel_sees_square(&cam, i, j) {
+                RED[c as usize]
+            } else {
+                GREY[c as usize]
+            }
+        });
+        img.save_png8(&dir.join(format!("images/{name}.png")))
+            .unwrap();
+        let mask = image::GrayImage::from_fn(W, H, |i, j| {
+            image::Luma([if pixel_sees_square(&cam, i, j) {
+                OWN
+            } else {
+                OTHER
+            }])
+        });
+        mask.save(dir.join(format!("masks/{name}.png"))).unwrap();
+        frames.push(Frame::new(&name, format!("images/{name}.png"), &cam, split));
+    }
+    Frames::write_json(dir, &frames).unwrap();
+}
+
+/// A 5×5 grid of red points on the square, and a few grey ones off it.
+pub fn points() -> Points {
+    let mut positions = Vec::new();
+    let mut colors = Vec::new();
+    for a in 0..5 {
+        for b in 0..5 {
+            positions.push([-0.4 + 0.2 * a as f32, -0.4 + 0.2 * b as f32, 0.0]);
+            colors.push([204, 51, 51]);
+        }
+    }
+    for k in 0..4 {
+        positions.push([1.5 + 0.1 * k as f32, 1.2, 0.0]);
+        colors.push([128, 128, 128]);
+    }
+    Points { positions, colors }
+}

@@ -1,0 +1,125 @@
+//! A component is seeded by the points inside its own mask in most training views.
+
+use glam::DVec3;
+use objectsplat_core::component::{IGNORE, OTHER, OWN};
+use objectsplat_core::{Camera, ComponentInfo, Frame, Frames, Points, Split};
+use objectsplat_train::init::ComponentMasks;
+use std::path::Path;
+
+const W: u32 = 40;
+const H: u32 = 30;
+
+fn camera() -> Camera {
+    Camera::look_at(
+        W,
+        H,
+        30.0,
+        30.0,
+        DVec3::new(0.0, -4.0, 0.0),
+        DVec3::ZERO,
+        DVec3::Z,
+    )
+}
+
+/// Writes a component whose frames all share one camera; `masks[i]` gives the
+/// label of the left and right image halves in frame i.
+fn write_component(dir: &Path, masks: &[(u8, u8, Split)]) {
+    let info = ComponentInfo::object(3, "chair");
+    std::fs::write(
+        dir.join("component.json"),
+        serde_json::to_string(&info).unwrap(),
+    )
+    .unwrap();
+    std::fs::create_dir_all(dir.join("masks")).unwrap();
+    let cam = camera();
+    let mut frames = Vec::new();
+    for (i, &(left, right, split)) in masks.iter().enumerate() {
+        let name = format!("f{i}");
+        frames.push(Frame::new(&name, format!("images/{name}.png"), &cam, split));
+        let img = image::GrayImage::from_fn(W, H, |x, _| {
+            image::Luma([if x < W / 2 { left } else { right }])
+        });
+        img.save(dir.join("masks").join(format!("{name}.png")))
+            .unwrap();
+    }
+    Frames::write_json(dir, &frames).unwrap();
+}
+
+/// One point projecting into the left half, one into the right, one behind the camera.
+fn points() -> Points {
+    let cam = camera();
+    let left = [-0.5f32, 0.0, 0.0];
+    let right = [0.5f32, 0.0, 0.0];
+    let (ul, ..) = cam.project(DVec3::new(-0.5, 0.0, 0.0)).unwrap();
+    let (ur, ..) = cam.project(DVec3::new(0.5, 0.0, 0.0)).unwrap();
+    let (left, right) = if ul < ur {
+        (left, right)
+    } else {
+        (right, left)
+    };
+    Points {
+        positions: vec![left, right, [0.0, -10.0, 0.0]],
+        colors: vec![[255, 0, 0], [0, 255, 0], [0, 0, 255]],
+    }
+}
+
+#[test]
+fn majority_of_training_views_decides() {
+    let dir = tempfile::tempdir().unwrap();
+    // Left half owned in 2 of 3 training views; the test view disagrees and must not count.
+    write_component(
+        dir.path(),
+        &[
+            (OWN, OTHER, Split::Train),
+            (OWN, OTHER, Split::Train),
+            (OTHER, OWN, Split::Train),
+            (OTHER, OWN, Split::Test),
+            (OTHER, OWN, Split::Test),
+        ],
+    );
+    let c = ComponentMasks::read(dir.path()).unwrap();
+    assert_eq!(c.info.name, "obj_3_chair");
+    assert_eq!(c.select_points(&points()), vec![0]);
+    let chosen = c.component_points(&points()).unwrap();
+    assert_eq!(chosen.colors, vec![[255, 0, 0]]);
+}
+
+#[test]
+fn ignored_pixels_do_not_count_as_visible() {
+    let dir = tempfile::tempdir().unwrap();
+    // Left: own once, other once, ignored once → 1 of 2 visible views is not a majority.
+    // Right: ignored twice, own once → 1 of 1.
+    write_component(
+        dir.path(),
+        &[
+            (OWN, IGNORE, Split::Train),
+            (OTHER, IGNORE, Split::Train),
+            (IGNORE, OWN, Split::Train),
+        ],
+    );
+    let c = ComponentMasks::read(dir.path()).unwrap();
+    assert_eq!(c.select_points(&points()), vec![1]);
+}
+
+#[test]
+fn a_component_without_points_is_a_clear_error() {
+    let dir = tempfile::tempdir().unwrap();
+    write_component(dir.path(), &[(OTHER, OTHER, Split::Train)]);
+    let c = ComponentMasks::read(dir.path()).unwrap();
+    let err = c.component_points(&points()).unwrap_err();
+    assert!(format!("{err}").contains("obj_3_chair"), "{err}");
+}
+
+#[test]
+fn a_missing_or_mis_sized_mask_names_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    write_component(dir.path(), &[(OWN, OTHER, Split::Train)]);
+    image::GrayImage::new(5, 5)
+        .save(dir.path().join("masks/f0.png"))
+        .unwrap();
+    let err = ComponentMasks::read(dir.path()).err().unwrap();
+    assert!(format!("{err:#}").contains("f0.png"), "{err:#}");
+    std::fs::remove_file(dir.path().join("masks/f0.png")).unwrap();
+    let err = ComponentMasks::read(dir.path()).err().unwrap();
+    assert!(format!("{err:#}").contains("f0.png"), "{err:#}");
+}

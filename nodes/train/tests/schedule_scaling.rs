@@ -1,0 +1,93 @@
+//! The schedule equals the reference at 30k iterations and scales to small budgets.
+
+use objectsplat_train::Schedule;
+use serde_json::json;
+
+#[test]
+fn reference_budget_gives_the_reference_numbers() {
+    let s = Schedule::scaled(30_000);
+    assert_eq!(s.sh_degree(999), 0);
+    assert_eq!(s.sh_degree(1000), 1);
+    assert_eq!(s.sh_degree(3000), 3);
+    assert_eq!(s.sh_degree(29_999), 3);
+    assert!((s.sigma(0) - 1.0).abs() < 1e-15);
+    assert!((s.sigma(30_000) - 1e-4).abs() < 1e-15);
+    assert!((s.sigma(15_000) - (1.0 + 1e-4) / 2.0).abs() < 1e-12);
+    assert_eq!(s.floor_update(4999), None);
+    assert_eq!(s.floor_update(5000), Some(0.1));
+    assert_eq!(s.floor_update(5250), None);
+    let m = s.floor_update(14_500).unwrap();
+    assert!((m - (0.1 + 0.8999 * 9500.0 / 19000.0)).abs() < 1e-12);
+    assert!((s.floor_update(24_000).unwrap() - 0.9999).abs() < 1e-12);
+    assert!((s.floor_update(29_500).unwrap() - 0.9999).abs() < 1e-12);
+    // Paused for 1000 iterations after the connectivity step at 11001 (11500 falls inside).
+    assert_eq!(s.connectivity_at, 11_001);
+    assert_eq!(s.floor_update(11_500), None);
+    assert!(s.floor_update(12_500).is_some());
+    assert_eq!(s.prune_at(3500), None);
+    assert_eq!(s.prune_at(4000), Some(0.235));
+    assert_eq!(s.prune_at(4200), None);
+    assert_eq!(s.prune_at(5000), Some(0.235));
+    assert!((s.prune_at(6000).unwrap() - 0.255).abs() < 1e-12);
+    assert!((s.prune_at(10_500).unwrap() - (0.235 + 0.11)).abs() < 1e-12);
+    assert_eq!(
+        s.prune_at(11_500),
+        None,
+        "no pruning after the connectivity step"
+    );
+    let densify: Vec<u64> = (0..30_000).filter(|&i| s.densify_at(i)).collect();
+    let want: Vec<u64> = (2..=19).map(|k| k * 500).collect();
+    assert_eq!(densify, want, "1000, 1500, …, 9500");
+    assert_eq!(s.densify_count(1000), 230);
+    assert!((s.lr_vertices(0) - 1.5e-3).abs() < 1e-15);
+    assert!((s.lr_vertices(30_000) - 1.5e-5).abs() < 1e-15);
+    assert_eq!(s.final_prune_threshold, 0.5);
+}
+
+#[test]
+fn six_hundred_iterations_scale_every_iteration_count() {
+    let s = Schedule::scaled(600);
+    // Scale 1/50: 1000 → 20, 500 → 10, 5000 → 100, 19000 → 380, 11000 → 220.
+    assert_eq!(s.sh_degree(19), 0);
+    assert_eq!(s.sh_degree(20), 1);
+    assert_eq!(s.sh_degree(60), 3);
+    assert_eq!(s.floor_update(99), None);
+    assert_eq!(s.floor_update(100), Some(0.1));
+    assert_eq!(s.floor_update(105), None);
+    assert!((s.floor_update(480).unwrap() - 0.9999).abs() < 1e-12);
+    assert_eq!(s.connectivity_at, 221);
+    assert_eq!(s.prune_at(80), Some(0.235));
+    assert!((s.prune_at(120).unwrap() - 0.255).abs() < 1e-12);
+    assert_eq!(s.prune_at(230), None);
+    let densify: Vec<u64> = (0..600).filter(|&i| s.densify_at(i)).collect();
+    let want: Vec<u64> = (2..=19).map(|k| k * 10).collect();
+    assert_eq!(densify, want);
+    assert!((s.sigma(600) - 1e-4).abs() < 1e-15);
+    assert!((s.lr_vertices(300) - 1.5e-4).abs() < 1e-12);
+}
+
+#[test]
+fn tiny_budgets_keep_periods_positive() {
+    let s = Schedule::scaled(10);
+    assert!(s.sh_degree_every >= 1 && s.floor_every >= 1 && s.prune_every >= 1);
+    s.validate().unwrap();
+}
+
+#[test]
+fn overrides_replace_named_fields_and_reject_unknown_ones() {
+    let o = json!({"densify_growth": 0.5, "sigma_end": 0.01});
+    let s = Schedule::new(600, o.as_object().unwrap()).unwrap();
+    assert_eq!(s.densify_growth, 0.5);
+    assert_eq!(s.sigma_end, 0.01);
+    assert_eq!(
+        s.connectivity_at, 221,
+        "other fields keep their scaled values"
+    );
+    let bad = json!({"no_such_setting": 1});
+    let err = Schedule::new(600, bad.as_object().unwrap()).unwrap_err();
+    assert!(format!("{err:#}").contains("no_such_setting"));
+    let neg = json!({"lr_opacity": -1.0});
+    assert!(Schedule::new(600, neg.as_object().unwrap()).is_err());
+    let floor = json!({"floor_base": 0.5, "floor_gain": 0.6});
+    assert!(Schedule::new(600, floor.as_object().unwrap()).is_err());
+}

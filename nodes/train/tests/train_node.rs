@@ -1,0 +1,83 @@
+//! The `train` node reads a Component and Points and writes a loadable Model.
+
+mod common;
+
+use objectsplat_runtime::testing::run_node;
+use objectsplat_train::node::TrainNode;
+
+#[test]
+fn train_node_writes_a_model_and_refuses_the_missing_gpu_backend() {
+    let dir = tempfile::tempdir().unwrap();
+    let component = dir.path().join("component");
+    let points = dir.path().join("points");
+    std::fs::create_dir_all(&component).unwrap();
+    std::fs::create_dir_all(&points).unwrap();
+    common::write_component(&component);
+    common::points()
+        .write_ply(&points.join("points.ply"))
+        .unwrap();
+    let inputs = [
+        ("component", component.as_path()),
+        ("points", points.as_path()),
+    ];
+    let out = dir.path().join("out");
+    let run = run_node(
+        &TrainNode,
+        &inputs,
+        "(iterations: 30, seed: 1, schedule: {\"lr_sh_dc\": 0.03, \"patience\": 10})",
+        &out,
+        None,
+    )
+    .unwrap();
+    let model = objectsplat_raster::load_model(&run.outputs["model"]).unwrap();
+    assert!(model.face_count() > 0);
+    assert!(
+        run.notes
+            .iter()
+            .any(|(k, v)| k == "backend" && v.contains("cpu"))
+    );
+    let err = run_node(
+        &TrainNode,
+        &inputs,
+        "(iterations: 30, backend: \"wgpu\")",
+        &dir.path().join("out2"),
+        None,
+    )
+    .err()
+    .unwrap();
+    assert!(format!("{err:#}").contains("not built yet"), "{err:#}");
+    // Unknown schedule settings are refused by name.
+    let err = run_node(
+        &TrainNode,
+        &inputs,
+        "(iterations: 30, schedule: {\"no_such\": 1})",
+        &dir.path().join("out4"),
+        None,
+    )
+    .err()
+    .unwrap();
+    assert!(format!("{err:#}").contains("no_such"), "{err:#}");
+    // A component with no usable points is a clear error naming it.
+    let empty = dir.path().join("empty_points");
+    std::fs::create_dir_all(&empty).unwrap();
+    objectsplat_core::Points {
+        positions: vec![[5.0, 5.0, 0.0]],
+        colors: vec![[0, 0, 0]],
+    }
+    .write_ply(&empty.join("points.ply"))
+    .unwrap();
+    let inputs = [
+        ("component", component.as_path()),
+        ("points", empty.as_path()),
+    ];
+    let err = run_node(
+        &TrainNode,
+        &inputs,
+        "(iterations: 30)",
+        &dir.path().join("out3"),
+        None,
+    )
+    .err()
+    .unwrap();
+    assert!(format!("{err:#}").contains("obj_1_plate"), "{err:#}");
+}
