@@ -4,14 +4,22 @@ use std::path::Path;
 use std::process::Command;
 
 fn objectsplat(dir: &Path, args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_objectsplat")).current_dir(dir).args(args).output().unwrap()
+    Command::new(env!("CARGO_BIN_EXE_objectsplat"))
+        .current_dir(dir)
+        .args(args)
+        .output()
+        .unwrap()
 }
 
 fn demo_dir() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     std::fs::create_dir_all(dir.path().join("graphs/assets")).unwrap();
-    std::fs::copy(root.join("graphs/assets/astronaut.png"), dir.path().join("graphs/assets/astronaut.png")).unwrap();
+    std::fs::copy(
+        root.join("graphs/assets/astronaut.png"),
+        dir.path().join("graphs/assets/astronaut.png"),
+    )
+    .unwrap();
     std::fs::write(
         dir.path().join("graphs/images.ron"),
         r#"(
@@ -36,37 +44,73 @@ fn statuses(r: &serde_json::Value) -> Vec<(String, String)> {
         .as_array()
         .unwrap()
         .iter()
-        .map(|n| (n["id"].as_str().unwrap().to_string(), n["status"].as_str().unwrap().to_string()))
+        .map(|n| {
+            (
+                n["id"].as_str().unwrap().to_string(),
+                n["status"].as_str().unwrap().to_string(),
+            )
+        })
         .collect()
 }
 
 #[test]
 fn run_materializes_targets_and_reports_json_then_reuses_the_cache() {
     let dir = demo_dir();
-    let out = objectsplat(dir.path(), &["run", "graphs/images.ron", "--json", "r1.json", "-j", "2"]);
-    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let out = objectsplat(
+        dir.path(),
+        &["run", "graphs/images.ron", "--json", "r1.json", "-j", "2"],
+    );
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
     // Default folders: cache in .objectsplat-cache/, outputs in out/<graph name>/<node>/<port>/.
     let png = dir.path().join("out/images/save/file/nested/small.png");
     let img = image::open(&png).unwrap();
     assert_eq!((img.width(), img.height()), (64, 64));
     assert!(dir.path().join(".objectsplat-cache/actions").is_dir());
     let r1 = report(&dir.path().join("r1.json"));
-    assert_eq!(statuses(&r1), [("photo".into(), "ran".into()), ("small".into(), "ran".into()), ("save".into(), "ran".into())]);
+    assert_eq!(
+        statuses(&r1),
+        [
+            ("photo".into(), "ran".into()),
+            ("small".into(), "ran".into()),
+            ("save".into(), "ran".into())
+        ]
+    );
     for n in r1["nodes"].as_array().unwrap() {
         for field in ["id", "kind", "status", "seconds", "reason", "items"] {
             assert!(n.get(field).is_some(), "report node lacks `{field}`: {n}");
         }
     }
-    let out = objectsplat(dir.path(), &["run", "graphs/images.ron", "--json", "r2.json"]);
+    let out = objectsplat(
+        dir.path(),
+        &["run", "graphs/images.ron", "--json", "r2.json"],
+    );
     assert!(out.status.success());
     let r2 = report(&dir.path().join("r2.json"));
     assert!(statuses(&r2).iter().all(|(_, s)| s == "cached"), "{r2}");
     // An override reruns the changed node and its consumers, not the loader.
-    let out = objectsplat(dir.path(), &["run", "graphs/images.ron", "--set", "small.factor=2", "--json", "r3.json"]);
+    let out = objectsplat(
+        dir.path(),
+        &[
+            "run",
+            "graphs/images.ron",
+            "--set",
+            "small.factor=2",
+            "--json",
+            "r3.json",
+        ],
+    );
     assert!(out.status.success());
     assert_eq!(
         statuses(&report(&dir.path().join("r3.json"))),
-        [("photo".into(), "cached".into()), ("small".into(), "ran".into()), ("save".into(), "ran".into())]
+        [
+            ("photo".into(), "cached".into()),
+            ("small".into(), "ran".into()),
+            ("save".into(), "ran".into())
+        ]
     );
     assert_eq!(image::open(&png).unwrap().width(), 128);
 }
@@ -75,7 +119,9 @@ fn run_materializes_targets_and_reports_json_then_reuses_the_cache() {
 fn a_bad_graph_fails_with_one_located_line_and_no_panic() {
     let dir = demo_dir();
     let g = dir.path().join("graphs/images.ron");
-    let text = std::fs::read_to_string(&g).unwrap().replace("\"resize_image\"", "\"resize_imag\"");
+    let text = std::fs::read_to_string(&g)
+        .unwrap()
+        .replace("\"resize_image\"", "\"resize_imag\"");
     std::fs::write(&g, text).unwrap();
     for cmd in ["check", "run"] {
         let out = objectsplat(dir.path(), &[cmd, "graphs/images.ron"]);
@@ -90,13 +136,19 @@ fn a_bad_graph_fails_with_one_located_line_and_no_panic() {
 fn a_failing_node_exits_non_zero_with_its_cause() {
     let dir = demo_dir();
     let g = dir.path().join("graphs/images.ron");
-    let text = std::fs::read_to_string(&g).unwrap().replace("assets/astronaut.png", "assets/missing.png");
+    let text = std::fs::read_to_string(&g)
+        .unwrap()
+        .replace("assets/astronaut.png", "assets/missing.png");
     std::fs::write(&g, text).unwrap();
     let out = objectsplat(dir.path(), &["run", "graphs/images.ron"]);
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     let last = err.lines().last().unwrap();
-    assert!(last.starts_with("error: node `photo` (load_image) failed:") && last.contains("missing.png"), "{err}");
+    assert!(
+        last.starts_with("error: node `photo` (load_image) failed:")
+            && last.contains("missing.png"),
+        "{err}"
+    );
 }
 
 #[test]
@@ -104,12 +156,34 @@ fn graph_dot_nodes_and_explain() {
     let dir = demo_dir();
     let dot = objectsplat(dir.path(), &["graph", "graphs/images.ron", "--dot"]);
     let dot = String::from_utf8_lossy(&dot.stdout);
-    assert!(dot.starts_with("digraph") && dot.contains("\"photo\" -> \"small\""), "{dot}");
+    assert!(
+        dot.starts_with("digraph") && dot.contains("\"photo\" -> \"small\""),
+        "{dot}"
+    );
     let nodes = objectsplat(dir.path(), &["nodes"]);
     let nodes = String::from_utf8_lossy(&nodes.stdout);
-    assert!(nodes.contains("save_image (v1)") && nodes.contains("param path: relpath = \"image.png\""), "{nodes}");
-    assert!(objectsplat(dir.path(), &["run", "graphs/images.ron"]).status.success());
-    let ex = objectsplat(dir.path(), &["explain", "graphs/images.ron", "save", "--set", "small.factor=8"]);
+    assert!(
+        nodes.contains("save_image (v1)") && nodes.contains("param path: relpath = \"image.png\""),
+        "{nodes}"
+    );
+    assert!(
+        objectsplat(dir.path(), &["run", "graphs/images.ron"])
+            .status
+            .success()
+    );
+    let ex = objectsplat(
+        dir.path(),
+        &[
+            "explain",
+            "graphs/images.ron",
+            "save",
+            "--set",
+            "small.factor=8",
+        ],
+    );
     let ex = String::from_utf8_lossy(&ex.stdout);
-    assert!(ex.contains("photo: cached") && ex.contains("small: will run — params changed"), "{ex}");
+    assert!(
+        ex.contains("photo: cached") && ex.contains("small: will run — params changed"),
+        "{ex}"
+    );
 }

@@ -14,6 +14,8 @@ pub fn builtin_registry() -> Registry {
     objectsplat_synth::register(&mut reg);
     objectsplat_completion::register(&mut reg);
     objectsplat_export::register(&mut reg);
+    objectsplat_scene::register(&mut reg);
+    objectsplat_train::register(&mut reg);
     reg
 }
 
@@ -37,6 +39,12 @@ mod tests {
             "surface_completion",
             "inpaint_background",
             "report",
+            "compose",
+            "edit_scene",
+            "render",
+            "evaluate",
+            "export_gltf",
+            "train",
         ] {
             assert!(reg.get(kind).is_some(), "{kind} is not registered");
         }
