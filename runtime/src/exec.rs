@@ -190,7 +190,11 @@ fn run_pass(
                 dependents[inp.from].push(i);
             }
         }
-        let mut ready: std::collections::VecDeque<usize> = needed.iter().copied().filter(|&i| waiting[i] == 0).collect();
+        let mut ready: std::collections::VecDeque<usize> = needed
+            .iter()
+            .copied()
+            .filter(|&i| waiting[i] == 0)
+            .collect();
         let mut settle = |i: usize, ready: &mut std::collections::VecDeque<usize>| {
             for &d in &dependents[i] {
                 waiting[d] -= 1;
@@ -202,148 +206,148 @@ fn run_pass(
         loop {
             while let Some(i) = ready.pop_front() {
                 'node: {
-                let node = &plan.nodes[i];
-                let st = state.get_mut(&i).expect("needed nodes have state");
-                st.started = Some(Instant::now());
-                // Upstream failures and skips propagate.
-                let mut blocked = None;
-                let mut inputs = BTreeMap::new();
-                for inp in &node.inputs {
-                    let up = &state[&inp.from];
-                    match (
-                        up.status,
-                        up.outputs.as_ref().and_then(|o| o.get(&inp.from_port)),
-                    ) {
-                        (Some(Status::Failed), _) => {
-                            blocked = Some((
-                                Status::Failed,
-                                format!("upstream `{}` failed", plan.nodes[inp.from].id),
-                            ));
-                            break;
-                        }
-                        (_, Some(d)) => {
-                            inputs.insert(inp.port.clone(), d.clone());
-                        }
-                        (_, None) => {
-                            let why = up.reason.clone().unwrap_or_default();
-                            blocked = Some((
-                                Status::Skipped,
-                                format!(
-                                    "upstream `{}` skipped ({why}), so `{}` has no value",
-                                    plan.nodes[inp.from].id, inp.from_port
-                                ),
-                            ));
-                            break;
+                    let node = &plan.nodes[i];
+                    let st = state.get_mut(&i).expect("needed nodes have state");
+                    st.started = Some(Instant::now());
+                    // Upstream failures and skips propagate.
+                    let mut blocked = None;
+                    let mut inputs = BTreeMap::new();
+                    for inp in &node.inputs {
+                        let up = &state[&inp.from];
+                        match (
+                            up.status,
+                            up.outputs.as_ref().and_then(|o| o.get(&inp.from_port)),
+                        ) {
+                            (Some(Status::Failed), _) => {
+                                blocked = Some((
+                                    Status::Failed,
+                                    format!("upstream `{}` failed", plan.nodes[inp.from].id),
+                                ));
+                                break;
+                            }
+                            (_, Some(d)) => {
+                                inputs.insert(inp.port.clone(), d.clone());
+                            }
+                            (_, None) => {
+                                let why = up.reason.clone().unwrap_or_default();
+                                blocked = Some((
+                                    Status::Skipped,
+                                    format!(
+                                        "upstream `{}` skipped ({why}), so `{}` has no value",
+                                        plan.nodes[inp.from].id, inp.from_port
+                                    ),
+                                ));
+                                break;
+                            }
                         }
                     }
-                }
-                let st = state.get_mut(&i).expect("needed nodes have state");
-                if let Some((status, reason)) = blocked {
-                    st.status = Some(status);
-                    st.reason = Some(reason);
-                    break 'node;
-                }
-                let pk = pkeys
-                    .entry(i)
-                    .or_insert_with(|| params_key(plan, i).map_err(|e| format!("{e:#}")));
-                let pk = match pk {
-                    Ok(k) => k.clone(),
-                    Err(e) => {
-                        st.status = Some(Status::Failed);
-                        st.reason = Some(e.clone());
+                    let st = state.get_mut(&i).expect("needed nodes have state");
+                    if let Some((status, reason)) = blocked {
+                        st.status = Some(status);
+                        st.reason = Some(reason);
                         break 'node;
                     }
-                };
-                // Fan-out: one job per item of the `each` input.
-                let each = node.inputs.iter().find(|x| x.each);
-                let items: Vec<Option<(String, Digest)>> = match each {
-                    None => vec![None],
-                    Some(e) => {
-                        let d = inputs.remove(&e.port).expect("each input resolved above");
-                        match store.manifest(&d) {
-                            Ok(Some(Manifest::Collection { items, .. })) => {
-                                items.into_iter().map(Some).collect()
+                    let pk = pkeys
+                        .entry(i)
+                        .or_insert_with(|| params_key(plan, i).map_err(|e| format!("{e:#}")));
+                    let pk = match pk {
+                        Ok(k) => k.clone(),
+                        Err(e) => {
+                            st.status = Some(Status::Failed);
+                            st.reason = Some(e.clone());
+                            break 'node;
+                        }
+                    };
+                    // Fan-out: one job per item of the `each` input.
+                    let each = node.inputs.iter().find(|x| x.each);
+                    let items: Vec<Option<(String, Digest)>> = match each {
+                        None => vec![None],
+                        Some(e) => {
+                            let d = inputs.remove(&e.port).expect("each input resolved above");
+                            match store.manifest(&d) {
+                                Ok(Some(Manifest::Collection { items, .. })) => {
+                                    items.into_iter().map(Some).collect()
+                                }
+                                Ok(_) => {
+                                    st.status = Some(Status::Failed);
+                                    st.reason = Some(format!(
+                                        "input `{}` is not a collection in the cache",
+                                        e.port
+                                    ));
+                                    break 'node;
+                                }
+                                Err(c) => {
+                                    let msg = format!("warning: {c}; recomputing");
+                                    opts.observer.warning(&msg);
+                                    warnings.push(msg);
+                                    corrupt_seen = true;
+                                    st.status = Some(Status::Failed);
+                                    st.reason =
+                                        Some("corrupt cache entry (recomputed next pass)".into());
+                                    break 'node;
+                                }
                             }
-                            Ok(_) => {
-                                st.status = Some(Status::Failed);
-                                st.reason = Some(format!(
-                                    "input `{}` is not a collection in the cache",
-                                    e.port
-                                ));
-                                break 'node;
+                        }
+                    };
+                    let (kind, version) = (&node.reg.spec.kind, &node.reg.spec.version);
+                    for item in items {
+                        let key = compute_key(kind, version, &pk, &inputs, item.as_ref());
+                        let item_name = item.as_ref().map(|(n, _)| n.clone());
+                        st.keys
+                            .insert(item_name.clone().unwrap_or_default(), key.clone());
+                        let label = match &item_name {
+                            Some(n) => format!("{}[{n}]", node.id),
+                            None => node.id.clone(),
+                        };
+                        match cached(store, &key) {
+                            Ok(Some(rec)) => {
+                                record_item(st, item_name, Ok(rec), Status::Cached, 0.0, vec![]);
+                            }
+                            Ok(None) => {
+                                let mut job_inputs = inputs.clone();
+                                if let (Some(e), Some((_, d))) = (each, &item) {
+                                    job_inputs.insert(e.port.clone(), d.clone());
+                                }
+                                st.pending += 1;
+                                in_flight += 1;
+                                job_tx
+                                    .send(Job {
+                                        node: i,
+                                        item: item.clone(),
+                                        key,
+                                        params_key: pk.clone(),
+                                        inputs: job_inputs,
+                                        label,
+                                    })
+                                    .map_err(|_| anyhow!("worker threads stopped"))?;
                             }
                             Err(c) => {
                                 let msg = format!("warning: {c}; recomputing");
                                 opts.observer.warning(&msg);
                                 warnings.push(msg);
-                                corrupt_seen = true;
-                                st.status = Some(Status::Failed);
-                                st.reason =
-                                    Some("corrupt cache entry (recomputed next pass)".into());
-                                break 'node;
+                                let mut job_inputs = inputs.clone();
+                                if let (Some(e), Some((_, d))) = (each, &item) {
+                                    job_inputs.insert(e.port.clone(), d.clone());
+                                }
+                                st.pending += 1;
+                                in_flight += 1;
+                                job_tx
+                                    .send(Job {
+                                        node: i,
+                                        item: item.clone(),
+                                        key,
+                                        params_key: pk.clone(),
+                                        inputs: job_inputs,
+                                        label,
+                                    })
+                                    .map_err(|_| anyhow!("worker threads stopped"))?;
                             }
                         }
                     }
-                };
-                let (kind, version) = (&node.reg.spec.kind, &node.reg.spec.version);
-                for item in items {
-                    let key = compute_key(kind, version, &pk, &inputs, item.as_ref());
-                    let item_name = item.as_ref().map(|(n, _)| n.clone());
-                    st.keys
-                        .insert(item_name.clone().unwrap_or_default(), key.clone());
-                    let label = match &item_name {
-                        Some(n) => format!("{}[{n}]", node.id),
-                        None => node.id.clone(),
-                    };
-                    match cached(store, &key) {
-                        Ok(Some(rec)) => {
-                            record_item(st, item_name, Ok(rec), Status::Cached, 0.0, vec![]);
-                        }
-                        Ok(None) => {
-                            let mut job_inputs = inputs.clone();
-                            if let (Some(e), Some((_, d))) = (each, &item) {
-                                job_inputs.insert(e.port.clone(), d.clone());
-                            }
-                            st.pending += 1;
-                            in_flight += 1;
-                            job_tx
-                                .send(Job {
-                                    node: i,
-                                    item: item.clone(),
-                                    key,
-                                    params_key: pk.clone(),
-                                    inputs: job_inputs,
-                                    label,
-                                })
-                                .map_err(|_| anyhow!("worker threads stopped"))?;
-                        }
-                        Err(c) => {
-                            let msg = format!("warning: {c}; recomputing");
-                            opts.observer.warning(&msg);
-                            warnings.push(msg);
-                            let mut job_inputs = inputs.clone();
-                            if let (Some(e), Some((_, d))) = (each, &item) {
-                                job_inputs.insert(e.port.clone(), d.clone());
-                            }
-                            st.pending += 1;
-                            in_flight += 1;
-                            job_tx
-                                .send(Job {
-                                    node: i,
-                                    item: item.clone(),
-                                    key,
-                                    params_key: pk.clone(),
-                                    inputs: job_inputs,
-                                    label,
-                                })
-                                .map_err(|_| anyhow!("worker threads stopped"))?;
-                        }
+                    if st.pending == 0 {
+                        finish_node(plan, store, i, st, each.is_some());
                     }
                 }
-                if st.pending == 0 {
-                    finish_node(plan, store, i, st, each.is_some());
-                }
-                            }
                 if state[&i].status.is_some() {
                     settle(i, &mut ready);
                 }
@@ -387,7 +391,12 @@ fn run_pass(
     warnings.extend(warn_lock.into_inner().unwrap_or_default());
     let heads = needed
         .iter()
-        .filter(|i| matches!(state[i].status, Some(Status::Ran | Status::Cached | Status::Skipped)))
+        .filter(|i| {
+            matches!(
+                state[i].status,
+                Some(Status::Ran | Status::Cached | Status::Skipped)
+            )
+        })
         .map(|&i| (plan.nodes[i].id.clone(), state[&i].keys.clone()))
         .collect();
     let _ = store.set_heads(&plan.source.path, heads);

@@ -161,11 +161,19 @@ impl Store {
     }
 
     fn ensure_parent(&self, path: &Path) -> Result<()> {
-        let Some(parent) = path.parent() else { return Ok(()) };
-        if self.made_dirs.lock().map(|d| d.contains(parent)).unwrap_or(false) {
+        let Some(parent) = path.parent() else {
+            return Ok(());
+        };
+        if self
+            .made_dirs
+            .lock()
+            .map(|d| d.contains(parent))
+            .unwrap_or(false)
+        {
             return Ok(());
         }
-        fs::create_dir_all(parent).with_context(|| format!("{}: cannot create", parent.display()))?;
+        fs::create_dir_all(parent)
+            .with_context(|| format!("{}: cannot create", parent.display()))?;
         if let Ok(mut d) = self.made_dirs.lock() {
             d.insert(parent.to_path_buf());
         }
@@ -392,11 +400,18 @@ impl Store {
     }
 
     fn read_heads(&self, graph: &Path) -> BTreeMap<String, BTreeMap<String, String>> {
-        fs::read(self.heads_path(graph)).ok().and_then(|b| serde_json::from_slice(&b).ok()).unwrap_or_default()
+        fs::read(self.heads_path(graph))
+            .ok()
+            .and_then(|b| serde_json::from_slice(&b).ok())
+            .unwrap_or_default()
     }
 
     /// Remembers the keys (per item) each node of a graph last ran with, for `explain`.
-    pub fn set_heads(&self, graph: &Path, heads: BTreeMap<String, BTreeMap<String, String>>) -> Result<()> {
+    pub fn set_heads(
+        &self,
+        graph: &Path,
+        heads: BTreeMap<String, BTreeMap<String, String>>,
+    ) -> Result<()> {
         let mut all = self.read_heads(graph);
         let before = all.clone();
         all.extend(heads);
