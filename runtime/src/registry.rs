@@ -1,8 +1,6 @@
 //! The catalogue of artifact types and node kinds, filled by `nodes/` and by plugins.
 
-use crate::node::{Node, NodeSpec, TypeRef};
-use crate::params::ParamType;
-use crate::value::Value;
+use crate::node::{Node, NodeSpec};
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
@@ -116,7 +114,8 @@ impl Registry {
                         format!("node `{k}` param `{}` default {d:?}: {}", p.name, e.message)
                     })?
                     .to_value();
-                check_default(&p.ty, &v)
+                p.ty.check(&v)
+                    .map(|_| ())
                     .map_err(|e| format!("node `{k}` param `{}` default {d}: {e}", p.name))?;
             }
         }
@@ -135,13 +134,4 @@ impl Registry {
     pub fn similar_kinds(&self, kind: &str) -> Vec<&str> {
         crate::diag::similar(kind, self.nodes.keys().map(String::as_str))
     }
-}
-
-fn check_default(ty: &ParamType, v: &Value) -> Result<(), String> {
-    ty.check(v).map(|_| ())
-}
-
-/// Helper for specs: `TypeRef` parsing re-exported for plugin descriptions.
-pub fn parse_type(text: &str) -> Result<TypeRef, String> {
-    TypeRef::parse(text)
 }
