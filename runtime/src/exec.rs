@@ -303,28 +303,12 @@ fn run_pass(
                             Ok(Some(rec)) => {
                                 record_item(st, item_name, Ok(rec), Status::Cached, 0.0, vec![]);
                             }
-                            Ok(None) => {
-                                let mut job_inputs = inputs.clone();
-                                if let (Some(e), Some((_, d))) = (each, &item) {
-                                    job_inputs.insert(e.port.clone(), d.clone());
+                            miss => {
+                                if let Err(c) = miss {
+                                    let msg = format!("warning: {c}; recomputing");
+                                    opts.observer.warning(&msg);
+                                    warnings.push(msg);
                                 }
-                                st.pending += 1;
-                                in_flight += 1;
-                                job_tx
-                                    .send(Job {
-                                        node: i,
-                                        item: item.clone(),
-                                        key,
-                                        params_key: pk.clone(),
-                                        inputs: job_inputs,
-                                        label,
-                                    })
-                                    .map_err(|_| anyhow!("worker threads stopped"))?;
-                            }
-                            Err(c) => {
-                                let msg = format!("warning: {c}; recomputing");
-                                opts.observer.warning(&msg);
-                                warnings.push(msg);
                                 let mut job_inputs = inputs.clone();
                                 if let (Some(e), Some((_, d))) = (each, &item) {
                                     job_inputs.insert(e.port.clone(), d.clone());
