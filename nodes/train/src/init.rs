@@ -233,6 +233,17 @@ impl ComponentMasks {
         selected
     }
 
+    /// Pixels this component owns across its training frames.
+    pub fn owned_training_pixels(&self) -> usize {
+        self.frames
+            .frames
+            .iter()
+            .zip(&self.masks)
+            .filter(|(f, _)| f.split == objectsplat_core::Split::Train)
+            .map(|(_, m)| m.iter().filter(|&&v| v == OWN).count())
+            .sum()
+    }
+
     /// This component's points, or an error naming the component when none qualifies.
     pub fn component_points(&self, points: &Points) -> Result<Points> {
         let chosen = self.select_points(points);

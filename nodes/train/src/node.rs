@@ -130,6 +130,13 @@ impl Node for TrainNode {
         let points_path = ctx.input("points")?.join("points.ply");
         let all_points = Points::read_ply(&points_path)?;
         let masks = ComponentMasks::read(&component_dir)?;
+        // Nothing to fit: an empty component, or one no training view sees.
+        if masks.owned_training_pixels() == 0 {
+            return Ok(Outcome::Skipped(format!(
+                "component {:?} owns no pixel in any training view",
+                masks.info.name
+            )));
+        }
         let points = masks.component_points(&all_points)?;
         ctx.note(
             "points",

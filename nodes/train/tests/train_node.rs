@@ -81,3 +81,44 @@ fn train_node_writes_a_model_and_refuses_the_missing_gpu_backend() {
     .unwrap();
     assert!(format!("{err:#}").contains("obj_1_plate"), "{err:#}");
 }
+
+#[test]
+fn a_component_unseen_in_every_training_view_is_skipped_with_a_reason() {
+    let dir = tempfile::tempdir().unwrap();
+    let component = dir.path().join("component");
+    let points = dir.path().join("points");
+    std::fs::create_dir_all(&component).unwrap();
+    std::fs::create_dir_all(&points).unwrap();
+    common::write_component(&component);
+    common::points()
+        .write_ply(&points.join("points.ply"))
+        .unwrap();
+    // Give every pixel of every mask to other components.
+    for entry in std::fs::read_dir(component.join("masks")).unwrap() {
+        let path = entry.unwrap().path();
+        let img = image::open(&path).unwrap().to_luma8();
+        let blank = image::GrayImage::new(img.width(), img.height());
+        blank.save(&path).unwrap();
+    }
+    let inputs = [
+        ("component", component.as_path()),
+        ("points", points.as_path()),
+    ];
+    let run = run_node(
+        &TrainNode,
+        &inputs,
+        "(iterations: 30)",
+        &dir.path().join("out"),
+        None,
+    )
+    .unwrap();
+    match run.outcome {
+        objectsplat_runtime::Outcome::Skipped(reason) => {
+            assert!(
+                reason.contains("obj_1_plate") && reason.contains("no pixel in any training view"),
+                "{reason}"
+            )
+        }
+        other => panic!("expected a skip, got {other:?}"),
+    }
+}
