@@ -207,30 +207,7 @@ impl<'a> Parser<'a> {
             Some(b'\'') => SKind::Char(self.char_lit()?),
             Some(b'[') => {
                 self.pos += 1;
-                let mut items = Vec::new();
-                loop {
-                    self.skip_ws()?;
-                    if self.peek() == Some(b']') {
-                        self.pos += 1;
-                        break;
-                    }
-                    items.push(self.value()?);
-                    self.skip_ws()?;
-                    match self.peek() {
-                        Some(b',') => self.pos += 1,
-                        Some(b']') => {
-                            self.pos += 1;
-                            break;
-                        }
-                        _ => {
-                            return Err(self.err(format!(
-                                "expected `,` or `]` in list, found {}",
-                                self.describe_here()
-                            )));
-                        }
-                    }
-                }
-                SKind::List(items)
+                SKind::List(self.values_until(b']', "list")?)
             }
             Some(b'{') => {
                 self.pos += 1;
@@ -304,6 +281,34 @@ impl<'a> Parser<'a> {
             },
             kind,
         })
+    }
+
+    /// Comma-separated values up to and including `close` (a trailing comma is allowed).
+    fn values_until(&mut self, close: u8, what: &str) -> Result<Vec<Spanned>, SyntaxError> {
+        let mut items = Vec::new();
+        loop {
+            self.skip_ws()?;
+            if self.peek() == Some(close) {
+                self.pos += 1;
+                return Ok(items);
+            }
+            items.push(self.value()?);
+            self.skip_ws()?;
+            match self.peek() {
+                Some(b',') => self.pos += 1,
+                Some(c) if c == close => {
+                    self.pos += 1;
+                    return Ok(items);
+                }
+                _ => {
+                    return Err(self.err(format!(
+                        "expected `,` or `{}` in {what}, found {}",
+                        close as char,
+                        self.describe_here()
+                    )));
+                }
+            }
+        }
     }
 
     fn ident(&mut self) -> String {
@@ -386,29 +391,7 @@ impl<'a> Parser<'a> {
             }
             Ok(SKind::Struct(name, fields))
         } else {
-            let mut items = Vec::new();
-            loop {
-                self.skip_ws()?;
-                if self.peek() == Some(b')') {
-                    self.pos += 1;
-                    break;
-                }
-                items.push(self.value()?);
-                self.skip_ws()?;
-                match self.peek() {
-                    Some(b',') => self.pos += 1,
-                    Some(b')') => {
-                        self.pos += 1;
-                        break;
-                    }
-                    _ => {
-                        return Err(self.err(format!(
-                            "expected `,` or `)` in tuple, found {}",
-                            self.describe_here()
-                        )));
-                    }
-                }
-            }
+            let items = self.values_until(b')', "tuple")?;
             Ok(SKind::Tuple(name, items))
         }
     }
