@@ -31,67 +31,44 @@ fn saturate_int(v: f64, max: f64) -> f64 {
     v.round_ties_even().clamp(0.0, max)
 }
 
-impl Sample for u8 {
-    const NAME: &'static str = "u8";
-    #[inline(always)]
-    fn as_f32(self) -> f32 {
-        self as f32
-    }
-    #[inline(always)]
-    fn abs_diff(a: Self, b: Self) -> f32 {
-        a.abs_diff(b) as f32
-    }
-    #[inline(always)]
-    fn abs_diff_sum(a: Self, b: Self, c: Self) -> f32 {
-        (a.abs_diff(b) as u32 + b.abs_diff(c) as u32) as f32
-    }
-    #[inline(always)]
-    fn diff(a: Self, b: Self) -> f32 {
-        (a as i32 - b as i32) as f32
-    }
-    #[inline(always)]
-    fn from_f64_saturating(v: f64) -> Self {
-        saturate_int(v, 255.0) as u8
-    }
-    #[inline(always)]
-    fn from_telea(v: f32) -> Self {
-        saturate_int(v as f64 + 0.5, 255.0) as u8
-    }
-    fn is_finite(self) -> bool {
-        true
-    }
+/// u8 and u16 differ only in name and range.
+macro_rules! integer_sample {
+    ($t:ty, $max:expr) => {
+        impl Sample for $t {
+            const NAME: &'static str = stringify!($t);
+            #[inline(always)]
+            fn as_f32(self) -> f32 {
+                self as f32
+            }
+            #[inline(always)]
+            fn abs_diff(a: Self, b: Self) -> f32 {
+                a.abs_diff(b) as f32
+            }
+            #[inline(always)]
+            fn abs_diff_sum(a: Self, b: Self, c: Self) -> f32 {
+                (a.abs_diff(b) as u32 + b.abs_diff(c) as u32) as f32
+            }
+            #[inline(always)]
+            fn diff(a: Self, b: Self) -> f32 {
+                (a as i32 - b as i32) as f32
+            }
+            #[inline(always)]
+            fn from_f64_saturating(v: f64) -> Self {
+                saturate_int(v, $max) as $t
+            }
+            #[inline(always)]
+            fn from_telea(v: f32) -> Self {
+                saturate_int(v as f64 + 0.5, $max) as $t
+            }
+            fn is_finite(self) -> bool {
+                true
+            }
+        }
+    };
 }
 
-impl Sample for u16 {
-    const NAME: &'static str = "u16";
-    #[inline(always)]
-    fn as_f32(self) -> f32 {
-        self as f32
-    }
-    #[inline(always)]
-    fn abs_diff(a: Self, b: Self) -> f32 {
-        a.abs_diff(b) as f32
-    }
-    #[inline(always)]
-    fn abs_diff_sum(a: Self, b: Self, c: Self) -> f32 {
-        (a.abs_diff(b) as u32 + b.abs_diff(c) as u32) as f32
-    }
-    #[inline(always)]
-    fn diff(a: Self, b: Self) -> f32 {
-        (a as i32 - b as i32) as f32
-    }
-    #[inline(always)]
-    fn from_f64_saturating(v: f64) -> Self {
-        saturate_int(v, 65535.0) as u16
-    }
-    #[inline(always)]
-    fn from_telea(v: f32) -> Self {
-        saturate_int(v as f64 + 0.5, 65535.0) as u16
-    }
-    fn is_finite(self) -> bool {
-        true
-    }
-}
+integer_sample!(u8, 255.0);
+integer_sample!(u16, 65535.0);
 
 impl Sample for f32 {
     const NAME: &'static str = "f32";
