@@ -59,7 +59,7 @@ pub fn choose_backend(
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("train", "1")
+        NodeSpec::new("train", "2")
             .doc(
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
@@ -173,11 +173,23 @@ impl Node for TrainNode {
         ctx.note("iterations", report.iterations_run);
         ctx.note("best_iteration", report.best_iteration);
         ctx.note("best_score", format!("{:.5}", report.best_score));
+        ctx.note("held_out_psnr", format!("{:.2} dB", report.log.final_psnr));
+        if report.log.stopped_early {
+            ctx.note(
+                "early_stop",
+                format!(
+                    "stopped at {} of {}, best at {}",
+                    report.iterations_run, report.log.iterations_budget, report.best_iteration
+                ),
+            );
+        }
         ctx.note("faces", report.model.face_count());
         for n in &report.notes {
             ctx.note("schedule", n);
         }
-        save_model(&report.model, &ctx.output("model")?)?;
+        let model_dir = ctx.output("model")?;
+        save_model(&report.model, &model_dir)?;
+        report.log.save(&model_dir)?;
         Ok(Outcome::Done)
     }
 }

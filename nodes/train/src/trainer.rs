@@ -20,10 +20,13 @@ use objectsplat_core::component::{IGNORE, OTHER, OWN};
 use objectsplat_core::{Camera, ComponentKind, Image, Points, Split};
 use objectsplat_raster::loss::{DEFAULT_LAMBDA_DSSIM, Dims, photometric};
 use objectsplat_raster::model::SH_COEFFS;
-use objectsplat_raster::{Model, OutputGrads, RenderBackend, RenderSettings};
+use objectsplat_raster::{
+    EvalRecord, Model, OutputGrads, RenderBackend, RenderSettings, StepRecord, TrainingLog,
+};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::path::Path;
+use std::time::Instant;
 
 /// One supervised view of a component.
 pub struct View {
@@ -109,6 +112,8 @@ pub struct TrainReport {
     /// Held-out photometric loss of the returned (finally pruned) model; lower is better.
     pub best_score: f64,
     pub notes: Vec<String>,
+    /// Curves and outcome, saved next to the model as `training.json`.
+    pub log: TrainingLog,
 }
 
 /// Pixel weights and targets of one view under background colour `b`.
@@ -211,28 +216,42 @@ fn render_settings(model: &Model<f32>, settings: &TrainSettings) -> RenderSettin
     RenderSettings::for_model(model).with_world_scale(settings.world_scale)
 }
 
-/// Mean photometric loss over the held-out views (training views when none is
-/// held out), over a black background: stray coverage of OTHER pixels costs.
-pub fn held_out_score(
-    backend: &dyn RenderBackend<f32>,
-    model: &Model<f32>,
-    data: &ComponentData,
-    settings: &TrainSettings,
-) -> Result<f64> {
+/// A model's quality on a component's held-out views.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeldOut {
+    /// Mean weighted photometric loss (`0.8·L1 + 0.2·D-SSIM`); selects the checkpoint.
+    pub loss: f64,
+    /// PSNR (dB) over every supervised pixel of those views (one pooled MSE).
+    pub psnr: f64,
+}
+
+/// The held-out views of a component (its training views when none is held out).
+fn evaluation_views(data: &ComponentData) -> Vec<&View> {
     let test: Vec<&View> = data
         .views
         .iter()
         .filter(|v| v.split == Split::Test)
         .collect();
-    let views: Vec<&View> = if test.is_empty() {
+    if test.is_empty() {
         data.views
             .iter()
             .filter(|v| v.split == Split::Train)
             .collect()
     } else {
         test
-    };
-    let mut total = 0.0;
+    }
+}
+
+/// Scores `model` on the held-out views over a black background, so stray
+/// coverage of OTHER pixels costs (their target is black too).
+pub fn held_out_eval(
+    backend: &dyn RenderBackend<f32>,
+    model: &Model<f32>,
+    data: &ComponentData,
+    settings: &TrainSettings,
+) -> Result<HeldOut> {
+    let views = evaluation_views(data);
+    let (mut loss, mut squared_error, mut weight) = (0.0, 0.0, 0.0);
     for view in &views {
         let pixels = view.labels.len();
         let bg = vec![0.0f32; 3 * pixels];
@@ -240,7 +259,7 @@ pub fn held_out_score(
             backend.forward(model, &view.camera, &render_settings(model, settings), &bg)?;
         let (target, weights) = supervision(view, data.kind, [0.0; 3]);
         let dims = Dims::rgb(view.camera.width, view.camera.height);
-        total += photometric(
+        loss += photometric(
             dims,
             &out.color,
             &target,
@@ -248,28 +267,106 @@ pub fn held_out_score(
             DEFAULT_LAMBDA_DSSIM,
         )?
         .value as f64;
+        for (p, &w) in weights.iter().enumerate() {
+            for c in 3 * p..3 * p + 3 {
+                let d = (out.color[c] - target[c]) as f64;
+                squared_error += w as f64 * d * d;
+            }
+            weight += 3.0 * w as f64;
+        }
     }
-    Ok(total / views.len().max(1) as f64)
+    let mse = squared_error / weight.max(1.0);
+    Ok(HeldOut {
+        loss: loss / views.len().max(1) as f64,
+        // A perfect fit is capped at 100 dB rather than reported as infinity.
+        psnr: if mse > 1e-10 {
+            -10.0 * mse.log10()
+        } else {
+            100.0
+        },
+    })
 }
 
-/// Per face, the largest blending weight over all training views (what pruning,
-/// densification and the final prune judge faces by).
-fn max_weight_over_views(
+/// The held-out loss alone (see [`held_out_eval`]).
+pub fn held_out_score(
+    backend: &dyn RenderBackend<f32>,
+    model: &Model<f32>,
+    data: &ComponentData,
+    settings: &TrainSettings,
+) -> Result<f64> {
+    Ok(held_out_eval(backend, model, data, settings)?.loss)
+}
+
+/// Per face, over all training views: the largest blending weight (what
+/// pruning, densification and the final prune judge faces by) and the largest
+/// screen extent in pixels (centroid-to-corner distance, faces in front of the camera).
+struct FaceStats {
+    max_weight: Vec<f32>,
+    max_screen_extent: Vec<f64>,
+}
+
+fn face_stats(
     backend: &dyn RenderBackend<f32>,
     model: &Model<f32>,
     views: &[&View],
     settings: &TrainSettings,
-) -> Result<Vec<f32>> {
-    let mut max_weight = vec![0.0f32; model.face_count()];
+) -> Result<FaceStats> {
+    let mut stats = FaceStats {
+        max_weight: vec![0.0; model.face_count()],
+        max_screen_extent: vec![0.0; model.face_count()],
+    };
     for view in views {
         let bg = vec![0.0f32; 3 * view.labels.len()];
         let (out, _) =
             backend.forward(model, &view.camera, &render_settings(model, settings), &bg)?;
-        for (m, &w) in max_weight.iter_mut().zip(&out.face_max_weight) {
+        for (m, &w) in stats.max_weight.iter_mut().zip(&out.face_max_weight) {
             *m = m.max(w);
         }
+        let projected: Vec<Option<(f64, f64, f64)>> = model
+            .vertices
+            .iter()
+            .map(|v| {
+                view.camera
+                    .project(glam::DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64))
+            })
+            .collect();
+        for (f, face) in model.faces.iter().enumerate() {
+            let corners = face.map(|v| projected[v as usize]);
+            let [Some(a), Some(b), Some(c)] = corners else {
+                continue;
+            };
+            let (cx, cy) = ((a.0 + b.0 + c.0) / 3.0, (a.1 + b.1 + c.1) / 3.0);
+            let extent = [a, b, c]
+                .iter()
+                .map(|p| (p.0 - cx).hypot(p.1 - cy))
+                .fold(0.0, f64::max);
+            stats.max_screen_extent[f] = stats.max_screen_extent[f].max(extent);
+        }
     }
-    Ok(max_weight)
+    Ok(stats)
+}
+
+/// The first parameter that is not finite, named for the error message.
+fn first_non_finite(model: &Model<f32>) -> Option<String> {
+    if let Some(v) = model
+        .vertices
+        .iter()
+        .position(|p| !p.iter().all(|x| x.is_finite()))
+    {
+        return Some(format!("vertex {v} position {:?}", model.vertices[v]));
+    }
+    if let Some(v) = model
+        .sh
+        .iter()
+        .position(|s| !s.iter().flatten().all(|x| x.is_finite()))
+    {
+        return Some(format!("vertex {v} SH coefficients"));
+    }
+    model
+        .opacity_logits
+        .iter()
+        .position(|x| !x.is_finite())
+        .map(|v| format!("vertex {v} opacity logit {}", model.opacity_logits[v]))
 }
 
 /// Trains one component from its sparse points. `progress(done, total)` returns
@@ -308,6 +405,12 @@ pub fn train_component(
     let train_views: Vec<&View> = train.iter().map(|&i| &data.views[i]).collect();
     let mut best: Option<(f64, u64, Model<f32>)> = None;
     let mut notes = Vec::new();
+    let started = Instant::now();
+    // About 200 loss points per run, whatever the budget.
+    let log_every = (s.iterations / 200).max(1);
+    let (mut steps, mut evals) = (Vec::new(), Vec::new());
+    let mut window_loss = 0.0;
+    let mut stopped_early = false;
     let mut it = 0;
     while it < s.iterations {
         if it == s.connectivity_at && model.face_count() > 0 {
@@ -332,11 +435,12 @@ pub fn train_component(
         model.sigma = s.sigma(it);
         model.sh_degree = s.sh_degree(it);
         if let Some(threshold) = s.prune_at(it) {
-            let face_max_weight = max_weight_over_views(backend, &model, &train_views, settings)?;
+            let stats = face_stats(backend, &model, &train_views, settings)?;
             let keep: Vec<bool> = (0..model.face_count())
                 .map(|f| {
                     model.face_opacity(f) as f64 > threshold
-                        && face_max_weight[f] as f64 > threshold
+                        && stats.max_weight[f] as f64 > threshold
+                        && stats.max_screen_extent[f] <= s.prune_max_screen_extent
                 })
                 .collect();
             // Never prune the model away entirely; the held-out score decides what survives.
@@ -351,8 +455,8 @@ pub fn train_component(
                 min_area: s.densify_min_area * settings.world_scale * settings.world_scale,
                 always_largest: s.densify_always_largest,
             };
-            let face_max_weight = max_weight_over_views(backend, &model, &train_views, settings)?;
-            let chosen = select_faces_to_split(&model, &face_max_weight, policy, &mut rng)?;
+            let stats = face_stats(backend, &model, &train_views, settings)?;
+            let chosen = select_faces_to_split(&model, &stats.max_weight, policy, &mut rng)?;
             let edit = subdivide_faces(&mut model, &chosen)?;
             optim.apply_edit(&edit)?;
         }
@@ -376,6 +480,15 @@ pub fn train_component(
             &render_settings(&model, settings),
             &bg,
         )?;
+        if !out.all_finite() {
+            bail!(
+                "training of {:?} diverged at iteration {}: the render of view {:?} is not \
+                 finite (parameters overflowed; lower the learning rates)",
+                data.name,
+                it + 1,
+                view.name
+            );
+        }
         let (target, weights) = supervision(view, data.kind, b);
         let dims = Dims::rgb(view.camera.width, view.camera.height);
         let loss = photometric(
@@ -385,9 +498,40 @@ pub fn train_component(
             Some(&weights),
             DEFAULT_LAMBDA_DSSIM,
         )?;
+        if !loss.value.is_finite() || loss.grad.iter().any(|g| !g.is_finite()) {
+            bail!(
+                "training of {:?} diverged at iteration {}: the loss on view {:?} is not \
+                 finite (parameters overflowed; lower the learning rates)",
+                data.name,
+                it + 1,
+                view.name
+            );
+        }
         let grads = backend.backward(&model, &saved, &OutputGrads::color_only(&loss.grad))?;
         optim.step(&mut model, &grads)?;
+        // Cheap next to a render, so checked in every build, not only debug ones.
+        if let Some(what) = first_non_finite(&model) {
+            bail!(
+                "training of {:?} diverged at iteration {}: {what} is not finite \
+                 (view {:?}, loss {})",
+                data.name,
+                it + 1,
+                view.name,
+                loss.value
+            );
+        }
         it += 1;
+        window_loss += loss.value as f64;
+        if it % log_every == 0 || it == s.iterations {
+            let window = (it - 1) % log_every + 1;
+            steps.push(StepRecord {
+                iteration: it,
+                wall_seconds: started.elapsed().as_secs_f64(),
+                loss: window_loss / window as f64,
+                faces: model.face_count(),
+            });
+            window_loss = 0.0;
+        }
         if !progress(it, s.iterations) {
             bail!(
                 "training of {:?} was interrupted at iteration {it}",
@@ -396,17 +540,26 @@ pub fn train_component(
         }
 
         if it % s.eval_every == 0 || it == s.iterations {
-            let score = held_out_score(backend, &model, data, settings)?;
-            if best.as_ref().is_none_or(|(b, _, _)| score < *b) {
-                best = Some((score, it, model.clone()));
+            let score = held_out_eval(backend, &model, data, settings)?;
+            evals.push(EvalRecord {
+                iteration: it,
+                wall_seconds: started.elapsed().as_secs_f64(),
+                loss: score.loss,
+                psnr: score.psnr,
+                faces: model.face_count(),
+            });
+            if best.as_ref().is_none_or(|(b, _, _)| score.loss < *b) {
+                best = Some((score.loss, it, model.clone()));
             }
             if let Some((_, best_it, _)) = &best
                 && it > s.connectivity_at
                 && it - best_it >= s.patience
+                && it < s.iterations
             {
                 notes.push(format!(
                     "early stop at {it}: no held-out improvement since {best_it}"
                 ));
+                stopped_early = true;
                 break;
             }
         }
@@ -416,7 +569,7 @@ pub fn train_component(
         None => (it, model),
     };
     // Final prune: faces that never reach a blending weight above the threshold in any training view.
-    let max_weight = max_weight_over_views(backend, &model, &train_views, settings)?;
+    let max_weight = face_stats(backend, &model, &train_views, settings)?.max_weight;
     let keep: Vec<bool> = max_weight
         .iter()
         .map(|&w| w as f64 > s.final_prune_threshold)
@@ -435,12 +588,34 @@ pub fn train_component(
             model.face_count()
         ));
     }
-    let best_score = held_out_score(backend, &model, data, settings)?;
+    let final_score = held_out_eval(backend, &model, data, settings)?;
+    let log = TrainingLog {
+        component: data.name.clone(),
+        kind: match data.kind {
+            ComponentKind::Object => "object",
+            ComponentKind::Background => "background",
+        }
+        .into(),
+        backend: backend.name().into(),
+        seed: settings.seed,
+        background_randomization: settings.background_randomization,
+        iterations_budget: s.iterations,
+        iterations_run: it,
+        best_iteration,
+        stopped_early,
+        wall_seconds: started.elapsed().as_secs_f64(),
+        final_psnr: final_score.psnr,
+        final_faces: model.face_count(),
+        steps,
+        evals,
+        notes: notes.clone(),
+    };
     Ok(TrainReport {
         model,
         iterations_run: it,
         best_iteration,
-        best_score,
+        best_score: final_score.loss,
         notes,
+        log,
     })
 }

@@ -31,6 +31,13 @@ fn train_node_writes_a_model_and_refuses_the_missing_gpu_backend() {
     .unwrap();
     let model = objectsplat_raster::load_model(&run.outputs["model"]).unwrap();
     assert!(model.face_count() > 0);
+    // The training log travels with the model.
+    let log = objectsplat_raster::TrainingLog::load(&run.outputs["model"])
+        .unwrap()
+        .expect("training.json next to the model");
+    assert_eq!(log.iterations_budget, 30);
+    assert_eq!(log.final_faces, model.face_count());
+    assert!(!log.steps.is_empty() && !log.evals.is_empty());
     assert!(
         run.notes
             .iter()

@@ -1,0 +1,87 @@
+//! The training log saved next to a trained model (`training.json` in the
+//! Model folder): the curves the report plots and the benchmarks read.
+
+use anyhow::{Context, Result, bail};
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+pub const TRAINING_LOG_FILE: &str = "training.json";
+
+/// Loss and size of the model over a window of training steps.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct StepRecord {
+    /// Last iteration of the window (1-based: the number of steps done).
+    pub iteration: u64,
+    /// Seconds since training started.
+    pub wall_seconds: f64,
+    /// Mean training loss (`0.8·L1 + 0.2·D-SSIM`, weighted) over the window.
+    pub loss: f64,
+    pub faces: usize,
+}
+
+/// A held-out evaluation (the best checkpoint is chosen among these).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct EvalRecord {
+    pub iteration: u64,
+    pub wall_seconds: f64,
+    /// Weighted photometric loss over the held-out views (lower is better; selects the checkpoint).
+    pub loss: f64,
+    /// PSNR (dB) over the supervised pixels of the held-out views, background black.
+    pub psnr: f64,
+    pub faces: usize,
+}
+
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrainingLog {
+    pub component: String,
+    /// "object" or "background".
+    pub kind: String,
+    pub backend: String,
+    pub seed: u64,
+    pub background_randomization: bool,
+    pub iterations_budget: u64,
+    pub iterations_run: u64,
+    /// The iteration of the returned (best) checkpoint.
+    pub best_iteration: u64,
+    /// True when the patience window ended the run before the budget.
+    pub stopped_early: bool,
+    /// Wall time of the whole run, final prune and evaluation included.
+    pub wall_seconds: f64,
+    /// Held-out PSNR of the returned model (after the final prune).
+    pub final_psnr: f64,
+    pub final_faces: usize,
+    pub steps: Vec<StepRecord>,
+    pub evals: Vec<EvalRecord>,
+    /// Schedule events (connectivity step, final prune, early stop) in words.
+    pub notes: Vec<String>,
+}
+
+impl TrainingLog {
+    pub fn save(&self, model_dir: &Path) -> Result<()> {
+        let path = model_dir.join(TRAINING_LOG_FILE);
+        let text = serde_json::to_string_pretty(self).context("serialising the training log")?;
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
+    }
+
+    /// Reads `training.json` from a Model folder; `Ok(None)` when the model has
+    /// none (models built by hand or by other tools).
+    pub fn load(model_dir: &Path) -> Result<Option<TrainingLog>> {
+        let path = model_dir.join(TRAINING_LOG_FILE);
+        if !path.exists() {
+            return Ok(None);
+        }
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("cannot read {}", path.display()))?;
+        let log: TrainingLog = serde_json::from_str(&text)
+            .with_context(|| format!("{} is not a valid training log", path.display()))?;
+        let numbers = log
+            .steps
+            .iter()
+            .flat_map(|s| [s.wall_seconds, s.loss])
+            .chain(log.evals.iter().flat_map(|e| [e.wall_seconds, e.loss]));
+        if numbers.into_iter().any(|v| !v.is_finite()) {
+            bail!("{}: a loss or time is not finite", path.display());
+        }
+        Ok(Some(log))
+    }
+}

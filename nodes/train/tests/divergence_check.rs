@@ -1,0 +1,42 @@
+//! A diverging run stops with an error naming the component and the iteration
+//! (and the parameter, when one left the finite range); no NaN or infinity is
+//! ever handed back.
+
+mod common;
+
+use objectsplat_raster::CpuBackend;
+use objectsplat_train::Schedule;
+use objectsplat_train::init::{ComponentMasks, InitSettings};
+use objectsplat_train::trainer::{ComponentData, TrainSettings, train_component};
+
+#[test]
+fn an_absurd_learning_rate_fails_naming_component_and_iteration() {
+    let dir = tempfile::tempdir().unwrap();
+    common::write_component(dir.path());
+    let masks = ComponentMasks::read(dir.path()).unwrap();
+    let points = masks.component_points(&common::points()).unwrap();
+    let data = ComponentData::read(dir.path()).unwrap();
+    let settings = TrainSettings {
+        // Adam moves each coefficient by about the learning rate per step: at
+        // 1e38 the SH coefficients overflow f32 within a few steps.
+        schedule: Schedule::new(
+            50,
+            serde_json::json!({ "lr_sh_dc": 1e38 }).as_object().unwrap(),
+        )
+        .unwrap(),
+        seed: 1,
+        background_randomization: true,
+        fixed_background: [0.0; 3],
+        init: InitSettings::default(),
+        world_scale: 1.0,
+    };
+    let err = train_component(&CpuBackend::new(1), &data, &points, &settings, |_, _| true)
+        .err()
+        .expect("the run must not succeed");
+    let text = format!("{err:#}");
+    assert!(
+        text.contains("training of \"obj_1_plate\" diverged at iteration")
+            && text.contains("is not finite"),
+        "{text}"
+    );
+}
