@@ -41,8 +41,11 @@ pub struct TrainingLog {
     pub background_randomization: bool,
     pub iterations_budget: u64,
     pub iterations_run: u64,
-    /// The iteration of the returned (best) checkpoint.
+    /// The evaluation iteration with the best held-out loss.
     pub best_iteration: u64,
+    /// Which model was returned: "best" (that checkpoint) or "last" (the end of the budget).
+    #[serde(default)]
+    pub checkpoint: String,
     /// True when the patience window ended the run before the budget.
     pub stopped_early: bool,
     /// Wall time of the whole run, final prune and evaluation included.

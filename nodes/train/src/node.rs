@@ -3,7 +3,7 @@
 
 use crate::init::{ComponentMasks, InitSettings};
 use crate::schedule::Schedule;
-use crate::trainer::{ComponentData, TrainSettings, train_component};
+use crate::trainer::{Checkpoint, ComponentData, TrainSettings, train_component};
 use anyhow::{Result, bail};
 use objectsplat_core::Points;
 use objectsplat_raster::{CpuBackend, RenderBackend, save_model};
@@ -100,6 +100,13 @@ impl Node for TrainNode {
                 "render backend",
             )
             .param(
+                "checkpoint",
+                ParamType::enumeration(&["best", "last"]),
+                Some("\"best\""),
+                "best: the best model on the held-out views, stopping early after `patience`; \
+                 last: the model at the end of the full budget",
+            )
+            .param(
                 "world_scale",
                 ParamType::float_range(1e-9, 1e9),
                 Some("1.0"),
@@ -120,6 +127,10 @@ impl Node for TrainNode {
         let randomize: bool = ctx.param("background_randomization")?;
         let backend_name: String = ctx.param("backend")?;
         let world_scale: f64 = ctx.param("world_scale")?;
+        let checkpoint = match ctx.param::<String>("checkpoint")?.as_str() {
+            "last" => Checkpoint::Last,
+            _ => Checkpoint::Best,
+        };
         let overrides: BTreeMap<String, f64> = ctx.param("schedule")?;
         let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
         let (backend, note) = choose_backend(&backend_name, ctx.threads())?;
@@ -154,6 +165,7 @@ impl Node for TrainNode {
             fixed_background: [0.0; 3],
             init: InitSettings::default(),
             world_scale,
+            checkpoint,
         };
         let report = {
             let ctx_ref = &*ctx;

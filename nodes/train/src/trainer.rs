@@ -92,6 +92,16 @@ impl ComponentData {
     }
 }
 
+/// Which model a run returns.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Checkpoint {
+    /// The best on the held-out views; the run stops early after `patience`.
+    #[default]
+    Best,
+    /// The model at the end of the full budget (no early stop): the paper's fixed-iteration variant.
+    Last,
+}
+
 #[derive(Debug, Clone)]
 pub struct TrainSettings {
     pub schedule: Schedule,
@@ -102,6 +112,7 @@ pub struct TrainSettings {
     pub init: InitSettings,
     /// Scales the renderer's depth thresholds for scenes not in metres.
     pub world_scale: f64,
+    pub checkpoint: Checkpoint,
 }
 
 /// The trained model and what happened.
@@ -552,6 +563,7 @@ pub fn train_component(
                 best = Some((score.loss, it, model.clone()));
             }
             if let Some((_, best_it, _)) = &best
+                && settings.checkpoint == Checkpoint::Best
                 && it > s.connectivity_at
                 && it - best_it >= s.patience
                 && it < s.iterations
@@ -564,9 +576,10 @@ pub fn train_component(
             }
         }
     }
-    let (best_iteration, mut model) = match best {
-        Some((_, best_it, best_model)) => (best_it, best_model),
-        None => (it, model),
+    let (best_iteration, mut model) = match (best, settings.checkpoint) {
+        (Some((_, best_it, best_model)), Checkpoint::Best) => (best_it, best_model),
+        (Some((_, best_it, _)), Checkpoint::Last) => (best_it, model),
+        (None, _) => (it, model),
     };
     // Final prune: faces that never reach a blending weight above the threshold in any training view.
     let max_weight = face_stats(backend, &model, &train_views, settings)?.max_weight;
@@ -602,6 +615,11 @@ pub fn train_component(
         iterations_budget: s.iterations,
         iterations_run: it,
         best_iteration,
+        checkpoint: match settings.checkpoint {
+            Checkpoint::Best => "best",
+            Checkpoint::Last => "last",
+        }
+        .into(),
         stopped_early,
         wall_seconds: started.elapsed().as_secs_f64(),
         final_psnr: final_score.psnr,

@@ -29,6 +29,7 @@ fn an_absurd_learning_rate_fails_naming_component_and_iteration() {
         fixed_background: [0.0; 3],
         init: InitSettings::default(),
         world_scale: 1.0,
+        checkpoint: Default::default(),
     };
     let err = train_component(&CpuBackend::new(1), &data, &points, &settings, |_, _| true)
         .err()

@@ -35,6 +35,7 @@ fn settings(seed: u64) -> TrainSettings {
         fixed_background: [0.0; 3],
         init: InitSettings::default(),
         world_scale: 1.0,
+        checkpoint: Default::default(),
     }
 }
 

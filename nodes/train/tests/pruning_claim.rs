@@ -85,6 +85,7 @@ fn train(randomize: bool) -> Outcome {
         fixed_background: [0.0; 3],
         init: InitSettings::default(),
         world_scale: 1.0,
+        checkpoint: Default::default(),
     };
     let backend = CpuBackend::new(2);
     let report = train_component(&backend, &data, &points, &settings, |_, _| true).unwrap();

@@ -41,6 +41,7 @@ fn training_the_plate_lowers_its_held_out_loss() {
         fixed_background: [0.0; 3],
         init: InitSettings::default(),
         world_scale: 1.0,
+        checkpoint: Default::default(),
     };
     let backend = CpuBackend::new(2);
     let initial = init_model(
