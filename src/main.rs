@@ -5,9 +5,13 @@ mod display;
 
 use anyhow::{Context as _, Result, anyhow};
 use clap::{Parser, Subcommand};
+use objectsplat_export::report::{
+    GraphEdge, REPORT_FILE, RunSummary, read_run_summary, write_with_run_summary,
+};
 use objectsplat_runtime::exec::{self, RunOptions};
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::{self, Override, Plan};
+use objectsplat_runtime::report::RunReport;
 use objectsplat_runtime::store::Store;
 use objectsplat_runtime::{Diagnostics, Registry};
 use std::path::{Path, PathBuf};
@@ -45,7 +49,8 @@ enum Command {
         /// Load a plugin library (repeatable).
         #[arg(long = "plugin")]
         plugins: Vec<PathBuf>,
-        /// Also write the run report as JSON to this file.
+        /// Also write the run report as JSON to this file (with the graph's edges, so
+        /// `objectsplat report --run` can draw the graph later).
         #[arg(long)]
         json: Option<PathBuf>,
         /// Worker threads (default: the number of CPUs).
@@ -59,6 +64,19 @@ enum Command {
         plugins: Vec<PathBuf>,
         #[arg(long = "set")]
         sets: Vec<String>,
+    },
+    /// Fill in the run summary (graph, node statuses and times) of a `report` node's page
+    /// from a run report saved with `run --json`.
+    Report {
+        /// The run report (`objectsplat run --json RUN.json`).
+        #[arg(long = "run")]
+        run: PathBuf,
+        /// The page written by a `report` node (OUT/<node>/file/index.html).
+        #[arg(long)]
+        html: PathBuf,
+        /// Where to write the filled-in page (default: replace --html).
+        #[arg(short = 'o', long = "out")]
+        out: Option<PathBuf>,
     },
     /// Print the graph.
     Graph {
@@ -163,10 +181,16 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             )?;
             observer.finish();
             eprint!("{}", report.render_table());
+            let edges = graph_edges(&plan, &report);
             if let Some(path) = json {
-                let text = serde_json::to_string_pretty(&report)?;
+                let mut value = serde_json::to_value(&report)?;
+                value["edges"] = serde_json::to_value(&edges)?;
+                let text = serde_json::to_string_pretty(&value)?;
                 std::fs::write(&path, text)
                     .with_context(|| format!("{}: cannot write report", path.display()))?;
+            }
+            if report.out.is_some() {
+                fill_report_pages(&plan, &report, &out, edges);
             }
             if report.ok {
                 eprintln!("outputs in {}", out.display());
@@ -180,6 +204,17 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 );
                 Ok(ExitCode::FAILURE)
             }
+        }
+        Command::Report { run, html, out } => {
+            let summary = read_run_summary(&run)?;
+            let out = out.unwrap_or_else(|| html.clone());
+            write_with_run_summary(&html, &summary, &out)?;
+            eprintln!(
+                "run summary of {} written to {}",
+                run.display(),
+                out.display()
+            );
+            Ok(ExitCode::SUCCESS)
         }
         Command::Check {
             graph,
@@ -237,4 +272,56 @@ fn target_names(plan: &Plan) -> String {
         .map(|&t| plan.nodes[t].id.as_str())
         .collect::<Vec<_>>()
         .join(", ")
+}
+
+/// The graph's data dependencies between nodes of the run, one per producer–consumer pair.
+fn graph_edges(plan: &Plan, report: &RunReport) -> Vec<GraphEdge> {
+    let ran = |id: &str| report.node(id).is_some();
+    let mut edges: Vec<GraphEdge> = Vec::new();
+    for node in &plan.nodes {
+        for input in &node.inputs {
+            let edge = GraphEdge {
+                from: plan.nodes[input.from].id.clone(),
+                to: node.id.clone(),
+            };
+            // A node may read several ports of one producer: one edge in the drawing.
+            if ran(&edge.from) && ran(&edge.to) && !edges.contains(&edge) {
+                edges.push(edge);
+            }
+        }
+    }
+    edges
+}
+
+/// Fills the run summary into every materialized page of a `report` target. The page is
+/// replaced by a new file, so the cache's copy keeps its placeholder. A page that cannot be
+/// filled is a warning: the run's outputs are complete without it.
+fn fill_report_pages(plan: &Plan, report: &RunReport, out: &Path, edges: Vec<GraphEdge>) {
+    // The page reads the same JSON shape `--json` writes.
+    let summary = serde_json::to_value(report).and_then(serde_json::from_value::<RunSummary>);
+    let summary = match summary {
+        Ok(s) => RunSummary { edges, ..s },
+        Err(e) => {
+            eprintln!("warning: the run summary was not added to the reports: {e}");
+            return;
+        }
+    };
+    for &t in &plan.targets {
+        let node = &plan.nodes[t];
+        if node.kind != "report" {
+            continue;
+        }
+        let Some(done) = report.node(&node.id) else {
+            continue;
+        };
+        for port in done.outputs.keys() {
+            let page = out.join(&node.id).join(port).join(REPORT_FILE);
+            if !page.is_file() {
+                continue;
+            }
+            if let Err(e) = write_with_run_summary(&page, &summary, &page) {
+                eprintln!("warning: the run summary was not added to the report: {e:#}");
+            }
+        }
+    }
 }

@@ -488,7 +488,7 @@ fn finish_node(plan: &Plan, store: &Store, i: usize, st: &mut NodeState, fans_ou
         }
         return;
     }
-    // Assemble collection outputs from the items, in input order.
+    // Assemble collection outputs from the items.
     let node = &plan.nodes[i];
     let failed: Vec<&str> = st
         .items
@@ -512,6 +512,8 @@ fn finish_node(plan: &Plan, store: &Store, i: usize, st: &mut NodeState, fans_ou
         ));
         return;
     }
+    // Items finish in any order; the collection (and so its digest) must not depend on it.
+    st.items.sort_by(|a, b| a.0.cmp(&b.0));
     let mut outputs = BTreeMap::new();
     for (port, ty) in &node.outputs {
         let items: Vec<(String, Digest)> = st

@@ -1,17 +1,19 @@
 //! Dataflow node wrappers.
 //!
-//! `report`: metrics (+ optional frames and renders) → an HTML report folder. Inside a graph
-//! the node cannot see the run's own node table (nodes downstream or beside it have not
-//! finished), so its "Run" section is empty; the CLI can render the full report after the
-//! run with [`crate::render_report`] and a `RunSummary` parsed from its `--json` report.
+//! `report`: metrics, test views and trained models' training logs (all optional) → an HTML
+//! report folder. Inside a graph the node cannot see the run's own node table (nodes
+//! downstream or beside it have not finished), so its "Run" section is a marked placeholder
+//! that `objectsplat run` fills in on the materialized copy
+//! ([`crate::report::write_with_run_summary`]).
 //!
 //! `export_gltf` is not wrapped yet: it needs the Model encoding inside a Scene
 //! (`objects/<name>/model.ply`), which is not documented yet.
 
-use crate::report::{MetricsTable, ReportData, ViewTriplet, render_report};
+use crate::report::{MetricsTable, ModelTraining, ReportData, ViewTriplet, render_report};
 use anyhow::{Context as _, Result};
 use objectsplat_core::Frames;
 use objectsplat_core::frames::{Split, frame_stem};
+use objectsplat_raster::TrainingLog;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
 use std::path::Path;
 use std::sync::Arc;
@@ -51,13 +53,28 @@ fn test_views(frames_dir: &Path, renders_dir: &Path, max_views: usize) -> Result
         .collect())
 }
 
+/// Each model item with its `training.json`, `None` for models trained without one.
+fn training_logs(items: &[(String, std::path::PathBuf)]) -> Result<Vec<ModelTraining>> {
+    items
+        .iter()
+        .map(|(name, dir)| {
+            let log = TrainingLog::load(dir).with_context(|| format!("models item {name:?}"))?;
+            Ok(ModelTraining {
+                model: name.clone(),
+                log,
+            })
+        })
+        .collect()
+}
+
 impl Node for ReportNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("report", "1")
-            .doc("A self-contained HTML report (index.html): metrics table, test-view triplets (ground truth / render / error heatmap) and plots; no external resources.")
-            .input("metrics", "Metrics", "the evaluation (metrics.json)")
+        NodeSpec::new("report", "2")
+            .doc("A self-contained HTML report (index.html): the run's graph with each node's status and time (filled in by `objectsplat run` on the materialized copy), metrics table, test-view triplets (ground truth / render / error heatmap), training curves of the models; no external resources.")
+            .optional_input("metrics", "Metrics", "the evaluation (metrics.json)")
             .optional_input("frames", "Frames", "the capture; its test-split frames are the ground truth of the views")
             .optional_input("renders", "Images", "renders of the test frames, named <frame stem>.png")
+            .optional_input("models", "[Model]", "trained models; their training.json gives the training curves")
             .output("file", "File", "a folder with index.html")
             .param("title", ParamType::Str, Some("\"ObjectSplat run\""), "page title")
             .param("max_views", ParamType::int_range(0, 64), Some("4"), "test views shown (spread evenly over the test split)")
@@ -73,18 +90,30 @@ impl Node for ReportNode {
         let title: String = ctx.param("title")?;
         let max_views: i64 = ctx.param("max_views")?;
         let error_scale: f64 = ctx.param("error_scale")?;
-        let metrics = read_metrics(ctx.input("metrics")?)?;
+        let metrics = match ctx.input_opt("metrics") {
+            Some(dir) => Some(read_metrics(dir)?),
+            None => None,
+        };
         let views = match (ctx.input_opt("frames"), ctx.input_opt("renders")) {
             (Some(frames), Some(renders)) => {
                 test_views(frames, renders, max_views.max(0) as usize)?
             }
             _ => Vec::new(),
         };
+        let training = match ctx.input_opt("models") {
+            Some(_) => training_logs(ctx.input_items("models")?)?,
+            None => Vec::new(),
+        };
         ctx.note("views", views.len());
+        if !training.is_empty() {
+            let logged = training.iter().filter(|t| t.log.is_some()).count();
+            ctx.note("training logs", format!("{logged} of {}", training.len()));
+        }
         let data = ReportData {
             title,
-            metrics: Some(metrics),
+            metrics,
             views,
+            training,
             error_scale,
             ..Default::default()
         };
@@ -96,7 +125,8 @@ impl Node for ReportNode {
 }
 
 pub fn register(reg: &mut Registry) {
-    // Kinds are unique within this crate; a clash means another crate registered the same kind.
+    // Kinds are unique within this crate and the catalogue registers every artifact type
+    // first; a failure here is a wiring bug (a kind clash or a type left unregistered).
     reg.add_node(Arc::new(ReportNode))
-        .expect("node kind `report` is registered once");
+        .expect("node kind `report` is registered once, after its port types");
 }

@@ -5,6 +5,7 @@
 mod common;
 
 use base64::Engine;
+use common::svg::{polylines, svg_blocks};
 use common::synthetic_report::{VIEW_H, VIEW_W, ground_truth_image, report_data};
 use objectsplat_export::report::images::heat_colour;
 use objectsplat_export::report::*;
@@ -17,18 +18,6 @@ fn written_report() -> (tempfile::TempDir, String) {
     assert_eq!(path, dir.path().join("out").join(REPORT_FILE));
     let html = std::fs::read_to_string(path).unwrap();
     (dir, html)
-}
-
-fn svg_blocks(html: &str) -> Vec<&str> {
-    let mut blocks = Vec::new();
-    let mut rest = html;
-    while let Some(start) = rest.find("<svg") {
-        let end =
-            rest[start..].find("</svg>").expect("every <svg> is closed") + start + "</svg>".len();
-        blocks.push(&rest[start..end]);
-        rest = &rest[end..];
-    }
-    blocks
 }
 
 fn data_uri_images(html: &str) -> Vec<image::RgbImage> {
@@ -69,7 +58,11 @@ fn page_is_self_contained() {
 fn every_svg_is_well_formed_xml() {
     let (_dir, html) = written_report();
     let blocks = svg_blocks(&html);
-    assert_eq!(blocks.len(), 4, "graph + loss + held-out PSNR + run time");
+    assert_eq!(
+        blocks.len(),
+        6,
+        "graph + loss, PSNR by iteration, PSNR by time, triangles + configurations"
+    );
     for block in blocks {
         roxmltree::Document::parse(block).unwrap_or_else(|e| panic!("bad SVG ({e}): {block}"));
     }
@@ -158,67 +151,31 @@ fn view_pictures_are_faithful_and_the_heatmap_marks_the_error() {
     );
 }
 
-fn polylines(doc: &roxmltree::Document) -> Vec<(String, Vec<(f64, f64)>)> {
-    doc.descendants()
-        .filter(|n| n.attribute("class") == Some("series"))
-        .map(|g| {
-            let line = g.children().find(|c| c.has_tag_name("polyline")).unwrap();
-            let points = line
-                .attribute("points")
-                .unwrap()
-                .split_whitespace()
-                .map(|p| {
-                    let (x, y) = p.split_once(',').unwrap();
-                    (x.parse().unwrap(), y.parse().unwrap())
-                })
-                .collect();
-            (g.attribute("data-series").unwrap().to_string(), points)
-        })
-        .collect()
-}
-
 #[test]
-fn plots_carry_the_finite_curve_points() {
+fn runtime_configurations_are_plotted_per_series() {
     let (_dir, html) = written_report();
-    let blocks = svg_blocks(&html);
-    let loss = roxmltree::Document::parse(blocks[1]).unwrap();
-    let series = polylines(&loss);
+    let blocks = svg_blocks(common::svg::section(&html, "runtime"));
+    assert_eq!(blocks.len(), 1);
+    let runtime = roxmltree::Document::parse(blocks[0]).unwrap();
+    let series = polylines(&runtime);
     assert_eq!(
-        series.iter().map(|s| s.0.as_str()).collect::<Vec<_>>(),
-        ["obj_3_chair", "background"]
+        series
+            .iter()
+            .map(|s| (s.0.as_str(), s.1.len()))
+            .collect::<Vec<_>>(),
+        [("cpu", 2), ("wgpu", 1)]
     );
-    for (name, points) in &series {
-        // 31 logged iterations, one NaN loss left out.
-        assert_eq!(points.len(), 30, "{name}");
-        // Iterations go right; the loss decays, so the line goes down the page (SVG y grows).
-        assert!(
-            points
-                .windows(2)
-                .all(|w| w[1].0 > w[0].0 && w[1].1 >= w[0].1),
-            "{name}: {points:?}"
-        );
-    }
-    assert!(html.contains("obj_3_chair: 1 non-finite point(s) not plotted"));
-    let psnr = roxmltree::Document::parse(blocks[2]).unwrap();
-    for (name, points) in polylines(&psnr) {
-        assert_eq!(points.len(), 7, "{name}: PSNR logged every 5000 iterations");
-    }
-    assert_eq!(
-        psnr.descendants()
-            .filter(|n| n.has_tag_name("circle"))
-            .count(),
-        14
-    );
-    let runtime = roxmltree::Document::parse(blocks[3]).unwrap();
-    let runtime_series = polylines(&runtime);
-    assert_eq!(runtime_series.len(), 2);
-    assert_eq!(runtime_series[0].1.len(), 2);
+    // Sorted by run time: the 30 s point is left of the 180 s point.
+    assert!(series[0].1[0].0 < series[0].1[1].0);
+    assert!(html.contains(
+        "<td>cpu</td><td>30k it</td><td class=\"num\">180.00</td><td class=\"num\">24.30</td>"
+    ));
 }
 
 #[test]
 fn tables_show_nodes_and_metrics() {
     let (_dir, html) = written_report();
-    assert!(html.contains("9 nodes: 5 ran, 2 cached, 1 skipped, 1 failed"));
+    assert!(html.contains("9 nodes: 5 ran, 2 cached, 1 skipped, 1 failed; 126.56 s of node time, 100.25 s wall time (graph graphs/synthetic.ron)."));
     assert!(html.contains("no planar support surface"));
     assert!(html.contains("obj_3_chair (ran, 60.00 s), background (cached, 0.00 s)"));
     assert!(html.contains("<tr><th>scene</th><td class=\"num\">24.3125</td><td class=\"num\">0.8123</td><td class=\"num\">–</td>"));

@@ -36,12 +36,16 @@ fn run_report_and_metrics_json_deserialise() {
 fn report_data_roundtrips_through_json() {
     let dir = tempfile::tempdir().unwrap();
     let mut data = common::synthetic_report::report_data(dir.path());
-    // JSON has no NaN (a logged NaN arrives as null), and serde_json's default float parser
-    // may be 1 ulp off, so use dyadic values that print and parse exactly.
+    // serde_json's default float parser may be 1 ulp off, so use dyadic values that print
+    // and parse exactly.
     let dyadic = |v: f64| (v * 1024.0).round() / 1024.0;
-    for p in data.curves.iter_mut().flat_map(|c| &mut c.points) {
-        p.loss = p.loss.filter(|l| l.is_finite()).map(dyadic);
-        p.psnr = p.psnr.map(dyadic);
+    for log in data.training.iter_mut().filter_map(|t| t.log.as_mut()) {
+        for s in &mut log.steps {
+            s.loss = dyadic(s.loss);
+        }
+        for e in &mut log.evals {
+            e.loss = dyadic(e.loss);
+        }
     }
     let text = serde_json::to_string(&data).unwrap();
     assert_eq!(serde_json::from_str::<ReportData>(&text).unwrap(), data);
@@ -129,8 +133,10 @@ fn an_empty_run_still_renders() {
     let path = render_report(dir.path(), &data).unwrap();
     let html = std::fs::read_to_string(path).unwrap();
     assert!(
-        !html.contains("<section id=\"run\">"),
-        "no run summary, no Run section"
+        html.contains("<p class=\"placeholder\">The run summary"),
+        "no run summary: the Run section is the placeholder"
     );
-    assert!(html.contains("This run did not evaluate") && html.contains("no data"));
+    assert!(html.contains("This run did not evaluate"));
+    assert!(html.contains("No trained models were given to the report."));
+    assert!(!html.contains("<svg"), "no data, no plots");
 }

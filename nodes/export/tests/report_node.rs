@@ -151,6 +151,7 @@ fn registers_the_report_kind() {
         ("Frames", "f"),
         ("Images", "i"),
         ("File", "f"),
+        ("Model", "m"),
     ] {
         reg.add_type(name, doc);
     }

@@ -1,7 +1,8 @@
 //! What a report shows, as plain serde structs that mirror the run's own files:
 //! the `--json` run report (nodes), `metrics.json` (scene + per-object metrics),
-//! the graph's edges, test views as image paths, and training curves.
+//! the graph's edges, test views as image paths, and the trained models' `training.json`.
 
+use objectsplat_raster::TrainingLog;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -18,18 +19,26 @@ pub struct ReportData {
     /// Mean absolute RGB error (values in [0, 1]) shown as the hottest heatmap colour; 0 means the default.
     #[serde(default)]
     pub error_scale: f64,
+    /// One entry per trained model (the `models` collection), in collection order.
     #[serde(default)]
-    pub curves: Vec<TrainingCurve>,
+    pub training: Vec<ModelTraining>,
     #[serde(default)]
     pub runtime_vs_error: Vec<RuntimePoint>,
 }
 
-/// The nodes of the `--json` run report plus the graph's edges (for the drawing).
+/// The nodes of the `--json` run report plus the graph's edges (for the drawing). The
+/// report's other fields (notes, outputs, warnings) are not shown and are ignored.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct RunSummary {
     pub nodes: Vec<NodeRun>,
     #[serde(default)]
     pub edges: Vec<GraphEdge>,
+    /// The graph file the run came from.
+    #[serde(default)]
+    pub graph: Option<String>,
+    /// Wall time of the whole run (nodes overlap, so this is not the sum of node times).
+    #[serde(default)]
+    pub seconds: Option<f64>,
 }
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -155,21 +164,13 @@ pub struct ViewTriplet {
     pub render: PathBuf,
 }
 
-/// One component's training log.
+/// A trained model of the `models` collection and its `training.json`, `None` when the
+/// model has no training log (built by hand or by another tool).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TrainingCurve {
-    pub component: String,
-    pub points: Vec<CurvePoint>,
-}
-
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct CurvePoint {
-    pub iteration: u64,
-    #[serde(default)]
-    pub loss: Option<f64>,
-    /// Held-out PSNR (dB), logged only at evaluation iterations.
-    #[serde(default)]
-    pub psnr: Option<f64>,
+pub struct ModelTraining {
+    /// The collection item's name (`background`, `obj_<id>_<label>`).
+    pub model: String,
+    pub log: Option<TrainingLog>,
 }
 
 /// One measured configuration: how long it ran and how good it is.

@@ -1,6 +1,6 @@
-//! The self-contained HTML run report: graph with node status and time, metrics table,
-//! test-view triplets (ground truth / render / error heatmap), and SVG plots of training
-//! curves and run time against error.
+//! The self-contained HTML run report: graph with node status and time (filled in after the
+//! run, see [`run_summary`]), metrics table, test-view triplets (ground truth / render / error
+//! heatmap), and SVG plots of the training curves and run time against error.
 
 pub mod dag;
 pub mod data;
@@ -8,9 +8,16 @@ pub mod escape;
 pub mod images;
 pub mod page;
 pub mod plot;
+pub mod run_summary;
+pub mod training;
 
 pub use data::{
-    CurvePoint, GraphEdge, ItemRun, MetricValues, MetricsTable, NodeRun, NodeStatus, ObjectMetrics,
-    ReportData, RunSummary, RuntimePoint, TrainingCurve, ViewTriplet,
+    GraphEdge, ItemRun, MetricValues, MetricsTable, ModelTraining, NodeRun, NodeStatus,
+    ObjectMetrics, ReportData, RunSummary, RuntimePoint, ViewTriplet,
 };
+pub use objectsplat_raster::{EvalRecord, StepRecord, TrainingLog};
 pub use page::{REPORT_FILE, render_report, report_html};
+pub use run_summary::{
+    RUN_SUMMARY_BEGIN, RUN_SUMMARY_END, inject_run_summary, read_run_summary,
+    write_with_run_summary,
+};

@@ -1,12 +1,13 @@
 //! Assembles `index.html`: one self-contained page (inline CSS, inline SVG, PNG data URIs,
 //! no scripts and no external fetches) so it can be mailed or archived as a single file.
 
-use super::dag::{dag_svg, status_colour};
-use super::data::{MetricValues, NodeStatus, ReportData};
+use super::data::{MetricValues, ReportData};
 use super::escape::escape;
 use super::images::render_triplet;
 use super::plot::{PlotSpec, Series, line_plot_svg};
-use anyhow::{Context, Result, bail, ensure};
+use super::run_summary::run_section;
+use super::training::{finite_points, section_training};
+use anyhow::{Context, Result, ensure};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
@@ -40,68 +41,6 @@ fn metrics_row(name: &str, values: &MetricValues) -> String {
         .map(|(_, v)| metric_cell(*v))
         .collect();
     format!("<tr><th>{}</th>{cells}</tr>", escape(name))
-}
-
-/// Keeps finite points; says how many were left out so nothing disappears silently.
-fn finite_series(
-    name: &str,
-    points: impl Iterator<Item = (f64, f64)>,
-    notes: &mut Vec<String>,
-) -> Series {
-    let (kept, dropped): (Vec<_>, Vec<_>) =
-        points.partition(|(x, y)| x.is_finite() && y.is_finite());
-    if !dropped.is_empty() {
-        notes.push(format!(
-            "{name}: {} non-finite point(s) not plotted",
-            dropped.len()
-        ));
-    }
-    Series {
-        name: name.to_string(),
-        points: kept,
-    }
-}
-
-/// The node table and graph; left out when the report has no run summary (e.g. made by a node
-/// inside the graph, which cannot see the rest of its own run).
-fn section_run(data: &ReportData, html: &mut String) -> Result<()> {
-    let nodes = &data.run.nodes;
-    if nodes.is_empty() {
-        return Ok(());
-    }
-    let total: f64 = nodes.iter().map(|n| n.seconds).sum();
-    let count = |s: NodeStatus| nodes.iter().filter(|n| n.status == s).count();
-    let _ = write!(
-        html,
-        "<section id=\"run\"><h2>Run</h2><p>{} nodes: {} ran, {} cached, {} skipped, {} failed; {total:.2} s of node time.</p>",
-        nodes.len(),
-        count(NodeStatus::Ran),
-        count(NodeStatus::Cached),
-        count(NodeStatus::Skipped),
-        count(NodeStatus::Failed)
-    );
-    html.push_str(&dag_svg(nodes, &data.run.edges)?);
-    html.push_str("<table id=\"nodes\"><tr><th>id</th><th>kind</th><th>status</th><th>seconds</th><th>reason</th><th>items</th></tr>");
-    for n in nodes {
-        let items: Vec<String> = n
-            .items
-            .iter()
-            .map(|i| format!("{} ({}, {:.2} s)", i.name, i.status.as_str(), i.seconds))
-            .collect();
-        let _ = write!(
-            html,
-            r#"<tr><td>{id}</td><td>{kind}</td><td><span class="status" style="background:{bg}">{st}</span></td><td class="num">{secs:.2}</td><td>{reason}</td><td>{items}</td></tr>"#,
-            id = escape(&n.id),
-            kind = escape(&n.kind),
-            bg = status_colour(n.status),
-            st = n.status.as_str(),
-            secs = n.seconds,
-            reason = escape(n.reason.as_deref().unwrap_or("")),
-            items = escape(&items.join(", "))
-        );
-    }
-    html.push_str("</table></section>");
-    Ok(())
 }
 
 fn section_metrics(data: &ReportData, html: &mut String) {
@@ -156,41 +95,19 @@ fn section_views(data: &ReportData, html: &mut String) -> Result<()> {
     Ok(())
 }
 
-fn section_plots(data: &ReportData, html: &mut String) {
+/// Measured configurations (e.g. from a benchmark), when the report was given any.
+fn section_runtime(data: &ReportData, html: &mut String) {
+    if data.runtime_vs_error.is_empty() {
+        return;
+    }
     let mut notes = Vec::new();
-    let loss: Vec<Series> = data
-        .curves
-        .iter()
-        .map(|c| {
-            finite_series(
-                &c.component,
-                c.points
-                    .iter()
-                    .filter_map(|p| p.loss.map(|l| (p.iteration as f64, l))),
-                &mut notes,
-            )
-        })
-        .collect();
-    let psnr: Vec<Series> = data
-        .curves
-        .iter()
-        .map(|c| {
-            finite_series(
-                &c.component,
-                c.points
-                    .iter()
-                    .filter_map(|p| p.psnr.map(|v| (p.iteration as f64, v))),
-                &mut notes,
-            )
-        })
-        .collect();
     let mut series_names: Vec<&str> = Vec::new();
     for p in &data.runtime_vs_error {
         if !series_names.contains(&p.series.as_str()) {
             series_names.push(&p.series);
         }
     }
-    let runtime: Vec<Series> = series_names
+    let series: Vec<Series> = series_names
         .iter()
         .map(|s| {
             let points = data
@@ -198,47 +115,29 @@ fn section_plots(data: &ReportData, html: &mut String) {
                 .iter()
                 .filter(|p| p.series == *s)
                 .map(|p| (p.seconds, p.psnr));
-            finite_series(s, points, &mut notes)
+            Series::new(s, finite_points(s, "run-time", points, &mut notes))
         })
         .collect();
-
-    html.push_str("<section id=\"curves\"><h2>Training curves</h2><div class=\"plots\">");
-    html.push_str(&line_plot_svg(&PlotSpec {
-        title: "Training loss".into(),
-        x_label: "iteration".into(),
-        y_label: "loss".into(),
-        series: loss,
-        markers: false,
-    }));
-    html.push_str(&line_plot_svg(&PlotSpec {
-        title: "Held-out PSNR".into(),
-        x_label: "iteration".into(),
-        y_label: "PSNR (dB)".into(),
-        series: psnr,
-        markers: true,
-    }));
-    html.push_str("</div></section><section id=\"runtime\"><h2>Run time against error</h2>");
+    html.push_str("<section id=\"runtime\"><h2>Run time against error</h2>");
     html.push_str(&line_plot_svg(&PlotSpec {
         title: "PSNR against wall time".into(),
         x_label: "wall time (s)".into(),
         y_label: "PSNR (dB)".into(),
-        series: runtime,
+        series,
         markers: true,
     }));
-    if !data.runtime_vs_error.is_empty() {
-        html.push_str("<table id=\"runtime-table\"><tr><th>series</th><th>configuration</th><th>seconds</th><th>PSNR (dB)</th></tr>");
-        for p in &data.runtime_vs_error {
-            let _ = write!(
-                html,
-                r#"<tr><td>{}</td><td>{}</td><td class="num">{:.2}</td><td class="num">{:.2}</td></tr>"#,
-                escape(&p.series),
-                escape(&p.label),
-                p.seconds,
-                p.psnr
-            );
-        }
-        html.push_str("</table>");
+    html.push_str("<table id=\"runtime-table\"><tr><th>series</th><th>configuration</th><th>seconds</th><th>PSNR (dB)</th></tr>");
+    for p in &data.runtime_vs_error {
+        let _ = write!(
+            html,
+            r#"<tr><td>{}</td><td>{}</td><td class="num">{:.2}</td><td class="num">{:.2}</td></tr>"#,
+            escape(&p.series),
+            escape(&p.label),
+            p.seconds,
+            p.psnr
+        );
     }
+    html.push_str("</table>");
     for note in notes {
         let _ = write!(html, "<p class=\"note\">{}</p>", escape(&note));
     }
@@ -247,23 +146,15 @@ fn section_plots(data: &ReportData, html: &mut String) {
 
 /// Builds the page's HTML.
 pub fn report_html(data: &ReportData) -> Result<String> {
-    for n in &data.run.nodes {
-        if !(n.seconds.is_finite() && n.seconds >= 0.0) {
-            bail!(
-                "run report: node {} has invalid seconds {}",
-                n.id,
-                n.seconds
-            );
-        }
-    }
     let title = escape(&data.title);
     let mut html = format!(
         "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\"><title>{title}</title><style>{STYLE}</style></head><body><h1>{title}</h1>"
     );
-    section_run(data, &mut html)?;
+    html.push_str(&run_section(&data.run)?);
     section_metrics(data, &mut html);
     section_views(data, &mut html)?;
-    section_plots(data, &mut html);
+    section_training(&data.training, &mut html);
+    section_runtime(data, &mut html);
     html.push_str("</body></html>\n");
     Ok(html)
 }

@@ -1,4 +1,6 @@
-//! Inline SVG line plots with labelled axes, "nice" ticks and a legend.
+//! Inline SVG line plots with labelled axes, "nice" ticks and a legend; a series may mark
+//! one of its points (a ring, e.g. the best checkpoint) and an x position (a dashed vertical
+//! line, e.g. where training stopped early).
 
 use super::escape::escape;
 use std::fmt::Write;
@@ -12,6 +14,21 @@ pub const PALETTE: [&str; 8] = [
 pub struct Series {
     pub name: String,
     pub points: Vec<(f64, f64)>,
+    /// Drawn as a ring in the series colour (`class="best"`).
+    pub best: Option<(f64, f64)>,
+    /// Drawn as a dashed vertical line in the series colour (`class="stop"`).
+    pub stop: Option<f64>,
+}
+
+impl Series {
+    pub fn new(name: &str, points: Vec<(f64, f64)>) -> Series {
+        Series {
+            name: name.to_string(),
+            points,
+            best: None,
+            stop: None,
+        }
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]
@@ -71,13 +88,14 @@ fn padded_range(lo: f64, hi: f64) -> (f64, f64) {
     }
 }
 
-/// Renders the plot; non-finite points must have been filtered out by the caller.
+/// Renders the plot; non-finite points and marks must have been filtered out by the caller.
 pub fn line_plot_svg(spec: &PlotSpec) -> String {
     let all: Vec<(f64, f64)> = spec
         .series
         .iter()
-        .flat_map(|s| s.points.iter().copied())
+        .flat_map(|s| s.points.iter().copied().chain(s.best))
         .collect();
+    let stops = spec.series.iter().filter_map(|s| s.stop);
     let mut svg = String::new();
     // Writing to a String cannot fail, so the fmt::Results below are ignored.
     let _ = write!(
@@ -98,8 +116,14 @@ pub fn line_plot_svg(spec: &PlotSpec) -> String {
         return svg;
     }
     let (x_lo, x_hi) = padded_range(
-        all.iter().map(|p| p.0).fold(f64::INFINITY, f64::min),
-        all.iter().map(|p| p.0).fold(f64::NEG_INFINITY, f64::max),
+        all.iter()
+            .map(|p| p.0)
+            .chain(stops.clone())
+            .fold(f64::INFINITY, f64::min),
+        all.iter()
+            .map(|p| p.0)
+            .chain(stops)
+            .fold(f64::NEG_INFINITY, f64::max),
     );
     let (y_lo, y_hi) = padded_range(
         all.iter().map(|p| p.1).fold(f64::INFINITY, f64::min),
@@ -165,6 +189,23 @@ pub fn line_plot_svg(spec: &PlotSpec) -> String {
                     py(y)
                 );
             }
+        }
+        if let Some((x, y)) = series.best {
+            let _ = write!(
+                svg,
+                r#"<circle class="best" cx="{:.2}" cy="{:.2}" r="7" fill="none" stroke="{colour}" stroke-width="2"/>"#,
+                px(x),
+                py(y)
+            );
+        }
+        if let Some(x) = series.stop {
+            let _ = write!(
+                svg,
+                r#"<line class="stop" x1="{p:.2}" y1="{top}" x2="{p:.2}" y2="{bottom}" stroke="{colour}" stroke-width="1.5" stroke-dasharray="5 4"/>"#,
+                p = px(x),
+                top = MARGIN_TOP,
+                bottom = MARGIN_TOP + plot_h,
+            );
         }
         let ly = MARGIN_TOP + 14.0 + 18.0 * i as f64;
         let lx = MARGIN_LEFT + plot_w + 12.0;

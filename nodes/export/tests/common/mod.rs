@@ -86,4 +86,5 @@ pub fn scene() -> Vec<ExportObject> {
     vec![chair, lamp, floor()]
 }
 
+pub mod svg;
 pub mod synthetic_report;

@@ -1,9 +1,35 @@
 //! A synthetic run for report tests: a pipeline graph with every status, metrics, two test
-//! views written as PNGs, training curves and run-time points.
+//! views written as PNGs, the training logs of tests/fixtures/models and run-time points.
 
 use objectsplat_core::Image;
 use objectsplat_export::report::*;
-use std::path::Path;
+use std::path::{Path, PathBuf};
+
+/// Model folders with hand-written `training.json` files (obj_3_chair stops early at 400 of
+/// 600 iterations with its best checkpoint at 300; background runs its whole budget).
+pub fn fixture_models() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/models")
+}
+
+/// The fixture logs plus a model without a log, as the report node would read them.
+pub fn fixture_training() -> Vec<ModelTraining> {
+    let load = |name: &str| ModelTraining {
+        model: name.into(),
+        log: Some(
+            TrainingLog::load(&fixture_models().join(name))
+                .unwrap()
+                .expect("the fixture has a training.json"),
+        ),
+    };
+    vec![
+        load("obj_3_chair"),
+        load("background"),
+        ModelTraining {
+            model: "obj_5_lamp".into(),
+            log: None,
+        },
+    ]
+}
 
 /// Test views are 64×48; the render is the ground truth plus 0.2 in a 16×16 block at (8, 8).
 pub const VIEW_W: u32 = 64;
@@ -67,20 +93,6 @@ pub fn report_data(dir: &Path) -> ReportData {
             seconds: 0.0,
         },
     ];
-    let curve = |component: &str, scale: f64| TrainingCurve {
-        component: component.into(),
-        points: (0..=30)
-            .map(|i| CurvePoint {
-                iteration: i * 1000,
-                loss: Some(if i == 17 {
-                    f64::NAN
-                } else {
-                    scale * (-(i as f64) / 8.0).exp() + 0.01
-                }),
-                psnr: (i % 5 == 0).then(|| 18.0 + 8.0 * (1.0 - (-(i as f64) / 10.0).exp()) + scale),
-            })
-            .collect(),
-    };
     ReportData {
         title: "Synthetic run <0a5c013435>".into(),
         run: RunSummary {
@@ -107,6 +119,8 @@ pub fn report_data(dir: &Path) -> ReportData {
                 ),
                 node("report", "report", NodeStatus::Ran, 0.1, None),
             ],
+            graph: Some("graphs/synthetic.ron".into()),
+            seconds: Some(100.25),
             edges: vec![
                 edge("scene", "masks"),
                 edge("scene", "decompose"),
@@ -143,7 +157,7 @@ pub fn report_data(dir: &Path) -> ReportData {
         }),
         views,
         error_scale: 0.0,
-        curves: vec![curve("obj_3_chair", 1.0), curve("background", 2.0)],
+        training: fixture_training(),
         runtime_vs_error: vec![
             RuntimePoint {
                 series: "cpu".into(),

@@ -1,0 +1,141 @@
+//! The report's "Run" section: the graph with each node's status and time, and a node table.
+//!
+//! A `report` node runs inside the run it reports on, so it cannot know how the run ends;
+//! it writes a placeholder between [`RUN_SUMMARY_BEGIN`] and [`RUN_SUMMARY_END`] and the CLI
+//! fills it in after the run ([`write_with_run_summary`]). The filled-in page is a new file:
+//! the cached artifact keeps the placeholder, so the cache stays a pure function of the
+//! node's inputs.
+
+use super::dag::{dag_svg, status_colour};
+use super::data::{NodeStatus, RunSummary};
+use super::escape::escape;
+use anyhow::{Context, Result, bail};
+use std::fmt::Write;
+use std::io::Write as _;
+use std::path::Path;
+
+/// Opens the run section (an HTML comment, invisible in the page).
+pub const RUN_SUMMARY_BEGIN: &str = "<!-- objectsplat:run-summary -->";
+/// Closes the run section.
+pub const RUN_SUMMARY_END: &str = "<!-- /objectsplat:run-summary -->";
+
+fn placeholder() -> String {
+    format!(
+        "{RUN_SUMMARY_BEGIN}<section id=\"run\"><h2>Run</h2><p class=\"placeholder\">The run summary (each node's status and time) is added by <code>objectsplat run</code>, or afterwards by <code>objectsplat report --run RUN.json --html index.html</code>.</p></section>{RUN_SUMMARY_END}"
+    )
+}
+
+/// The run section between its markers; the placeholder when `run` has no nodes.
+pub fn run_section(run: &RunSummary) -> Result<String> {
+    let nodes = &run.nodes;
+    if nodes.is_empty() {
+        return Ok(placeholder());
+    }
+    for n in nodes {
+        if !(n.seconds.is_finite() && n.seconds >= 0.0) {
+            bail!(
+                "run report: node {} has invalid seconds {}",
+                n.id,
+                n.seconds
+            );
+        }
+    }
+    let total: f64 = nodes.iter().map(|n| n.seconds).sum();
+    let count = |s: NodeStatus| nodes.iter().filter(|n| n.status == s).count();
+    let mut html = String::new();
+    // Writing to a String cannot fail, so the fmt::Results below are ignored.
+    let _ = write!(
+        html,
+        "{RUN_SUMMARY_BEGIN}<section id=\"run\"><h2>Run</h2><p>{} nodes: {} ran, {} cached, {} skipped, {} failed; {total:.2} s of node time",
+        nodes.len(),
+        count(NodeStatus::Ran),
+        count(NodeStatus::Cached),
+        count(NodeStatus::Skipped),
+        count(NodeStatus::Failed)
+    );
+    if let Some(wall) = run.seconds.filter(|s| s.is_finite() && *s >= 0.0) {
+        let _ = write!(html, ", {wall:.2} s wall time");
+    }
+    if let Some(graph) = &run.graph {
+        let _ = write!(html, " (graph {})", escape(graph));
+    }
+    html.push_str(".</p>");
+    html.push_str(&dag_svg(nodes, &run.edges)?);
+    html.push_str("<table id=\"nodes\"><tr><th>id</th><th>kind</th><th>status</th><th>seconds</th><th>reason</th><th>items</th></tr>");
+    for n in nodes {
+        let items: Vec<String> = n
+            .items
+            .iter()
+            .map(|i| format!("{} ({}, {:.2} s)", i.name, i.status.as_str(), i.seconds))
+            .collect();
+        let _ = write!(
+            html,
+            r#"<tr data-node="{id}" data-status="{st}"><td>{id}</td><td>{kind}</td><td><span class="status" style="background:{bg}">{st}</span></td><td class="num">{secs:.2}</td><td>{reason}</td><td>{items}</td></tr>"#,
+            id = escape(&n.id),
+            kind = escape(&n.kind),
+            bg = status_colour(n.status),
+            st = n.status.as_str(),
+            secs = n.seconds,
+            reason = escape(n.reason.as_deref().unwrap_or("")),
+            items = escape(&items.join(", "))
+        );
+    }
+    html.push_str("</table></section>");
+    html.push_str(RUN_SUMMARY_END);
+    Ok(html)
+}
+
+/// Replaces the page's run section (placeholder or an earlier summary) with `run`'s.
+pub fn inject_run_summary(html: &str, run: &RunSummary) -> Result<String> {
+    let Some(begin) = html.find(RUN_SUMMARY_BEGIN) else {
+        bail!(
+            "the page has no run-summary marker {RUN_SUMMARY_BEGIN} (not written by the `report` node?)"
+        );
+    };
+    let Some(end) = html[begin..].find(RUN_SUMMARY_END) else {
+        bail!("the page's run-summary section is not closed by {RUN_SUMMARY_END}");
+    };
+    let end = begin + end + RUN_SUMMARY_END.len();
+    let section = run_section(run)?;
+    let mut out = String::with_capacity(html.len() + section.len());
+    out.push_str(&html[..begin]);
+    out.push_str(&section);
+    out.push_str(&html[end..]);
+    Ok(out)
+}
+
+/// Reads a run report written by `objectsplat run --json` (its nodes and, when recorded, the
+/// graph's edges).
+pub fn read_run_summary(path: &Path) -> Result<RunSummary> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read the run report", path.display()))?;
+    serde_json::from_str(&text).with_context(|| {
+        format!(
+            "{}: not a run report written by `objectsplat run --json`",
+            path.display()
+        )
+    })
+}
+
+/// Writes `report` with `run`'s summary filled in to `out` (which may be `report` itself).
+///
+/// `out` is replaced by renaming a new file over it, never written through: a materialized
+/// page may be a hard link to the cache's blob, which must keep the placeholder.
+pub fn write_with_run_summary(report: &Path, run: &RunSummary, out: &Path) -> Result<()> {
+    let html = std::fs::read_to_string(report)
+        .with_context(|| format!("{}: cannot read the report", report.display()))?;
+    let filled = inject_run_summary(&html, run).with_context(|| format!("{}", report.display()))?;
+    let folder = match out.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    let mut temp = tempfile::NamedTempFile::new_in(folder)
+        .with_context(|| format!("{}: cannot create a temporary file", folder.display()))?;
+    temp.write_all(filled.as_bytes())
+        .and_then(|()| temp.as_file().sync_all())
+        .with_context(|| format!("{}: cannot write", temp.path().display()))?;
+    temp.persist(out)
+        .map_err(|e| e.error)
+        .with_context(|| format!("{}: cannot replace", out.display()))?;
+    Ok(())
+}

@@ -1,0 +1,288 @@
+//! Training curves from the models' `training.json` (hand-written fixtures in
+//! tests/fixtures/models): every plotted vertex, best-checkpoint ring and early-stop line sits
+//! where the logged numbers put it on the plot's axes, and the table lists every model.
+
+mod common;
+
+use common::svg::{best_ring, polylines, section, stop_line, svg_blocks};
+use common::synthetic_report::{fixture_models, fixture_training};
+use objectsplat_export::nodes::ReportNode;
+use objectsplat_export::report::*;
+use objectsplat_runtime::testing::run_node;
+
+// Pixel coordinates are written with 2 decimals (±0.005 each); the maps are fitted on the
+// extreme points, so an interpolated position is off by at most about three roundings.
+const EPS: f64 = 0.016;
+
+/// An axis's data → pixel map, fitted on two points: p = a·v + b.
+#[derive(Clone, Copy, Debug)]
+struct Axis {
+    a: f64,
+    b: f64,
+}
+
+impl Axis {
+    fn through(v0: f64, p0: f64, v1: f64, p1: f64) -> Axis {
+        let a = (p1 - p0) / (v1 - v0);
+        Axis { a, b: p0 - a * v0 }
+    }
+    fn at(self, v: f64) -> f64 {
+        self.a * v + self.b
+    }
+}
+
+/// A logged (value x, value y) and where it was drawn (pixel x, pixel y).
+type Placed = ((f64, f64), (f64, f64));
+
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= EPS
+}
+
+/// Checks that every series' pixels are one affine image of its data (one map per axis,
+/// shared by all series) and returns the two maps.
+fn check_affine(
+    plotted: &[(String, Vec<(f64, f64)>)],
+    data: &[(&str, Vec<(f64, f64)>)],
+) -> (Axis, Axis) {
+    assert_eq!(plotted.len(), data.len());
+    let pairs: Vec<Placed> = plotted
+        .iter()
+        .zip(data)
+        .flat_map(|((name, pixels), (want_name, values))| {
+            assert_eq!(name, want_name);
+            assert_eq!(
+                pixels.len(),
+                values.len(),
+                "{name}: one vertex per logged value"
+            );
+            values.iter().copied().zip(pixels.iter().copied())
+        })
+        .collect();
+    let extreme = |key: fn(&Placed) -> f64| {
+        let lo = pairs
+            .iter()
+            .min_by(|a, b| key(a).total_cmp(&key(b)))
+            .unwrap();
+        let hi = pairs
+            .iter()
+            .max_by(|a, b| key(a).total_cmp(&key(b)))
+            .unwrap();
+        (*lo, *hi)
+    };
+    let (lo, hi) = extreme(|p| p.0.0);
+    let x = Axis::through(lo.0.0, lo.1.0, hi.0.0, hi.1.0);
+    let (lo, hi) = extreme(|p| p.0.1);
+    let y = Axis::through(lo.0.1, lo.1.1, hi.0.1, hi.1.1);
+    assert!(x.a > 0.0, "x grows to the right");
+    assert!(y.a < 0.0, "y grows up the page");
+    for ((vx, vy), (px, py)) in &pairs {
+        assert!(
+            close(x.at(*vx), *px),
+            "x {vx} drawn at {px}, map gives {}",
+            x.at(*vx)
+        );
+        assert!(
+            close(y.at(*vy), *py),
+            "y {vy} drawn at {py}, map gives {}",
+            y.at(*vy)
+        );
+    }
+    (x, y)
+}
+
+fn training_plots() -> Vec<String> {
+    let dir = tempfile::tempdir().unwrap();
+    let data = ReportData {
+        title: "training".into(),
+        training: fixture_training(),
+        ..Default::default()
+    };
+    let html = std::fs::read_to_string(render_report(dir.path(), &data).unwrap()).unwrap();
+    svg_blocks(section(&html, "training"))
+        .into_iter()
+        .map(str::to_string)
+        .collect()
+}
+
+#[test]
+fn loss_and_triangle_curves_follow_the_steps() {
+    let plots = training_plots();
+    assert_eq!(plots.len(), 4);
+    let loss = roxmltree::Document::parse(&plots[0]).unwrap();
+    let (x, _) = check_affine(
+        &polylines(&loss),
+        &[
+            (
+                "obj_3_chair",
+                vec![(100.0, 0.5), (200.0, 0.25), (300.0, 0.125), (400.0, 0.1)],
+            ),
+            ("background", vec![(200.0, 0.4), (400.0, 0.3), (600.0, 0.2)]),
+        ],
+    );
+    // The chair stopped early after 400 iterations; the background ran its budget.
+    assert!(close(stop_line(&loss, "obj_3_chair").unwrap(), x.at(400.0)));
+    assert_eq!(stop_line(&loss, "background"), None);
+
+    let faces = roxmltree::Document::parse(&plots[3]).unwrap();
+    check_affine(
+        &polylines(&faces),
+        &[
+            (
+                "obj_3_chair",
+                vec![
+                    (100.0, 1000.0),
+                    (200.0, 1200.0),
+                    (300.0, 1100.0),
+                    (400.0, 900.0),
+                ],
+            ),
+            (
+                "background",
+                vec![(200.0, 5000.0), (400.0, 6000.0), (600.0, 6500.0)],
+            ),
+        ],
+    );
+    assert!(stop_line(&faces, "obj_3_chair").is_some());
+}
+
+#[test]
+fn held_out_psnr_marks_the_best_checkpoint_and_the_early_stop() {
+    let plots = training_plots();
+    let by_iteration = roxmltree::Document::parse(&plots[1]).unwrap();
+    let (x, y) = check_affine(
+        &polylines(&by_iteration),
+        &[
+            (
+                "obj_3_chair",
+                vec![(100.0, 18.0), (200.0, 21.0), (300.0, 24.0), (400.0, 23.5)],
+            ),
+            ("background", vec![(300.0, 15.0), (600.0, 17.0)]),
+        ],
+    );
+    // Best checkpoints: the chair's at 300 (24 dB, not the last eval), the background's at 600.
+    let (cx, cy) = best_ring(&by_iteration, "obj_3_chair").unwrap();
+    assert!(close(cx, x.at(300.0)) && close(cy, y.at(24.0)), "{cx},{cy}");
+    let (bx, by) = best_ring(&by_iteration, "background").unwrap();
+    assert!(close(bx, x.at(600.0)) && close(by, y.at(17.0)), "{bx},{by}");
+    assert!(close(
+        stop_line(&by_iteration, "obj_3_chair").unwrap(),
+        x.at(400.0)
+    ));
+    assert_eq!(stop_line(&by_iteration, "background"), None);
+
+    // Run time against error: the same evaluations placed by wall time.
+    let by_time = roxmltree::Document::parse(&plots[2]).unwrap();
+    let (x, y) = check_affine(
+        &polylines(&by_time),
+        &[
+            (
+                "obj_3_chair",
+                vec![(1.25, 18.0), (2.25, 21.0), (3.25, 24.0), (4.25, 23.5)],
+            ),
+            ("background", vec![(3.5, 15.0), (6.5, 17.0)]),
+        ],
+    );
+    let (cx, cy) = best_ring(&by_time, "obj_3_chair").unwrap();
+    assert!(close(cx, x.at(3.25)) && close(cy, y.at(24.0)), "{cx},{cy}");
+    // The loop ended with the last evaluation, at 4.25 s.
+    assert!(close(
+        stop_line(&by_time, "obj_3_chair").unwrap(),
+        x.at(4.25)
+    ));
+}
+
+#[test]
+fn non_finite_psnr_is_left_out_with_a_note() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut training = fixture_training();
+    // A perfect held-out render has infinite PSNR; it cannot be placed on an axis.
+    training[1].log.as_mut().unwrap().evals[0].psnr = f64::INFINITY;
+    let data = ReportData {
+        title: "training".into(),
+        training,
+        ..Default::default()
+    };
+    let html = std::fs::read_to_string(render_report(dir.path(), &data).unwrap()).unwrap();
+    assert!(html.contains("background: 1 non-finite PSNR point(s) not plotted"));
+    let plots = svg_blocks(section(&html, "training"));
+    for plot in &plots[1..3] {
+        let doc = roxmltree::Document::parse(plot).unwrap();
+        let background = polylines(&doc).into_iter().find(|s| s.0 == "background");
+        assert_eq!(background.unwrap().1.len(), 1);
+    }
+}
+
+/// The fixture models plus `obj_5_lamp`, a model folder without a training log.
+fn models_collection(root: &std::path::Path) -> std::path::PathBuf {
+    let models = root.join("models");
+    for name in ["obj_3_chair", "background"] {
+        std::fs::create_dir_all(models.join(name)).unwrap();
+        std::fs::copy(
+            fixture_models().join(name).join("training.json"),
+            models.join(name).join("training.json"),
+        )
+        .unwrap();
+    }
+    std::fs::create_dir_all(models.join("obj_5_lamp")).unwrap();
+    std::fs::write(models.join("obj_5_lamp/model.json"), "{}").unwrap();
+    models
+}
+
+#[test]
+fn report_node_tabulates_every_model_and_says_which_have_no_log() {
+    let dir = tempfile::tempdir().unwrap();
+    let models = models_collection(dir.path());
+    let run = run_node(
+        &ReportNode,
+        &[("models", &models)],
+        "()",
+        &dir.path().join("out"),
+        None,
+    )
+    .unwrap();
+    let html = std::fs::read_to_string(run.outputs["file"].join(REPORT_FILE)).unwrap();
+    let table = section(&html, "training");
+    assert!(table.contains(
+        r#"<tr data-component="obj_3_chair"><td>obj_3_chair</td><td class="num">600</td><td class="num">400</td><td class="num">300</td><td>best</td><td>yes</td><td class="num">4.75</td><td class="num">23.75</td><td class="num">850</td></tr>"#
+    ));
+    assert!(table.contains(
+        r#"<tr data-component="background"><td>background</td><td class="num">600</td><td class="num">600</td><td class="num">600</td><td>last</td><td>no</td><td class="num">7.00</td><td class="num">17.00</td><td class="num">6400</td></tr>"#
+    ));
+    assert!(table.contains(
+        r#"<tr data-component="obj_5_lamp"><td>obj_5_lamp</td><td colspan="8">no training log</td></tr>"#
+    ));
+    assert_eq!(svg_blocks(table).len(), 4);
+    assert!(
+        run.notes
+            .contains(&("training logs".to_string(), "2 of 3".to_string()))
+    );
+    assert!(
+        html.contains("This run did not evaluate"),
+        "metrics are optional"
+    );
+}
+
+#[test]
+fn a_broken_training_log_names_the_model_and_the_file() {
+    let dir = tempfile::tempdir().unwrap();
+    let models = models_collection(dir.path());
+    std::fs::write(
+        models.join("background/training.json"),
+        "{\"component\": 3}",
+    )
+    .unwrap();
+    let Err(e) = run_node(
+        &ReportNode,
+        &[("models", &models)],
+        "()",
+        &dir.path().join("out"),
+        None,
+    ) else {
+        panic!("a broken log is an error, not a silently missing curve");
+    };
+    let msg = format!("{e:#}");
+    assert!(
+        msg.contains("models item \"background\"") && msg.contains("training.json"),
+        "{msg}"
+    );
+}
