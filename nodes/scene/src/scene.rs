@@ -293,16 +293,17 @@ pub fn component_of_item(item: &str, model: &Model<f32>) -> Result<ComponentInfo
     parse_item_name(item)
 }
 
-/// `background` (or `background_<anything>`) → the background; `obj_<id>_<label>` → that object.
+/// `background` (or `background_<anything>`) → the background; `scene` → the holistic
+/// baseline's single component (a background owning every pixel); `obj_<id>_<label>` → that object.
 pub fn parse_item_name(item: &str) -> Result<ComponentInfo> {
-    if item == "background" || item.starts_with("background_") {
+    if item == "background" || item.starts_with("background_") || item == "scene" {
         let mut info = ComponentInfo::background();
         info.name = item.to_string();
         return Ok(info);
     }
     let bad = || {
         anyhow::anyhow!(
-            "item {item:?} is neither `background` nor `obj_<id>_<label>`, and its model.json has no metadata.component"
+            "item {item:?} is neither `background`, `scene` nor `obj_<id>_<label>`, and its model.json has no metadata.component"
         )
     };
     let rest = item.strip_prefix("obj_").ok_or_else(bad)?;
