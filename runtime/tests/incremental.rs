@@ -89,10 +89,13 @@ fn changing_one_item_reruns_only_that_item() {
 fn a_collection_does_not_depend_on_the_order_its_items_finish() {
     let ws = Workspace::new();
     // item0 sleeps 300 ms, item1 3 ms: with two workers item1 finishes first.
-    ws.graph(&FAN.replace(
-        "(kind: \"double\", inputs: (x: each(\"src.items\")))",
-        "(kind: \"double\", inputs: (x: each(\"src.items\")), params: (sleep_ms_per_unit: 10))",
-    ).replace("values: [1, 2, 3]", "values: [30, 0]"));
+    ws.graph(
+        &FAN.replace(
+            "(kind: \"double\", inputs: (x: each(\"src.items\")))",
+            "(kind: \"double\", inputs: (x: each(\"src.items\")), params: (sleep_ms_per_unit: 10))",
+        )
+        .replace("values: [1, 2, 3]", "values: [30, 0]"),
+    );
     let first = ws.run(&[]);
     let second = ws.run(&[]);
     assert_eq!(

@@ -152,7 +152,7 @@ pub struct Render;
 
 impl Node for Render {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("render", "1")
+        NodeSpec::new("render", "2")
             .doc("Renders the (composed or edited) scene: all members' triangles in one pass, the renderer's depth order deciding. Views: the frames' test/train/all cameras (PNG per frame, <frame stem>.png) or an orbit (orbit_000.png …) around the objects at the frames' mean height and distance. Where no triangle covers a pixel it shows the background fill of that frame (the `fills` input, else the scene's stored fills), else the `background` colour.")
             .input("scene", "Scene", "the scene to render")
             .input("frames", "Frames", "cameras (and intrinsics/scale for the orbit)")
@@ -160,7 +160,7 @@ impl Node for Render {
             .output("images", "Images", "one PNG per view")
             .param("views", ParamType::enumeration(&["test", "train", "all", "orbit"]), Some("\"test\""), "which cameras to render")
             .param("orbit_count", ParamType::int_range(1, 3600), Some("36"), "number of orbit views (views: \"orbit\")")
-            .param("backend", ParamType::enumeration(&["auto", "cpu", "wgpu"]), Some("\"auto\""), "render backend; only cpu is built, auto picks it")
+            .param("backend", ParamType::enumeration(&["auto", "cpu", "wgpu"]), Some("\"auto\""), "render backend: auto = a hardware GPU through wgpu, else the CPU backend; wgpu = a GPU or lavapipe")
             .param("background", ParamType::list(ParamType::float_range(0.0, 1.0)), Some("[0.0, 0.0, 0.0]"), "sRGB colour [r, g, b] where nothing (and no fill) covers a pixel")
     }
 
@@ -169,11 +169,8 @@ impl Node for Render {
         let orbit_count: i64 = ctx.param("orbit_count")?;
         let backend: String = ctx.param("backend")?;
         let background: Vec<f64> = ctx.param("background")?;
-        match backend.as_str() {
-            "wgpu" => bail!("the wgpu backend is not built yet; use backend \"cpu\" or \"auto\""),
-            "auto" => ctx.note("backend", "cpu (auto: the wgpu backend is not built yet)"),
-            _ => ctx.note("backend", "cpu"),
-        }
+        let (renderer, why) = objectsplat_wgpu::backend_for(&backend, ctx.threads())?;
+        ctx.note("backend", why);
         let &[r, g, b] = background.as_slice() else {
             bail!(
                 "parameter `background` must have 3 values [r, g, b], found {}",
@@ -190,7 +187,6 @@ impl Node for Render {
             None => Some(scene_dir.join(FILLS_DIR)).filter(|d| d.is_dir()),
         };
         let out = ctx.output("images")?;
-        let threads = ctx.threads();
 
         let jobs: Vec<(String, objectsplat_core::Camera, Option<PathBuf>)> = if views == "orbit" {
             orbit_cameras(&scene, &frames.frames, orbit_count as usize)?
@@ -240,9 +236,11 @@ impl Node for Render {
                 None => Backdrop::Uniform(uniform),
             };
             let image =
-                render_view(&merged, camera, &backdrop, threads).with_context(|| match fill {
-                    Some(p) => format!("view {stem} (background fill {})", p.display()),
-                    None => format!("view {stem}"),
+                render_view(&merged, camera, &backdrop, renderer.as_ref()).with_context(|| {
+                    match fill {
+                        Some(p) => format!("view {stem} (background fill {})", p.display()),
+                        None => format!("view {stem}"),
+                    }
                 })?;
             image.save_png8(&out.join(format!("{stem}.png")))?;
         }

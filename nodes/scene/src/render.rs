@@ -5,7 +5,7 @@ use crate::scene::Scene;
 use anyhow::{Context, Result, bail, ensure};
 use glam::DVec3;
 use objectsplat_core::{Camera, ComponentKind, Frame, Image};
-use objectsplat_raster::{CpuBackend, Model, RenderBackend, RenderSettings};
+use objectsplat_raster::{Model, RenderBackend, RenderSettings};
 
 /// What shows where no triangle covers a pixel.
 pub enum Backdrop<'a> {
@@ -19,7 +19,7 @@ pub fn render_view(
     model: &Model<f32>,
     camera: &Camera,
     backdrop: &Backdrop,
-    threads: usize,
+    backend: &dyn RenderBackend<f32>,
 ) -> Result<Image> {
     camera
         .validate()
@@ -42,8 +42,7 @@ pub fn render_view(
         }
     };
     let settings = RenderSettings::for_model(model);
-    let (out, _) =
-        CpuBackend::new(threads.max(1)).forward(model, camera, &settings, &background)?;
+    let (out, _) = backend.forward(model, camera, &settings, &background)?;
     ensure!(out.all_finite(), "the renderer produced non-finite values");
     Ok(out.color_image())
 }

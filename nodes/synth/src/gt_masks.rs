@@ -152,7 +152,7 @@ pub fn frame_mask(
     params: &GtMaskParams,
 ) -> Result<IdMap, String> {
     let raster = rasterize(&mesh.positions, &mesh.faces, camera, &params.raster)?;
-    let mut data: Vec<u16> = raster
+    let data: Vec<u16> = raster
         .face
         .iter()
         .map(|&f| {
@@ -163,6 +163,23 @@ pub fn frame_mask(
             }
         })
         .collect();
+    Ok(drop_small_objects(
+        raster.width,
+        raster.height,
+        data,
+        params,
+    ))
+}
+
+/// The id map of a frame from the value of the nearest surface at each pixel
+/// ([`UNOWNED`] where none), with objects below the per-frame pixel threshold set to 0.
+/// Shared by the CPU and wgpu backends, which differ only in how `data` is rasterized.
+pub fn drop_small_objects(
+    width: u32,
+    height: u32,
+    mut data: Vec<u16>,
+    params: &GtMaskParams,
+) -> IdMap {
     let mut counts = vec![0u64; UNOWNED as usize + 1];
     for &v in &data {
         counts[v as usize] += 1;
@@ -180,9 +197,9 @@ pub fn frame_mask(
             }
         }
     }
-    Ok(IdMap {
-        width: raster.width,
-        height: raster.height,
+    IdMap {
+        width,
+        height,
         data,
-    })
+    }
 }

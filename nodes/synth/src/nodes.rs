@@ -3,7 +3,7 @@
 //! The artifact types they speak (Frames, Mesh, Points, Masks, Component) are
 //! registered by the catalogue crate; [`register`] adds only the node kinds.
 
-use crate::gt_masks::{GtMaskParams, face_mask_values, frame_mask};
+use crate::gt_masks::{GtMaskParams, drop_small_objects, face_mask_values, frame_mask};
 use crate::partition::{PartitionParams, partition_folders};
 use crate::raster::RasterOptions;
 use crate::scene::{SyntheticParams, generate};
@@ -13,6 +13,8 @@ use objectsplat_core::masks::{NO_OBJECT, OBJECTS_JSON, UNOWNED};
 use objectsplat_core::mesh_io::MESH_PLY;
 use objectsplat_core::{Frames, SplitPolicy, read_mesh_artifact};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_wgpu::device::{AdapterChoice, GpuContext};
+use objectsplat_wgpu::id_raster::IdRasterizer;
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
@@ -125,7 +127,7 @@ pub struct GtMasksNode;
 
 impl Node for GtMasksNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("gt_masks", "1")
+        NodeSpec::new("gt_masks", "2")
             .doc(
                 "Rasterizes the annotated mesh into every frame (z-buffer: the nearest surface owns the pixel, so \
                  occlusion is resolved by depth and masks are mutually exclusive). Pixel = object id; 0 = a surface \
@@ -149,6 +151,15 @@ impl Node for GtMasksNode {
                 "per-frame pixel count below which an object is dropped from that frame; None = min_fraction × frame area",
             )
             .param("min_fraction", ParamType::float_range(0.0, 1.0), Some("0.0005"), "used when min_pixels is None")
+            .param(
+                "backend",
+                ParamType::enumeration(&["auto", "cpu", "wgpu"]),
+                // Both give bit-identical masks; cpu is the default because lavapipe (the
+                // wgpu adapter of GPU-less machines) is slower than it (docs/benchmarks).
+                Some("\"cpu\""),
+                "rasterizer: cpu; wgpu (a GPU, else Mesa lavapipe; bit-identical masks); auto = wgpu when an \
+                 adapter is found, else cpu",
+            )
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
@@ -165,6 +176,25 @@ impl Node for GtMasksNode {
             raster: RasterOptions {
                 near: 0.01,
                 threads: ctx.threads().max(1),
+            },
+        };
+        let backend: String = ctx.param("backend")?;
+        let gpu = gpu_for_backend(ctx, &backend)?;
+        let rasterizer = match &gpu {
+            None => None,
+            Some((device, why)) => match IdRasterizer::new(device) {
+                Ok(r) => {
+                    ctx.note("backend", format!("{why} (backend {backend:?})"));
+                    Some(r)
+                }
+                Err(e) if backend == "auto" => {
+                    ctx.note(
+                        "backend",
+                        format!("cpu (auto: the wgpu rasterizer does not build: {e:#})"),
+                    );
+                    None
+                }
+                Err(e) => return Err(e),
             },
         };
         let objects_json = mesh_dir.join(OBJECTS_JSON);
@@ -190,9 +220,22 @@ impl Node for GtMasksNode {
                     frames_dir.join("frames.json").display()
                 );
             }
-            let mask = frame_mask(&mesh, &face_values, &frame.camera(), &params).map_err(|e| {
+            let camera = frame.camera();
+            let mask = match &rasterizer {
+                None => frame_mask(&mesh, &face_values, &camera, &params).map_err(|e| anyhow!(e)),
+                Some(r) => r
+                    .rasterize_ids(
+                        &mesh.positions,
+                        &mesh.faces,
+                        &face_values,
+                        &camera,
+                        params.raster.near,
+                    )
+                    .map(|ids| drop_small_objects(camera.width, camera.height, ids, &params)),
+            }
+            .map_err(|e| {
                 anyhow!(
-                    "{}: frame {:?}: {e}",
+                    "{}: frame {:?}: {e:#}",
                     frames_dir.join("frames.json").display(),
                     frame.name
                 )
@@ -216,6 +259,27 @@ impl Node for GtMasksNode {
             kept.values().cloned().collect::<Vec<_>>().join(", "),
         );
         Ok(Outcome::Done)
+    }
+}
+
+/// The wgpu device for the `backend` param and why it was chosen, or `None` for the
+/// CPU rasterizer (noted here, with the reason).
+fn gpu_for_backend(ctx: &mut Context, backend: &str) -> Result<Option<(Arc<GpuContext>, String)>> {
+    let found = match backend {
+        "cpu" => {
+            ctx.note("backend", "cpu (requested)");
+            return Ok(None);
+        }
+        "wgpu" | "auto" => GpuContext::shared(AdapterChoice::Auto),
+        other => bail!("backend {other:?} is not one of \"auto\", \"cpu\", \"wgpu\""),
+    };
+    match found {
+        Ok(gpu) => Ok(Some(gpu)),
+        Err(e) if backend == "auto" => {
+            ctx.note("backend", format!("cpu (auto: no wgpu adapter: {e:#})"));
+            Ok(None)
+        }
+        Err(e) => Err(e.context("backend \"wgpu\" was requested but no wgpu adapter is usable")),
     }
 }
 

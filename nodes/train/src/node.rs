@@ -6,7 +6,7 @@ use crate::schedule::Schedule;
 use crate::trainer::{Checkpoint, ComponentData, TrainSettings, train_component};
 use anyhow::{Result, bail};
 use objectsplat_core::Points;
-use objectsplat_raster::{CpuBackend, RenderBackend, save_model};
+use objectsplat_raster::save_model;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
 use serde_json::{Map, Number, Value};
 use std::collections::BTreeMap;
@@ -40,22 +40,6 @@ pub fn register(reg: &mut Registry) {
 }
 
 pub struct TrainNode;
-
-/// Picks the render backend named by the `backend` parameter.
-pub fn choose_backend(
-    name: &str,
-    threads: usize,
-) -> Result<(Box<dyn RenderBackend<f32>>, Option<String>)> {
-    match name {
-        "cpu" => Ok((Box::new(CpuBackend::new(threads)), None)),
-        "auto" => Ok((
-            Box::new(CpuBackend::new(threads)),
-            Some("cpu (auto: the GPU backend is not built yet)".into()),
-        )),
-        "wgpu" => bail!("backend \"wgpu\" is not built yet; use \"cpu\" or \"auto\""),
-        other => bail!("unknown backend {other:?}; expected \"auto\", \"cpu\" or \"wgpu\""),
-    }
-}
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
@@ -97,7 +81,8 @@ impl Node for TrainNode {
                 "backend",
                 ParamType::enumeration(&["auto", "cpu", "wgpu"]),
                 Some("\"auto\""),
-                "render backend",
+                "render backend: auto = a hardware GPU through wgpu, else the CPU backend; \
+                 wgpu = a GPU or lavapipe (slower than the CPU backend on CPUs)",
             )
             .param(
                 "checkpoint",
@@ -133,10 +118,8 @@ impl Node for TrainNode {
         };
         let overrides: BTreeMap<String, f64> = ctx.param("schedule")?;
         let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
-        let (backend, note) = choose_backend(&backend_name, ctx.threads())?;
-        if let Some(n) = note {
-            ctx.note("backend", n);
-        }
+        let (backend, why) = objectsplat_wgpu::backend_for(&backend_name, ctx.threads())?;
+        ctx.note("backend", why);
         let component_dir = ctx.input("component")?.to_path_buf();
         let points_path = ctx.input("points")?.join("points.ply");
         let all_points = Points::read_ply(&points_path)?;

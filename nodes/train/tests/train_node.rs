@@ -6,7 +6,7 @@ use objectsplat_runtime::testing::run_node;
 use objectsplat_train::node::TrainNode;
 
 #[test]
-fn train_node_writes_a_model_and_refuses_the_missing_gpu_backend() {
+fn train_node_writes_a_model_and_its_training_log() {
     let dir = tempfile::tempdir().unwrap();
     let component = dir.path().join("component");
     let points = dir.path().join("points");
@@ -43,16 +43,23 @@ fn train_node_writes_a_model_and_refuses_the_missing_gpu_backend() {
             .iter()
             .any(|(k, v)| k == "backend" && v.contains("cpu"))
     );
-    let err = run_node(
+    // Forcing wgpu runs on the adapter there is (lavapipe in CI) or fails saying why.
+    match run_node(
         &TrainNode,
         &inputs,
         "(iterations: 30, backend: \"wgpu\")",
         &dir.path().join("out2"),
         None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{err:#}").contains("not built yet"), "{err:#}");
+    ) {
+        Ok(run) => assert!(
+            run.notes
+                .iter()
+                .any(|(k, v)| k == "backend" && v.starts_with("wgpu on ")),
+            "{:?}",
+            run.notes
+        ),
+        Err(err) => assert!(format!("{err:#}").contains("no usable adapter"), "{err:#}"),
+    }
     // Unknown schedule settings are refused by name.
     let err = run_node(
         &TrainNode,

@@ -112,13 +112,20 @@ impl Node for Double {
             .input("x", "Num", "")
             .output("out", "Num", "")
             .param("sleep_ms", ParamType::int(), Some("0"), "")
-            .param("sleep_ms_per_unit", ParamType::int(), Some("0"), "extra sleep × x")
+            .param(
+                "sleep_ms_per_unit",
+                ParamType::int(),
+                Some("0"),
+                "extra sleep × x",
+            )
     }
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let x = read_num(ctx.input("x")?)?;
         let ms: u64 = ctx.param("sleep_ms")?;
         let per_unit: u64 = ctx.param("sleep_ms_per_unit")?;
-        std::thread::sleep(std::time::Duration::from_millis(ms + per_unit * x.max(0) as u64));
+        std::thread::sleep(std::time::Duration::from_millis(
+            ms + per_unit * x.max(0) as u64,
+        ));
         write_num(&ctx.output("out")?, 2 * x)?;
         Ok(Outcome::Done)
     }

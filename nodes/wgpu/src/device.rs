@@ -1,0 +1,268 @@
+//! Adapter selection (hardware GPU, then Mesa lavapipe), the shared device,
+//! WGSL validation and buffer readback.
+//!
+//! Nothing here panics when no adapter exists: every failure is an `Err`
+//! whose message says why, so callers can fall back to the CPU backend.
+
+use anyhow::{Context, Result, anyhow, bail};
+use std::sync::{Arc, Mutex, OnceLock};
+
+/// Which adapter to ask for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum AdapterChoice {
+    /// A hardware GPU when there is one, otherwise lavapipe (CPU Vulkan).
+    Auto,
+    /// A hardware GPU only.
+    Gpu,
+    /// Mesa lavapipe (or any CPU adapter) only.
+    Lavapipe,
+}
+
+/// Environment variable that disables every adapter (tests the fallback path).
+pub const NO_GPU_ENV: &str = "OBJECTSPLAT_NO_GPU";
+
+/// A device and queue with what the kernels need to know about them.
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter_info: wgpu::AdapterInfo,
+    /// `SHADER_FLOAT32_ATOMIC` is enabled: kernels may use native `atomic<f32>` adds.
+    pub float_atomics: bool,
+    /// Validation errors the device reported asynchronously (wgpu would panic
+    /// on them by default); [`GpuContext::check_errors`] turns them into `Err`.
+    errors: Arc<Mutex<Vec<String>>>,
+}
+
+impl std::fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("GpuContext")
+            .field("adapter", &self.adapter_info.name)
+            .field("backend", &self.adapter_info.backend)
+            .field("float_atomics", &self.float_atomics)
+            .finish()
+    }
+}
+
+fn is_cpu(info: &wgpu::AdapterInfo) -> bool {
+    info.device_type == wgpu::DeviceType::Cpu
+}
+
+fn describe(info: &wgpu::AdapterInfo) -> String {
+    let kind = match info.device_type {
+        wgpu::DeviceType::DiscreteGpu => "discrete GPU",
+        wgpu::DeviceType::IntegratedGpu => "integrated GPU",
+        wgpu::DeviceType::VirtualGpu => "virtual GPU",
+        wgpu::DeviceType::Cpu => "CPU",
+        wgpu::DeviceType::Other => "other",
+    };
+    format!("{} ({:?}, {kind})", info.name, info.backend)
+}
+
+impl GpuContext {
+    /// Creates a new device on the chosen adapter. `Ok((ctx, why))` with `why`
+    /// one line for the run report; `Err(reason)` when no adapter fits.
+    pub fn acquire(choice: AdapterChoice) -> Result<(Arc<GpuContext>, String)> {
+        if std::env::var(NO_GPU_ENV).is_ok_and(|v| !v.is_empty() && v != "0") {
+            bail!("disabled by {NO_GPU_ENV}");
+        }
+        // Creating an instance panics only when no backend is compiled in; ours has Vulkan and GL.
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
+            backends: wgpu::Backends::VULKAN | wgpu::Backends::GL,
+            ..wgpu::InstanceDescriptor::new_without_display_handle()
+        });
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        if adapters.is_empty() {
+            bail!(
+                "no wgpu adapter found (no Vulkan or GL driver; install mesa-vulkan-drivers for lavapipe)"
+            );
+        }
+        // Prefer Vulkan over GL within each kind: the kernels rely on storage atomics.
+        let rank = |a: &wgpu::Adapter| {
+            let info = a.get_info();
+            let kind = match info.device_type {
+                wgpu::DeviceType::DiscreteGpu => 0,
+                wgpu::DeviceType::IntegratedGpu => 1,
+                wgpu::DeviceType::VirtualGpu | wgpu::DeviceType::Other => 2,
+                wgpu::DeviceType::Cpu => 3,
+            };
+            (kind, u8::from(info.backend != wgpu::Backend::Vulkan))
+        };
+        let mut candidates: Vec<&wgpu::Adapter> = adapters
+            .iter()
+            .filter(|a| a.get_info().backend == wgpu::Backend::Vulkan)
+            .filter(|a| match choice {
+                AdapterChoice::Auto => true,
+                AdapterChoice::Gpu => !is_cpu(&a.get_info()),
+                AdapterChoice::Lavapipe => is_cpu(&a.get_info()),
+            })
+            .collect();
+        candidates.sort_by_key(|a| rank(a));
+        let has_hardware = adapters.iter().any(|a| !is_cpu(&a.get_info()));
+        let Some(adapter) = candidates.first() else {
+            let seen: Vec<String> = adapters.iter().map(|a| describe(&a.get_info())).collect();
+            bail!(
+                "no Vulkan adapter of the requested kind ({choice:?}); adapters seen: {}",
+                seen.join(", ")
+            );
+        };
+        let info = adapter.get_info();
+        let float_atomics = adapter
+            .features()
+            .contains(wgpu::Features::SHADER_FLOAT32_ATOMIC);
+        let required_features = if float_atomics {
+            wgpu::Features::SHADER_FLOAT32_ATOMIC
+        } else {
+            wgpu::Features::empty()
+        };
+        let (device, queue) = pollster::block_on(adapter.request_device(&wgpu::DeviceDescriptor {
+            label: Some("objectsplat"),
+            required_features,
+            required_limits: adapter.limits(),
+            ..Default::default()
+        }))
+        .with_context(|| format!("requesting a device on {}", describe(&info)))?;
+        let errors = Arc::new(Mutex::new(Vec::new()));
+        let sink = errors.clone();
+        device.on_uncaptured_error(Arc::new(move |e: wgpu::Error| {
+            // A poisoned lock only means another thread panicked while pushing; keep recording.
+            sink.lock()
+                .unwrap_or_else(|p| p.into_inner())
+                .push(e.to_string());
+        }));
+        let why = if is_cpu(&info) {
+            let reason = match choice {
+                AdapterChoice::Lavapipe => "CPU adapter requested",
+                _ if has_hardware => "hardware adapter not usable",
+                _ => "no hardware GPU adapter",
+            };
+            format!("wgpu on {} (lavapipe, CPU Vulkan): {reason}", info.name)
+        } else {
+            format!("wgpu on {}", describe(&info))
+        };
+        Ok((
+            Arc::new(GpuContext {
+                device,
+                queue,
+                adapter_info: info,
+                float_atomics,
+                errors,
+            }),
+            why,
+        ))
+    }
+
+    /// The per-process context for `choice`, created on first use. A failure
+    /// is remembered too, so a missing adapter is probed once.
+    pub fn shared(choice: AdapterChoice) -> Result<(Arc<GpuContext>, String)> {
+        type Slot = OnceLock<std::result::Result<(Arc<GpuContext>, String), String>>;
+        static AUTO: Slot = OnceLock::new();
+        static GPU: Slot = OnceLock::new();
+        static LAVAPIPE: Slot = OnceLock::new();
+        let slot = match choice {
+            AdapterChoice::Auto => &AUTO,
+            AdapterChoice::Gpu => &GPU,
+            AdapterChoice::Lavapipe => &LAVAPIPE,
+        };
+        slot.get_or_init(|| Self::acquire(choice).map_err(|e| format!("{e:#}")))
+            .clone()
+            .map_err(|e| anyhow!(e))
+    }
+
+    /// Returns (and clears) the validation errors reported since the last call.
+    pub fn check_errors(&self, what: &str) -> Result<()> {
+        let mut errors = self.errors.lock().unwrap_or_else(|p| p.into_inner());
+        if errors.is_empty() {
+            return Ok(());
+        }
+        let all = std::mem::take(&mut *errors).join("; ");
+        bail!("wgpu reported an error during {what}: {all}")
+    }
+
+    /// Blocks until all submitted work is done.
+    pub fn wait(&self, what: &str) -> Result<()> {
+        self.device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| anyhow!("waiting for the device during {what}: {e}"))?;
+        self.check_errors(what)
+    }
+}
+
+/// Parses and validates WGSL with naga (all capabilities wgpu may enable for
+/// us); the error names the shader.
+pub fn validate_wgsl(name: &str, source: &str) -> Result<()> {
+    let module = naga::front::wgsl::parse_str(source)
+        .map_err(|e| anyhow!("shader {name}: {}", e.emit_to_string(source)))?;
+    let mut validator = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::all(),
+    );
+    validator
+        .validate(&module)
+        .map_err(|e| anyhow!("shader {name}: {}", e.emit_to_string(source)))?;
+    Ok(())
+}
+
+/// Copies `bytes` bytes of `source` (from offset 0) back to the host.
+/// `source` needs `COPY_SRC` usage.
+pub fn read_buffer(ctx: &GpuContext, source: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
+    if bytes == 0 {
+        return Ok(Vec::new());
+    }
+    let size = bytes.div_ceil(wgpu::COPY_BUFFER_ALIGNMENT) * wgpu::COPY_BUFFER_ALIGNMENT;
+    if size > source.size() {
+        bail!(
+            "readback of {bytes} bytes from a buffer of {} bytes",
+            source.size()
+        );
+    }
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+    encoder.copy_buffer_to_buffer(source, 0, &staging, 0, size);
+    ctx.queue.submit([encoder.finish()]);
+    map_and_copy(ctx, &staging, bytes)
+}
+
+/// Maps a `MAP_READ` buffer (after the work writing it was submitted) and copies it out.
+pub fn map_and_copy(ctx: &GpuContext, staging: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
+    if bytes == 0 {
+        return Ok(Vec::new());
+    }
+    let size = bytes.div_ceil(wgpu::COPY_BUFFER_ALIGNMENT) * wgpu::COPY_BUFFER_ALIGNMENT;
+    let (tx, rx) = std::sync::mpsc::channel();
+    staging
+        .slice(..size)
+        .map_async(wgpu::MapMode::Read, move |r| {
+            // The receiver lives until after the poll below; a failed send changes nothing.
+            let _ = tx.send(r);
+        });
+    ctx.wait("readback")?;
+    rx.recv()
+        .map_err(|_| anyhow!("readback callback never ran"))?
+        .map_err(|e| anyhow!("mapping a readback buffer failed: {e}"))?;
+    let out = {
+        let view = staging
+            .slice(..size)
+            .get_mapped_range()
+            .map_err(|e| anyhow!("reading a mapped buffer failed: {e:?}"))?;
+        view[..bytes as usize].to_vec()
+    };
+    staging.unmap();
+    Ok(out)
+}
+
+/// Reads `count` plain values of type `T` back from `source`.
+pub fn read_values<T: bytemuck::Pod>(
+    ctx: &GpuContext,
+    source: &wgpu::Buffer,
+    count: usize,
+) -> Result<Vec<T>> {
+    let bytes = read_buffer(ctx, source, (count * std::mem::size_of::<T>()) as u64)?;
+    Ok(bytemuck::pod_collect_to_vec(&bytes))
+}

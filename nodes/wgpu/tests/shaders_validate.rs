@@ -1,0 +1,25 @@
+//! Every WGSL program of the crate parses and validates with naga (no adapter needed),
+//! in both float-accumulation variants.
+use objectsplat_wgpu::FloatAtomics;
+use objectsplat_wgpu::raster::raster_sources;
+use objectsplat_wgpu::validate_wgsl;
+
+#[test]
+fn every_shader_validates() {
+    validate_wgsl("scan.wgsl", objectsplat_wgpu::scan::SCAN_WGSL).unwrap();
+    validate_wgsl("sort.wgsl", objectsplat_wgpu::sort::SORT_WGSL).unwrap();
+    for mode in [FloatAtomics::Native, FloatAtomics::CompareExchange] {
+        for threads in [32, 64, 128, 256] {
+            for (name, source) in raster_sources(mode, threads, threads) {
+                validate_wgsl(name, &source)
+                    .unwrap_or_else(|e| panic!("{mode:?}, {threads} threads: {e:#}"));
+            }
+        }
+    }
+}
+
+#[test]
+fn a_broken_shader_is_an_error_naming_it() {
+    let err = validate_wgsl("broken.wgsl", "fn f() -> u32 { return 1.5; }").unwrap_err();
+    assert!(format!("{err:#}").contains("broken.wgsl"), "{err:#}");
+}
