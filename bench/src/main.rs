@@ -335,6 +335,9 @@ fn select<'a>(
         .collect()
 }
 
+/// A table column: its name, how to read it from a row, and its decimals.
+type Column = (&'static str, fn(&Row) -> Option<f64>, usize);
+
 fn render_markdown(args: &PaperArgs, rows: &[Row]) -> Result<String> {
     let mut md = String::new();
     writeln!(
@@ -356,7 +359,7 @@ fn render_markdown(args: &PaperArgs, rows: &[Row]) -> Result<String> {
         join(&args.seeds),
         args.iterations
     )?;
-    let metrics: [(&str, fn(&Row) -> Option<f64>, usize); 4] = [
+    let metrics: [Column; 4] = [
         ("PSNR", |r| r.psnr, 2),
         ("SSIM", |r| r.ssim, 3),
         ("LPIPS", |r| r.lpips, 3),

@@ -15,7 +15,7 @@ fn item_names_map_to_components() {
     assert_eq!(chair.kind, ComponentKind::Object);
     assert_eq!(chair.name, "obj_3_chair");
     for bad in ["scenery", "obj_x_cup", "obj_0_cup", "obj_70000_cup", ""] {
-        let err = parse_item_name(bad).err().expect(bad);
+        let err = parse_item_name(bad).expect_err(bad);
         assert!(format!("{err:#}").contains(bad), "{err:#}");
     }
 }
