@@ -103,6 +103,13 @@ fn the_page_is_replaced_and_a_hard_linked_copy_keeps_the_placeholder() {
         .map(|e| e.unwrap().file_name())
         .collect();
     assert_eq!(names, [REPORT_FILE]);
+    // Readable like any other output, not private like the temporary file it was.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let mode = std::fs::metadata(&page).unwrap().permissions().mode();
+        assert_eq!(mode & 0o777, 0o644, "mode {mode:o}");
+    }
 }
 
 #[test]

@@ -131,6 +131,14 @@ pub fn write_with_run_summary(report: &Path, run: &RunSummary, out: &Path) -> Re
     };
     let mut temp = tempfile::NamedTempFile::new_in(folder)
         .with_context(|| format!("{}: cannot create a temporary file", folder.display()))?;
+    // A temporary file is private (0600); the page is an ordinary output everyone may read.
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        temp.as_file()
+            .set_permissions(std::fs::Permissions::from_mode(0o644))
+            .with_context(|| format!("{}: cannot set permissions", temp.path().display()))?;
+    }
     temp.write_all(filled.as_bytes())
         .and_then(|()| temp.as_file().sync_all())
         .with_context(|| format!("{}: cannot write", temp.path().display()))?;
