@@ -6,6 +6,8 @@
 //!   (u32 key, u32 value) pairs.
 //! - [`raster`]: [`WgpuBackend`], `RenderBackend<f32>` with the CPU backend's
 //!   culling, ordering, compositing and gradients.
+//! - [`training`]: [`DeviceTrainer`], training iterations (render, loss,
+//!   backward, Adam) that keep parameters and images on the device.
 //! - [`backend_for`]: picks a backend by name for the train/render nodes.
 
 pub mod atomics;
@@ -15,10 +17,12 @@ pub mod kernels;
 pub mod raster;
 pub mod scan;
 pub mod sort;
+pub mod training;
 
 pub use atomics::FloatAtomics;
 pub use device::{AdapterChoice, GpuContext, validate_wgsl};
 pub use raster::{KernelConfig, WgpuBackend};
+pub use training::DeviceTrainer;
 
 use anyhow::{Result, bail};
 use objectsplat_raster::{CpuBackend, RenderBackend};

@@ -196,20 +196,42 @@ impl std::fmt::Debug for WgpuBackend {
     }
 }
 
-/// What the forward pass leaves on the device for the backward pass.
-struct WgpuSaved {
+/// A model's parameters on the device, in the kernels' layout: positions
+/// (3 per vertex), SH (16×3 per vertex), opacity logits, face indices.
+#[derive(Clone)]
+pub(crate) struct ModelBuffers {
+    pub positions: wgpu::Buffer,
+    pub sh: wgpu::Buffer,
+    pub opacity_logits: wgpu::Buffer,
+    pub face_indices: wgpu::Buffer,
+    pub vertex_count: usize,
+    pub face_count: usize,
+    pub opacity_floor: f32,
+}
+
+/// What the forward pass leaves on the device: its image and face statistics,
+/// and everything the backward pass reads.
+pub(crate) struct WgpuSaved {
     params: RasterParams,
-    vertex_count: usize,
-    face_count: usize,
-    face_indices: wgpu::Buffer,
-    sh: wgpu::Buffer,
-    opacity_logits: wgpu::Buffer,
+    model: ModelBuffers,
     background: wgpu::Buffer,
     vertices: wgpu::Buffer,
     faces: wgpu::Buffer,
     entries: wgpu::Buffer,
     tile_ranges: wgpu::Buffer,
     pixel_state: wgpu::Buffer,
+    /// Per pixel: colour, alpha, depth, median depth (stride 6).
+    pub image: wgpu::Buffer,
+    /// Per face: max blending weight (f32 bits), pixel count.
+    face_stats: wgpu::Buffer,
+}
+
+/// The backward pass's gradients on the device, in [`ModelBuffers`]' layout.
+pub(crate) struct GradBuffers {
+    pub positions: wgpu::Buffer,
+    pub sh: wgpu::Buffer,
+    pub opacity_logits: wgpu::Buffer,
+    background: wgpu::Buffer,
 }
 
 impl WgpuBackend {
@@ -303,6 +325,30 @@ impl WgpuBackend {
         })
     }
 
+    /// Uploads a validated model's parameters.
+    pub(crate) fn upload_model(&self, model: &Model<f32>) -> Result<ModelBuffers> {
+        model.validate().context("invalid model")?;
+        let (nv, nf) = (model.vertex_count(), model.face_count());
+        if nf >= u32::MAX as usize / 2 {
+            bail!("model has {nf} faces, too many for the wgpu backend");
+        }
+        self.check_binding_size("face records", nf as u64 * FACE_BYTES)?;
+        self.check_binding_size("SH coefficients", (nv * SH_COEFFS * 3 * 4) as u64)?;
+        let ctx = &self.ctx;
+        let positions: Vec<f32> = model.vertices.iter().flatten().copied().collect();
+        let face_idx: Vec<u32> = model.faces.iter().flatten().copied().collect();
+        let sh: Vec<f32> = model.sh.iter().flatten().flatten().copied().collect();
+        Ok(ModelBuffers {
+            positions: storage_from(ctx, "positions", &positions),
+            sh: storage_from(ctx, "sh", &sh),
+            opacity_logits: storage_from(ctx, "opacity logits", &model.opacity_logits),
+            face_indices: storage_from(ctx, "face indices", &face_idx),
+            vertex_count: nv,
+            face_count: nf,
+            opacity_floor: model.opacity_floor as f32,
+        })
+    }
+
     fn forward_impl(
         &self,
         model: &Model<f32>,
@@ -310,7 +356,27 @@ impl WgpuBackend {
         settings: &RenderSettings,
         background: &[f32],
     ) -> Result<(RenderOutput<f32>, WgpuSaved)> {
-        model.validate().context("invalid model")?;
+        let pixels = camera.width as usize * camera.height as usize;
+        check_buffer("background", background, pixels * 3)?;
+        let buffers = self.upload_model(model)?;
+        let background = storage_from(&self.ctx, "background", background);
+        let saved = self.render_on(&buffers, camera, settings, &background)?;
+        let out = self.read_output(&saved)?;
+        if !out.all_finite() {
+            bail!("the wgpu forward pass produced non-finite values");
+        }
+        Ok((out, saved))
+    }
+
+    /// The forward pass of resident parameters into device buffers. The one
+    /// host round trip is the tile-entry count, which sizes the entry buffers.
+    pub(crate) fn render_on(
+        &self,
+        model: &ModelBuffers,
+        camera: &Camera,
+        settings: &RenderSettings,
+        background: &wgpu::Buffer,
+    ) -> Result<WgpuSaved> {
         camera
             .validate()
             .map_err(anyhow::Error::msg)
@@ -318,15 +384,9 @@ impl WgpuBackend {
         settings.validate()?;
         let (w, h) = (camera.width as usize, camera.height as usize);
         let pixels = w * h;
-        check_buffer("background", background, pixels * 3)?;
-        let (nv, nf) = (model.vertex_count(), model.face_count());
-        if nf >= u32::MAX as usize / 2 {
-            bail!("model has {nf} faces, too many for the wgpu backend");
-        }
+        let (nv, nf) = (model.vertex_count, model.face_count);
         let ctx = &self.ctx;
         let k = &self.kernels;
-        self.check_binding_size("face records", nf as u64 * FACE_BYTES)?;
-        self.check_binding_size("SH coefficients", (nv * SH_COEFFS * 3 * 4) as u64)?;
         self.check_binding_size("image", (pixels * IMAGE_STRIDE * 4) as u64)?;
         let cam = CameraParams::<f32>::new(camera);
         let (tiles_x, tiles_y) = (camera.width.div_ceil(TILE), camera.height.div_ceil(TILE));
@@ -364,16 +424,8 @@ impl WgpuBackend {
             alpha_max: settings.alpha_max as f32,
             alpha_min: settings.alpha_min as f32,
             transmittance_min: settings.transmittance_min as f32,
-            opacity_floor: model.opacity_floor as f32,
+            opacity_floor: model.opacity_floor,
         };
-        let positions: Vec<f32> = model.vertices.iter().flatten().copied().collect();
-        let face_idx: Vec<u32> = model.faces.iter().flatten().copied().collect();
-        let sh: Vec<f32> = model.sh.iter().flatten().flatten().copied().collect();
-        let positions = storage_from(ctx, "positions", &positions);
-        let face_indices = storage_from(ctx, "face indices", &face_idx);
-        let sh = storage_from(ctx, "sh", &sh);
-        let opacity_logits = storage_from(ctx, "opacity logits", &model.opacity_logits);
-        let background_buf = storage_from(ctx, "background", background);
         let vertices = storage(ctx, "vertices", nv as u64 * VERTEX_BYTES);
         let faces = storage(ctx, "faces", nf as u64 * FACE_BYTES);
         let order_keys = storage(ctx, "order keys", nf as u64 * 4);
@@ -390,9 +442,9 @@ impl WgpuBackend {
             &mut enc,
             &[
                 (0, &uniform_params),
-                (1, &positions),
-                (3, &sh),
-                (4, &opacity_logits),
+                (1, &model.positions),
+                (3, &model.sh),
+                (4, &model.opacity_logits),
                 (5, &vertices),
             ],
             groups_for(nv, THREADS_1D),
@@ -402,7 +454,7 @@ impl WgpuBackend {
             &mut enc,
             &[
                 (0, &uniform_params),
-                (2, &face_indices),
+                (2, &model.face_indices),
                 (5, &vertices),
                 (6, &faces),
                 (7, &order_keys),
@@ -529,32 +581,39 @@ impl WgpuBackend {
                 (1, &tile_ranges),
                 (2, &entries),
                 (3, &faces),
-                (4, &background_buf),
+                (4, background),
                 (5, &image),
                 (6, &pixel_state),
                 (7, &face_stats),
             ],
             tiles as u32,
         );
-        let image_bytes = (pixels * IMAGE_STRIDE * 4) as u64;
-        let stats_bytes = nf as u64 * 8;
-        let image_staging = self.staging(image_bytes);
-        let stats_staging = self.staging(stats_bytes);
-        if image_bytes > 0 {
-            enc.copy_buffer_to_buffer(&image, 0, &image_staging, 0, image_bytes);
-        }
-        if stats_bytes > 0 {
-            enc.copy_buffer_to_buffer(&face_stats, 0, &stats_staging, 0, stats_bytes);
-        }
         ctx.queue.submit([enc.finish()]);
-        let image: Vec<f32> =
-            bytemuck::pod_collect_to_vec(&map_and_copy(ctx, &image_staging, image_bytes)?);
-        let stats: Vec<u32> =
-            bytemuck::pod_collect_to_vec(&map_and_copy(ctx, &stats_staging, stats_bytes)?);
+        ctx.check_errors("the wgpu forward pass")?;
+        Ok(WgpuSaved {
+            params,
+            model: model.clone(),
+            background: background.clone(),
+            vertices,
+            faces,
+            entries,
+            tile_ranges,
+            pixel_state,
+            image,
+            face_stats,
+        })
+    }
 
+    /// Reads a forward pass's image and face statistics back to the host.
+    fn read_output(&self, saved: &WgpuSaved) -> Result<RenderOutput<f32>> {
+        let p = &saved.params;
+        let pixels = p.width as usize * p.height as usize;
+        let nf = saved.model.face_count;
+        let image: Vec<f32> = read_values(&self.ctx, &saved.image, pixels * IMAGE_STRIDE)?;
+        let stats: Vec<u32> = read_values(&self.ctx, &saved.face_stats, nf * 2)?;
         let mut out = RenderOutput {
-            width: camera.width,
-            height: camera.height,
+            width: p.width,
+            height: p.height,
             color: vec![0.0; pixels * 3],
             alpha: vec![0.0; pixels],
             depth: vec![0.0; pixels],
@@ -572,24 +631,7 @@ impl WgpuBackend {
             out.face_max_weight[f] = f32::from_bits(s[0]);
             out.face_pixel_count[f] = s[1];
         }
-        if !out.all_finite() {
-            bail!("the wgpu forward pass produced non-finite values");
-        }
-        let saved = WgpuSaved {
-            params,
-            vertex_count: nv,
-            face_count: nf,
-            face_indices,
-            sh,
-            opacity_logits,
-            background: background_buf,
-            vertices,
-            faces,
-            entries,
-            tile_ranges,
-            pixel_state,
-        };
-        Ok((out, saved))
+        Ok(out)
     }
 
     fn backward_impl(
@@ -598,32 +640,62 @@ impl WgpuBackend {
         saved: &WgpuSaved,
         grads: &OutputGrads<'_, f32>,
     ) -> Result<ModelGrads<f32>> {
-        if model.vertex_count() != saved.vertex_count || model.face_count() != saved.face_count {
+        let (nv, nf) = (saved.model.vertex_count, saved.model.face_count);
+        if model.vertex_count() != nv || model.face_count() != nf {
             bail!(
-                "backward got a model with {} vertices / {} faces, but the forward pass rendered {} / {}",
+                "backward got a model with {} vertices / {} faces, but the forward pass rendered {nv} / {nf}",
                 model.vertex_count(),
                 model.face_count(),
-                saved.vertex_count,
-                saved.face_count
             );
         }
         let p = &saved.params;
         let pixels = p.width as usize * p.height as usize;
         grads.validate(pixels)?;
-        let (nv, nf) = (saved.vertex_count, saved.face_count);
-        let tiles = (p.tiles_x * p.tiles_y) as usize;
-        let ctx = &self.ctx;
-        let k = &self.kernels;
-        let mut upstream = vec![0f32; pixels * 6];
+        let mut upstream = vec![0f32; pixels * IMAGE_STRIDE];
         for i in 0..pixels {
-            let u = &mut upstream[i * 6..i * 6 + 6];
+            let u = &mut upstream[i * IMAGE_STRIDE..(i + 1) * IMAGE_STRIDE];
             u[..3].copy_from_slice(&grads.color[i * 3..i * 3 + 3]);
             u[3] = grads.alpha.map_or(0.0, |a| a[i]);
             u[4] = grads.depth.map_or(0.0, |d| d[i]);
             u[5] = grads.median_depth.map_or(0.0, |m| m[i]);
         }
+        let upstream = storage_from(&self.ctx, "upstream gradients", &upstream);
+        let on_device = self.backward_on(saved, &upstream)?;
+        let ctx = &self.ctx;
+        let positions: Vec<f32> = read_values(ctx, &on_device.positions, nv * 3)?;
+        let sh: Vec<f32> = read_values(ctx, &on_device.sh, nv * SH_COEFFS * 3)?;
+        let logits: Vec<f32> = read_values(ctx, &on_device.opacity_logits, nv)?;
+        let background: Vec<f32> = read_values(ctx, &on_device.background, pixels * 3)?;
+        let mut result = ModelGrads::<f32>::zeros(nv, pixels);
+        for v in 0..nv {
+            result.vertices[v].copy_from_slice(&positions[v * 3..v * 3 + 3]);
+            for c in 0..SH_COEFFS {
+                let at = (v * SH_COEFFS + c) * 3;
+                result.sh[v][c].copy_from_slice(&sh[at..at + 3]);
+            }
+        }
+        result.opacity_logits = logits;
+        result.background = background;
+        if !result.all_finite() {
+            bail!("the wgpu backward pass produced non-finite gradients");
+        }
+        Ok(result)
+    }
+
+    /// The backward pass on the device from `upstream`: per pixel the loss's
+    /// gradient with respect to colour, alpha, depth and median depth (stride 6).
+    pub(crate) fn backward_on(
+        &self,
+        saved: &WgpuSaved,
+        upstream: &wgpu::Buffer,
+    ) -> Result<GradBuffers> {
+        let p = &saved.params;
+        let pixels = p.width as usize * p.height as usize;
+        let (nv, nf) = (saved.model.vertex_count, saved.model.face_count);
+        let tiles = (p.tiles_x * p.tiles_y) as usize;
+        let ctx = &self.ctx;
+        let k = &self.kernels;
         let uniform_params = uniform(ctx, "raster params", p);
-        let upstream = storage_from(ctx, "upstream gradients", &upstream);
         let background_grad = storage(ctx, "background gradient", (pixels * 3 * 4) as u64);
         let face_grads = storage(ctx, "face partials", (nf * PARTIAL * 4) as u64);
         let vertex_grads = storage(
@@ -646,7 +718,7 @@ impl WgpuBackend {
                 (2, &saved.entries),
                 (3, &saved.faces),
                 (4, &saved.pixel_state),
-                (5, &upstream),
+                (5, upstream),
                 (6, &saved.background),
                 (7, &background_grad),
                 (8, &face_grads),
@@ -659,7 +731,7 @@ impl WgpuBackend {
             &[
                 (0, &uniform_params),
                 (1, &saved.faces),
-                (2, &saved.face_indices),
+                (2, &saved.model.face_indices),
                 (9, &face_grads),
                 (10, &vertex_grads),
             ],
@@ -671,8 +743,8 @@ impl WgpuBackend {
             &[
                 (0, &uniform_params),
                 (3, &saved.vertices),
-                (4, &saved.sh),
-                (5, &saved.opacity_logits),
+                (4, &saved.model.sh),
+                (5, &saved.model.opacity_logits),
                 (6, &position_grad),
                 (7, &sh_grad),
                 (8, &logit_grad),
@@ -682,24 +754,12 @@ impl WgpuBackend {
         );
         ctx.queue.submit([enc.finish()]);
         ctx.check_errors("the wgpu backward pass")?;
-        let positions: Vec<f32> = read_values(ctx, &position_grad, nv * 3)?;
-        let sh: Vec<f32> = read_values(ctx, &sh_grad, nv * SH_COEFFS * 3)?;
-        let logits: Vec<f32> = read_values(ctx, &logit_grad, nv)?;
-        let background: Vec<f32> = read_values(ctx, &background_grad, pixels * 3)?;
-        let mut result = ModelGrads::<f32>::zeros(nv, pixels);
-        for v in 0..nv {
-            result.vertices[v].copy_from_slice(&positions[v * 3..v * 3 + 3]);
-            for c in 0..SH_COEFFS {
-                let at = (v * SH_COEFFS + c) * 3;
-                result.sh[v][c].copy_from_slice(&sh[at..at + 3]);
-            }
-        }
-        result.opacity_logits = logits;
-        result.background = background;
-        if !result.all_finite() {
-            bail!("the wgpu backward pass produced non-finite gradients");
-        }
-        Ok(result)
+        Ok(GradBuffers {
+            positions: position_grad,
+            sh: sh_grad,
+            opacity_logits: logit_grad,
+            background: background_grad,
+        })
     }
 }
 

@@ -8,6 +8,16 @@ use objectsplat_wgpu::validate_wgsl;
 fn every_shader_validates() {
     validate_wgsl("scan.wgsl", objectsplat_wgpu::scan::SCAN_WGSL).unwrap();
     validate_wgsl("sort.wgsl", objectsplat_wgpu::sort::SORT_WGSL).unwrap();
+    validate_wgsl(
+        "train_loss.wgsl",
+        objectsplat_wgpu::training::TRAIN_LOSS_WGSL,
+    )
+    .unwrap();
+    validate_wgsl(
+        "train_adam.wgsl",
+        objectsplat_wgpu::training::TRAIN_ADAM_WGSL,
+    )
+    .unwrap();
     for mode in [FloatAtomics::Native, FloatAtomics::CompareExchange] {
         for threads in [32, 64, 128, 256] {
             for (name, source) in raster_sources(mode, threads, threads) {
