@@ -255,4 +255,10 @@ pub trait RenderBackend<R: Real>: Send + Sync {
         saved: &SavedForward,
         grads: &OutputGrads<'_, R>,
     ) -> Result<ModelGrads<R>>;
+
+    /// The concrete backend, for callers that use abilities beyond this trait
+    /// when they are there (a trainer keeping its iterations on a GPU).
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        None
+    }
 }

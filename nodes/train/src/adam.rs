@@ -31,6 +31,23 @@ impl AdamGroup {
     pub fn second_moment(&self) -> &[f32] {
         &self.v
     }
+
+    /// Replaces the moments (kept elsewhere for a while, e.g. on a GPU) and the step count.
+    pub fn set_moments(&mut self, first: Vec<f32>, second: Vec<f32>, steps: u64) -> Result<()> {
+        if first.len() != self.m.len() || second.len() != self.v.len() {
+            bail!(
+                "Adam group {:?}: {} first and {} second moments for a state of {} values",
+                self.name,
+                first.len(),
+                second.len(),
+                self.m.len()
+            );
+        }
+        self.m = first;
+        self.v = second;
+        self.steps = steps;
+        Ok(())
+    }
 }
 
 #[derive(Debug, Clone, PartialEq)]

@@ -14,6 +14,7 @@ pub mod adam;
 pub mod connectivity;
 pub mod delaunay;
 pub mod densify;
+mod device_steps;
 pub mod init;
 pub mod schedule;
 

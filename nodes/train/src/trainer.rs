@@ -13,6 +13,7 @@ use crate::connectivity::{ConnectivityOptions, restricted_delaunay};
 use crate::densify::{
     DensifyPolicy, VertexEdit, prune_faces, select_faces_to_split, subdivide_faces,
 };
+use crate::device_steps::DeviceSteps;
 use crate::init::{ComponentMasks, InitSettings, init_model};
 use crate::schedule::Schedule;
 use anyhow::{Context, Result, bail};
@@ -23,6 +24,7 @@ use objectsplat_raster::model::SH_COEFFS;
 use objectsplat_raster::{
     EvalRecord, Model, OutputGrads, RenderBackend, RenderSettings, StepRecord, TrainingLog,
 };
+use objectsplat_wgpu::WgpuBackend;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::path::Path;
@@ -129,7 +131,20 @@ pub struct TrainReport {
 
 /// Pixel weights and targets of one view under background colour `b`.
 pub fn supervision(view: &View, kind: ComponentKind, b: [f32; 3]) -> (Vec<f32>, Vec<f32>) {
-    let mut target = view.target.clone();
+    let (mut target, weights, from_background) = supervision_parts(view, kind);
+    for p in (0..weights.len()).filter(|&p| from_background[p]) {
+        target[3 * p..3 * p + 3].copy_from_slice(&b);
+    }
+    (target, weights)
+}
+
+/// The parts of [`supervision`] that do not depend on the background colour:
+/// targets, weights, and which pixels take the background colour as target.
+pub(crate) fn supervision_parts(
+    view: &View,
+    kind: ComponentKind,
+) -> (Vec<f32>, Vec<f32>, Vec<bool>) {
+    let mut from_background = vec![false; view.labels.len()];
     let weights = view
         .labels
         .iter()
@@ -137,7 +152,7 @@ pub fn supervision(view: &View, kind: ComponentKind, b: [f32; 3]) -> (Vec<f32>, 
         .map(|(p, &l)| match (l, kind) {
             (OWN, _) => 1.0,
             (OTHER, ComponentKind::Object) => {
-                target[3 * p..3 * p + 3].copy_from_slice(&b);
+                from_background[p] = true;
                 1.0
             }
             (IGNORE, _) | (OTHER, ComponentKind::Background) => 0.0,
@@ -145,15 +160,16 @@ pub fn supervision(view: &View, kind: ComponentKind, b: [f32; 3]) -> (Vec<f32>, 
             _ => 0.0,
         })
         .collect();
-    (target, weights)
+    (view.target.clone(), weights, from_background)
 }
 
-struct Optim {
-    adam: Adam,
-    vertices: usize,
-    sh_dc: usize,
-    sh_rest: usize,
-    opacity: usize,
+/// Adam over the model's parameter groups.
+pub(crate) struct Optim {
+    pub adam: Adam,
+    pub vertices: usize,
+    pub sh_dc: usize,
+    pub sh_rest: usize,
+    pub opacity: usize,
 }
 
 impl Optim {
@@ -380,6 +396,64 @@ fn first_non_finite(model: &Model<f32>) -> Option<String> {
         .map(|v| format!("vertex {v} opacity logit {}", model.opacity_logits[v]))
 }
 
+/// One iteration on the host: render, loss, backward, Adam. Returns the loss.
+#[allow(clippy::too_many_arguments)]
+fn host_step(
+    backend: &dyn RenderBackend<f32>,
+    model: &mut Model<f32>,
+    optim: &mut Optim,
+    data: &ComponentData,
+    view: &View,
+    b: [f32; 3],
+    render: &RenderSettings,
+    it: u64,
+) -> Result<f32> {
+    let pixels = view.labels.len();
+    let bg: Vec<f32> = (0..3 * pixels).map(|i| b[i % 3]).collect();
+    let (out, saved) = backend.forward(model, &view.camera, render, &bg)?;
+    if !out.all_finite() {
+        bail!(
+            "training of {:?} diverged at iteration {}: the render of view {:?} is not \
+             finite (parameters overflowed; lower the learning rates)",
+            data.name,
+            it + 1,
+            view.name
+        );
+    }
+    let (target, weights) = supervision(view, data.kind, b);
+    let dims = Dims::rgb(view.camera.width, view.camera.height);
+    let loss = photometric(
+        dims,
+        &out.color,
+        &target,
+        Some(&weights),
+        DEFAULT_LAMBDA_DSSIM,
+    )?;
+    if !loss.value.is_finite() || loss.grad.iter().any(|g| !g.is_finite()) {
+        bail!(
+            "training of {:?} diverged at iteration {}: the loss on view {:?} is not \
+             finite (parameters overflowed; lower the learning rates)",
+            data.name,
+            it + 1,
+            view.name
+        );
+    }
+    let grads = backend.backward(model, &saved, &OutputGrads::color_only(&loss.grad))?;
+    optim.step(model, &grads)?;
+    // Cheap next to a render, so checked in every build, not only debug ones.
+    if let Some(what) = first_non_finite(model) {
+        bail!(
+            "training of {:?} diverged at iteration {}: {what} is not finite \
+             (view {:?}, loss {})",
+            data.name,
+            it + 1,
+            view.name,
+            loss.value
+        );
+    }
+    Ok(loss.value)
+}
+
 /// Trains one component from its sparse points. `progress(done, total)` returns
 /// false to interrupt the run (an error).
 pub fn train_component(
@@ -412,6 +486,14 @@ pub fn train_component(
     )
     .with_context(|| format!("initializing component {:?}", data.name))?;
     let mut optim = Optim::new(s, model.vertex_count());
+    // On a wgpu backend the iterations run on the device; everything else stays here.
+    let mut device = match backend
+        .as_any()
+        .and_then(|b| b.downcast_ref::<WgpuBackend>())
+    {
+        Some(gpu) => Some(DeviceSteps::new(gpu, data, &train, &optim)?),
+        None => None,
+    };
     let mut rng = Pcg64Mcg::seed_from_u64(settings.seed ^ 0x9e37_79b9_7f4a_7c15);
     let train_views: Vec<&View> = train.iter().map(|&i| &data.views[i]).collect();
     let mut best: Option<(f64, u64, Model<f32>)> = None;
@@ -424,6 +506,14 @@ pub fn train_component(
     let mut stopped_early = false;
     let mut it = 0;
     while it < s.iterations {
+        let edits_model = (it == s.connectivity_at && model.face_count() > 0)
+            || s.floor_update(it).is_some()
+            || s.prune_at(it).is_some()
+            || (s.densify_at(it) && model.vertex_count() < s.max_vertices);
+        if let Some(device) = device.as_mut().filter(|_| edits_model) {
+            device.pull(&mut model, &mut optim, data)?;
+            device.host_edited();
+        }
         if it == s.connectivity_at && model.face_count() > 0 {
             model.faces = restricted_delaunay(
                 &model.vertices,
@@ -473,7 +563,8 @@ pub fn train_component(
         }
         optim.adam.set_lr(optim.vertices, s.lr_vertices(it))?;
 
-        let view = &data.views[train[rng.random_range(0..train.len())]];
+        let slot = rng.random_range(0..train.len());
+        let view = &data.views[train[slot]];
         let b = if settings.background_randomization {
             [
                 rng.random::<f32>(),
@@ -483,57 +574,23 @@ pub fn train_component(
         } else {
             settings.fixed_background
         };
-        let pixels = view.labels.len();
-        let bg: Vec<f32> = (0..3 * pixels).map(|i| b[i % 3]).collect();
-        let (out, saved) = backend.forward(
-            &model,
-            &view.camera,
-            &render_settings(&model, settings),
-            &bg,
-        )?;
-        if !out.all_finite() {
-            bail!(
-                "training of {:?} diverged at iteration {}: the render of view {:?} is not \
-                 finite (parameters overflowed; lower the learning rates)",
-                data.name,
-                it + 1,
-                view.name
-            );
-        }
-        let (target, weights) = supervision(view, data.kind, b);
-        let dims = Dims::rgb(view.camera.width, view.camera.height);
-        let loss = photometric(
-            dims,
-            &out.color,
-            &target,
-            Some(&weights),
-            DEFAULT_LAMBDA_DSSIM,
-        )?;
-        if !loss.value.is_finite() || loss.grad.iter().any(|g| !g.is_finite()) {
-            bail!(
-                "training of {:?} diverged at iteration {}: the loss on view {:?} is not \
-                 finite (parameters overflowed; lower the learning rates)",
-                data.name,
-                it + 1,
-                view.name
-            );
-        }
-        let grads = backend.backward(&model, &saved, &OutputGrads::color_only(&loss.grad))?;
-        optim.step(&mut model, &grads)?;
-        // Cheap next to a render, so checked in every build, not only debug ones.
-        if let Some(what) = first_non_finite(&model) {
-            bail!(
-                "training of {:?} diverged at iteration {}: {what} is not finite \
-                 (view {:?}, loss {})",
-                data.name,
-                it + 1,
-                view.name,
-                loss.value
-            );
+        let render = render_settings(&model, settings);
+        match device.as_mut() {
+            Some(device) => device.step(&model, &optim, it + 1, slot, b, render)?,
+            None => {
+                let loss = host_step(backend, &mut model, &mut optim, data, view, b, &render, it)?;
+                window_loss += loss as f64;
+            }
         }
         it += 1;
-        window_loss += loss.value as f64;
         if it % log_every == 0 || it == s.iterations {
+            if let Some(device) = device.as_mut() {
+                window_loss += device
+                    .losses(data)?
+                    .iter()
+                    .map(|(_, l)| *l as f64)
+                    .sum::<f64>();
+            }
             let window = (it - 1) % log_every + 1;
             steps.push(StepRecord {
                 iteration: it,
@@ -551,6 +608,9 @@ pub fn train_component(
         }
 
         if it % s.eval_every == 0 || it == s.iterations {
+            if let Some(device) = device.as_mut() {
+                device.pull(&mut model, &mut optim, data)?;
+            }
             let score = held_out_eval(backend, &model, data, settings)?;
             evals.push(EvalRecord {
                 iteration: it,
@@ -575,6 +635,10 @@ pub fn train_component(
                 break;
             }
         }
+    }
+    if let Some(device) = device.as_mut() {
+        device.pull(&mut model, &mut optim, data)?;
+        notes.push(device.summary());
     }
     let (best_iteration, mut model) = match (best, settings.checkpoint) {
         (Some((_, best_it, best_model)), Checkpoint::Best) => (best_it, best_model),

@@ -4,13 +4,12 @@
 
 mod common;
 
-use objectsplat_raster::CpuBackend;
+use objectsplat_raster::{CpuBackend, RenderBackend};
 use objectsplat_train::Schedule;
 use objectsplat_train::init::{ComponentMasks, InitSettings};
 use objectsplat_train::trainer::{ComponentData, TrainSettings, train_component};
 
-#[test]
-fn an_absurd_learning_rate_fails_naming_component_and_iteration() {
+fn absurd_run(backend: &dyn RenderBackend<f32>) -> String {
     let dir = tempfile::tempdir().unwrap();
     common::write_component(dir.path());
     let masks = ComponentMasks::read(dir.path()).unwrap();
@@ -31,13 +30,40 @@ fn an_absurd_learning_rate_fails_naming_component_and_iteration() {
         world_scale: 1.0,
         checkpoint: Default::default(),
     };
-    let err = train_component(&CpuBackend::new(1), &data, &points, &settings, |_, _| true)
+    let err = train_component(backend, &data, &points, &settings, |_, _| true)
         .err()
         .expect("the run must not succeed");
-    let text = format!("{err:#}");
+    format!("{err:#}")
+}
+
+#[test]
+fn an_absurd_learning_rate_fails_naming_component_and_iteration() {
+    let text = absurd_run(&CpuBackend::new(1));
     assert!(
         text.contains("training of \"obj_1_plate\" diverged at iteration")
             && text.contains("is not finite"),
+        "{text}"
+    );
+}
+
+/// On wgpu the iterations run on the device and report back in batches; the
+/// error still names the component, the iteration and what overflowed.
+#[test]
+fn a_diverging_run_on_the_device_fails_the_same_way() {
+    let ctx = match objectsplat_wgpu::GpuContext::shared(objectsplat_wgpu::AdapterChoice::Auto) {
+        Ok((ctx, _)) => ctx,
+        Err(e) => {
+            if std::env::var("OBJECTSPLAT_REQUIRE_ADAPTER").is_ok_and(|v| v == "1") {
+                panic!("no wgpu adapter but OBJECTSPLAT_REQUIRE_ADAPTER=1: {e:#}");
+            }
+            eprintln!("SKIPPED (no wgpu adapter): {e:#}");
+            return;
+        }
+    };
+    let text = absurd_run(&objectsplat_wgpu::WgpuBackend::new(ctx).unwrap());
+    assert!(
+        text.contains("training of \"obj_1_plate\" diverged at iteration")
+            && text.contains("became non-finite"),
         "{text}"
     );
 }

@@ -5,11 +5,20 @@
 //! 2k and 20k faces and 1752×1168 with 100k; `-- --case FACES WIDTH HEIGHT`
 //! runs one case (e.g. `--case 1000000 1752 1168` on a real GPU);
 //! `--no-cpu` skips the CPU side. Prints one Markdown table row per case.
+//!
+//! `--train` measures whole training iterations instead (render, L1 + D-SSIM
+//! loss, backward, Adam): on the device with [`DeviceTrainer`], wgpu with the
+//! loss and Adam on the host (the image and every gradient cross each
+//! iteration), and the CPU backend.
 
 use objectsplat_core::Camera;
 use objectsplat_core::glam::DVec3;
+use objectsplat_raster::loss::{DEFAULT_LAMBDA_DSSIM, Dims, photometric};
 use objectsplat_raster::{
     CpuBackend, Model, OutputGrads, RenderBackend, RenderSettings, SH_COEFFS,
+};
+use objectsplat_wgpu::training::{
+    AdamSettings, DeviceTrainer, LearningRates, Moments, OptimizerState, Step, TrainingView,
 };
 use objectsplat_wgpu::{AdapterChoice, GpuContext, WgpuBackend};
 use std::time::{Duration, Instant};
@@ -86,6 +95,195 @@ fn iterations_per_second(
     Ok(n as f64 / total)
 }
 
+const ADAM: AdamSettings = AdamSettings {
+    beta1: 0.9,
+    beta2: 0.999,
+    eps: 1e-15,
+};
+const RATES: LearningRates = LearningRates {
+    positions: 1e-4,
+    sh_dc: 1e-3,
+    sh_rest: 5e-5,
+    opacity: 1e-2,
+};
+
+/// Runs `step` for at least `budget` after one warm-up call; returns calls per second.
+fn rate(budget: Duration, mut step: impl FnMut() -> anyhow::Result<()>) -> anyhow::Result<f64> {
+    step()?;
+    let start = Instant::now();
+    let mut n = 0u32;
+    while n < 2 || start.elapsed() < budget {
+        step()?;
+        n += 1;
+    }
+    Ok(n as f64 / start.elapsed().as_secs_f64())
+}
+
+/// Adam on the host, as the trainer runs it when iterations do not stay on a device.
+fn host_adam(values: &mut [f32], grads: &[f32], m: &mut [f32], v: &mut [f32], lr: f64, t: i32) {
+    let (bc1, bc2) = (1.0 - ADAM.beta1.powi(t), 1.0 - ADAM.beta2.powi(t));
+    for i in 0..values.len() {
+        let g = grads[i] as f64;
+        let mn = ADAM.beta1 * m[i] as f64 + (1.0 - ADAM.beta1) * g;
+        let vn = ADAM.beta2 * v[i] as f64 + (1.0 - ADAM.beta2) * g * g;
+        m[i] = mn as f32;
+        v[i] = vn as f32;
+        values[i] = (values[i] as f64 - lr * (mn / bc1) / ((vn / bc2).sqrt() + ADAM.eps)) as f32;
+    }
+}
+
+/// Training iterations per second with the loss and Adam on the host.
+fn host_training_rate(
+    backend: &dyn RenderBackend<f32>,
+    model: &Model<f32>,
+    camera: &Camera,
+    target: &[f32],
+    budget: Duration,
+) -> anyhow::Result<f64> {
+    let mut model = model.clone();
+    let pixels = (camera.width * camera.height) as usize;
+    let background = vec![0.3f32; pixels * 3];
+    let settings = RenderSettings::for_model(&model);
+    let nv = model.vertex_count();
+    let mut moments = [nv * 3, nv * 3 * SH_COEFFS, nv].map(|n| (vec![0f32; n], vec![0f32; n]));
+    let mut t = 0;
+    rate(budget, || {
+        let (out, saved) = backend.forward(&model, camera, &settings, &background)?;
+        let loss = photometric(
+            Dims::rgb(camera.width, camera.height),
+            &out.color,
+            target,
+            None,
+            DEFAULT_LAMBDA_DSSIM,
+        )?;
+        let g = backend.backward(&model, &saved, &OutputGrads::color_only(&loss.grad))?;
+        t += 1;
+        let mut positions: Vec<f32> = model.vertices.concat();
+        let mut sh: Vec<f32> = model.sh.iter().flatten().flatten().copied().collect();
+        let [(m0, v0), (m1, v1), (m2, v2)] = &mut moments;
+        host_adam(
+            &mut positions,
+            &g.vertices.concat(),
+            m0,
+            v0,
+            RATES.positions,
+            t,
+        );
+        let sh_grad: Vec<f32> = g.sh.iter().flatten().flatten().copied().collect();
+        host_adam(&mut sh, &sh_grad, m1, v1, RATES.sh_dc, t);
+        host_adam(
+            &mut model.opacity_logits,
+            &g.opacity_logits,
+            m2,
+            v2,
+            RATES.opacity,
+            t,
+        );
+        for (v, p) in model.vertices.iter_mut().zip(positions.chunks_exact(3)) {
+            v.copy_from_slice(p);
+        }
+        for (row, values) in model.sh.iter_mut().zip(sh.chunks_exact(3 * SH_COEFFS)) {
+            for (c, rgb) in row.iter_mut().zip(values.chunks_exact(3)) {
+                c.copy_from_slice(rgb);
+            }
+        }
+        Ok(())
+    })
+}
+
+/// Training iterations per second on the device.
+fn device_training_rate(
+    gpu: &WgpuBackend,
+    model: &Model<f32>,
+    camera: &Camera,
+    target: &[f32],
+    budget: Duration,
+) -> anyhow::Result<f64> {
+    let pixels = (camera.width * camera.height) as usize;
+    let view = TrainingView {
+        camera: camera.clone(),
+        target: target.to_vec(),
+        weights: vec![1.0; pixels],
+        from_background: vec![false; pixels],
+    };
+    let mut trainer = DeviceTrainer::new(gpu, &[view], ADAM)?;
+    let nv = model.vertex_count();
+    let zeros = |n: usize| Moments {
+        first: vec![0.0; n],
+        second: vec![0.0; n],
+        steps: 0,
+    };
+    trainer.load(
+        model,
+        &OptimizerState {
+            positions: zeros(nv * 3),
+            sh: zeros(nv * 3 * SH_COEFFS),
+            opacity_logits: zeros(nv),
+        },
+    )?;
+    let step = Step {
+        view: 0,
+        background: [0.3; 3],
+        render: RenderSettings::for_model(model),
+        learning_rates: RATES,
+        lambda_dssim: DEFAULT_LAMBDA_DSSIM,
+    };
+    let mut steps = 0;
+    let r = rate(budget, || {
+        trainer.step(&step)?;
+        steps += 1;
+        // The trainer collects losses every ~iterations/200 steps; 10 is more often than that.
+        if steps % 10 == 0 {
+            trainer.results()?;
+        }
+        Ok(())
+    })?;
+    // Queued work must finish inside the measurement: the last results wait for it.
+    trainer.results()?;
+    Ok(r)
+}
+
+fn training_table(
+    gpu: &WgpuBackend,
+    cpu: &CpuBackend,
+    cases: &[(usize, u32, u32)],
+    with_cpu: bool,
+) -> anyhow::Result<()> {
+    println!(
+        "| faces | image | wgpu, device loss + Adam (it/s) | wgpu, host loss + Adam (it/s) | cpu(2) (it/s) | device / host | device / cpu |"
+    );
+    println!("|---|---|---|---|---|---|---|");
+    for &(faces, w, h) in cases {
+        let model = soup(faces, w, h);
+        let camera = Camera::look_at(
+            w,
+            h,
+            w as f64,
+            w as f64,
+            DVec3::new(0.0, 0.0, -4.0),
+            DVec3::ZERO,
+            DVec3::Y,
+        );
+        let target: Vec<f32> = (0..(w * h * 3) as usize)
+            .map(|i| (i % 17) as f32 / 17.0)
+            .collect();
+        let budget = Duration::from_secs(5);
+        let device = device_training_rate(gpu, &model, &camera, &target, budget)?;
+        let host = host_training_rate(gpu, &model, &camera, &target, budget)?;
+        let (c, ratio) = if with_cpu {
+            let c = host_training_rate(cpu, &model, &camera, &target, budget)?;
+            (format!("{c:.2}"), format!("{:.2}×", device / c))
+        } else {
+            ("–".into(), "–".into())
+        };
+        println!(
+            "| {faces} | {w}×{h} | {device:.2} | {host:.2} | {c} | {:.2}× | {ratio} |",
+            device / host
+        );
+    }
+    Ok(())
+}
+
 fn main() -> anyhow::Result<()> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let with_cpu = !args.iter().any(|a| a == "--no-cpu");
@@ -105,6 +303,9 @@ fn main() -> anyhow::Result<()> {
     println!("{why}; float atomics: {}", ctx.float_atomics);
     let gpu = WgpuBackend::new(ctx)?;
     let cpu = CpuBackend::new(2);
+    if args.iter().any(|a| a == "--train") {
+        return training_table(&gpu, &cpu, &cases, with_cpu);
+    }
     println!("| faces | image | wgpu it/s | cpu(2) it/s | wgpu / cpu |");
     println!("|---|---|---|---|---|");
     for (faces, w, h) in cases {

@@ -802,4 +802,8 @@ impl RenderBackend<f32> for WgpuBackend {
         };
         self.backward_impl(model, state, grads)
     }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
+    }
 }

@@ -26,8 +26,7 @@ struct LossParams {
 }
 
 const HALF: i32 = 5;
-const ROWS_STRIDE: u32 = 15u;
-const MAPS_STRIDE: u32 = 9u;
+const MAP_COUNT: u32 = 9u;
 const IMAGE_STRIDE: u32 = 6u;
 const C1: f32 = 0.0001;
 const C2: f32 = 0.0009;
@@ -71,6 +70,12 @@ fn target_color(p: u32) -> vec3<f32> {
     return targets[p].xyz;
 }
 
+// Scratch maps are stored plane by plane (value k of pixel p at k·pixels + p),
+// so neighbouring threads read neighbouring words.
+fn plane(k: u32, p: u32) -> u32 {
+    return k * params.width * params.height + p;
+}
+
 fn rendered(p: u32, c: u32) -> f32 {
     return image[p * IMAGE_STRIDE + c];
 }
@@ -112,7 +117,7 @@ fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
             acc[4] += t * (vx * vy);
         }
         for (var k = 0u; k < 5u; k++) {
-            rows[p * ROWS_STRIDE + 5u * c + k] = acc[k];
+            rows[plane(5u * c + k, p)] = acc[k];
         }
     }
 }
@@ -144,7 +149,7 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
                 let t = tap(yy + HALF - y);
                 let q = u32(yy) * params.width + x;
                 for (var k = 0u; k < 5u; k++) {
-                    m[k] += t * rows[q * ROWS_STRIDE + 5u * c + k];
+                    m[k] += t * rows[plane(5u * c + k, q)];
                 }
             }
             let mux = m[0];
@@ -161,9 +166,9 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
             let ds_dvx = -s / b2;
             let ds_dcxy = 2.0 * a1 / (b1 * b2);
             // μx also enters σx² = E[x²] − μx² and σxy = E[xy] − μx·μy.
-            maps[p * MAPS_STRIDE + 3u * c] = u * (ds_dmux - 2.0 * mux * ds_dvx - muy * ds_dcxy);
-            maps[p * MAPS_STRIDE + 3u * c + 1u] = u * ds_dvx;
-            maps[p * MAPS_STRIDE + 3u * c + 2u] = u * ds_dcxy;
+            maps[plane(3u * c, p)] = u * (ds_dmux - 2.0 * mux * ds_dvx - muy * ds_dcxy);
+            maps[plane(3u * c + 1u, p)] = u * ds_dvx;
+            maps[plane(3u * c + 2u, p)] = u * ds_dcxy;
             contribution += vec2<f32>(u * abs(rendered(p, c) - goal[c]), u * s);
         }
     }
@@ -198,12 +203,12 @@ fn ssim_grad_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
     for (var xx = lo; xx <= hi; xx++) {
         let t = tap(xx + HALF - x);
         let q = row + u32(xx);
-        for (var k = 0u; k < MAPS_STRIDE; k++) {
-            acc[k] += t * maps[q * MAPS_STRIDE + k];
+        for (var k = 0u; k < MAP_COUNT; k++) {
+            acc[k] += t * maps[plane(k, q)];
         }
     }
-    for (var k = 0u; k < MAPS_STRIDE; k++) {
-        rows[p * ROWS_STRIDE + k] = acc[k];
+    for (var k = 0u; k < MAP_COUNT; k++) {
+        rows[plane(k, p)] = acc[k];
     }
 }
 
@@ -223,8 +228,8 @@ fn loss_grad(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
     for (var yy = lo; yy <= hi; yy++) {
         let t = tap(yy + HALF - y);
         let q = u32(yy) * params.width + x;
-        for (var k = 0u; k < MAPS_STRIDE; k++) {
-            b[k] += t * rows[q * ROWS_STRIDE + k];
+        for (var k = 0u; k < MAP_COUNT; k++) {
+            b[k] += t * rows[plane(k, q)];
         }
     }
     let u = targets[p].w * params.norm;

@@ -23,8 +23,8 @@ pub const TRAIN_ADAM_WGSL: &str = include_str!("train_adam.wgsl");
 const THREADS_1D: usize = 256;
 /// Steps whose losses and flags the device holds before the host collects them.
 const SLOTS: usize = 256;
-const ROWS_STRIDE: usize = 15;
-const MAPS_STRIDE: usize = 9;
+const ROW_MAPS: usize = 15;
+const PARTIAL_MAPS: usize = 9;
 const IMAGE_STRIDE: usize = 6;
 const SH_VALUES: usize = SH_COEFFS * 3;
 
@@ -323,8 +323,8 @@ impl DeviceTrainer {
             views: buffers,
             resident: None,
             background_image: storage(&ctx, "background image", bytes(pixels * 3)),
-            rows: storage(&ctx, "ssim rows", bytes(pixels * ROWS_STRIDE)),
-            maps: storage(&ctx, "ssim partial maps", bytes(pixels * MAPS_STRIDE)),
+            rows: storage(&ctx, "ssim rows", bytes(pixels * ROW_MAPS)),
+            maps: storage(&ctx, "ssim partial maps", bytes(pixels * PARTIAL_MAPS)),
             upstream: storage(&ctx, "loss gradient", bytes(pixels * IMAGE_STRIDE)),
             partials: storage(
                 &ctx,
