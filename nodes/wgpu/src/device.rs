@@ -202,6 +202,40 @@ pub fn validate_wgsl(name: &str, source: &str) -> Result<()> {
     Ok(())
 }
 
+/// Size and member (name, offset) list of the WGSL struct `name` in `source`,
+/// as naga lays it out for host-shareable memory.
+pub fn wgsl_struct_layout(source: &str, name: &str) -> Result<(u32, Vec<(String, u32)>)> {
+    let module = naga::front::wgsl::parse_str(source)
+        .map_err(|e| anyhow!("WGSL source: {}", e.emit_to_string(source)))?;
+    for (_, ty) in module.types.iter() {
+        if ty.name.as_deref() == Some(name)
+            && let naga::TypeInner::Struct { members, span } = &ty.inner
+        {
+            let members = members
+                .iter()
+                .map(|m| (m.name.clone().unwrap_or_default(), m.offset))
+                .collect();
+            return Ok((*span, members));
+        }
+    }
+    bail!("no struct {name} in the WGSL source")
+}
+
+/// Asserts that a Rust mirror of a WGSL struct has its size and offsets
+/// (`rust`: WGSL member name → Rust byte offset).
+#[cfg(test)]
+pub(crate) fn assert_mirrors_wgsl(source: &str, name: &str, size: usize, rust: &[(&str, usize)]) {
+    let (span, members) = wgsl_struct_layout(source, name).unwrap();
+    assert_eq!(span as usize, size, "size of {name}");
+    assert_eq!(members.len(), rust.len(), "members of {name}: {members:?}");
+    for (member, offset) in members {
+        let Some((_, want)) = rust.iter().find(|(n, _)| *n == member) else {
+            panic!("{name}.{member} has no Rust counterpart");
+        };
+        assert_eq!(offset as usize, *want, "offset of {name}.{member}");
+    }
+}
+
 /// Copies `bytes` bytes of `source` (from offset 0) back to the host.
 /// `source` needs `COPY_SRC` usage.
 pub fn read_buffer(ctx: &GpuContext, source: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {

@@ -783,6 +783,20 @@ mod tests {
         crate::device::validate_wgsl("id_raster.wgsl", SHADER_SOURCE).unwrap();
     }
 
+    #[test]
+    fn host_records_mirror_the_wgsl_structs() {
+        use std::mem::{offset_of, size_of};
+        let rust = [
+            ("width", offset_of!(Params, width)),
+            ("height", offset_of!(Params, height)),
+            ("tiles_x", offset_of!(Params, tiles_x)),
+            ("unused", offset_of!(Params, unused)),
+        ];
+        crate::device::assert_mirrors_wgsl(SHADER_SOURCE, "Params", size_of::<Params>(), &rust);
+        let (size, _) = crate::device::wgsl_struct_layout(SHADER_SOURCE, "Triangle").unwrap();
+        assert_eq!(size as usize, size_of::<GpuTriangle>());
+    }
+
     /// The shader's soft float against the host's IEEE f32 arithmetic (round to nearest,
     /// ties to even, subnormals kept), on random operands of every magnitude, operands
     /// shaped like the depth computation's, and u64 conversions near ties.

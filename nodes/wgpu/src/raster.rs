@@ -807,3 +807,67 @@ impl RenderBackend<f32> for WgpuBackend {
         Some(self)
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::{assert_mirrors_wgsl, wgsl_struct_layout};
+    use std::mem::{offset_of, size_of};
+
+    /// The common declarations as compiled (raster_common.wgsl alone refers to
+    /// bindings each program declares).
+    fn compiled_source() -> String {
+        let [pre, ..] = raster_sources(FloatAtomics::CompareExchange, 128, 256);
+        pre.1
+    }
+
+    #[test]
+    fn raster_params_mirror_the_wgsl_struct() {
+        let rot = offset_of!(RasterParams, rot);
+        macro_rules! same_names {
+            ($($f:ident),*) => { [$((stringify!($f), offset_of!(RasterParams, $f))),*] };
+        }
+        let mut rust = vec![("rot0", rot), ("rot1", rot + 16), ("rot2", rot + 32)];
+        rust.extend(same_names!(
+            center,
+            fx,
+            fy,
+            cx,
+            cy,
+            width,
+            height,
+            tiles_x,
+            tiles_y,
+            vertex_count,
+            face_count,
+            sh_degree,
+            entry_count,
+            sigma,
+            z_near,
+            min_centroid_depth,
+            min_abs_cos,
+            min_opacity,
+            max_screen_extent,
+            min_screen_extent,
+            min_inradius,
+            alpha_max,
+            alpha_min,
+            transmittance_min,
+            opacity_floor
+        ));
+        assert_mirrors_wgsl(
+            &compiled_source(),
+            "RasterParams",
+            size_of::<RasterParams>(),
+            &rust,
+        );
+    }
+
+    #[test]
+    fn face_and_vertex_record_sizes_match_the_wgsl_structs() {
+        let source = compiled_source();
+        let size = |name| wgsl_struct_layout(&source, name).unwrap().0 as u64;
+        assert_eq!(size("Face"), FACE_BYTES);
+        assert_eq!(size("Vertex"), VERTEX_BYTES);
+    }
+}

@@ -668,3 +668,50 @@ impl DeviceTrainer {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::device::assert_mirrors_wgsl;
+    use std::mem::{offset_of, size_of};
+
+    macro_rules! same_names {
+        ($t:ty; $($f:ident),*) => { [$((stringify!($f), offset_of!($t, $f))),*] };
+    }
+
+    #[test]
+    fn loss_params_mirror_the_wgsl_struct() {
+        let rust = same_names!(LossParams; width, height, slot, partial_count, background,
+            norm, l1_weight, ssim_weight, supervised, taps);
+        assert_mirrors_wgsl(
+            TRAIN_LOSS_WGSL,
+            "LossParams",
+            size_of::<LossParams>(),
+            &rust,
+        );
+    }
+
+    #[test]
+    fn adam_params_mirror_the_wgsl_struct() {
+        let pad = offset_of!(AdamParams, pad);
+        let mut rust = same_names!(AdamParams; count, row_width, split, grad_bit, lr_first,
+            lr_rest, beta1, beta2, complement1, complement2, eps, bias1, bias2, slot)
+        .to_vec();
+        rust.extend([("pad0", pad), ("pad1", pad + 4)]);
+        assert_mirrors_wgsl(
+            TRAIN_ADAM_WGSL,
+            "AdamParams",
+            size_of::<AdamParams>(),
+            &rust,
+        );
+    }
+
+    #[test]
+    fn taps_equal_the_cpu_loss_window() {
+        let taps = gaussian_taps();
+        let sum: f32 = taps.iter().sum();
+        assert!((sum - 1.0).abs() < 1e-6, "{taps:?}");
+        assert_eq!(taps[11], 0.0);
+        assert_eq!(taps[5], taps.iter().copied().fold(0.0, f32::max));
+    }
+}
