@@ -234,6 +234,31 @@ pub struct SavedForward {
     pub state: Box<dyn Any + Send + Sync>,
 }
 
+impl SavedForward {
+    pub fn new<T: Any + Send + Sync>(backend: &'static str, state: T) -> Self {
+        SavedForward {
+            backend,
+            state: Box::new(state),
+        }
+    }
+
+    /// The state as `backend` saved it; an error when another backend, or the
+    /// same backend at another scalar type, produced it.
+    pub fn state_of<T: Any>(&self, backend: &'static str) -> Result<&T> {
+        if self.backend != backend {
+            bail!(
+                "the {backend} backend cannot use state saved by the {:?} backend",
+                self.backend
+            );
+        }
+        self.state.downcast_ref::<T>().ok_or_else(|| {
+            anyhow::anyhow!(
+                "the saved forward state is not this {backend} backend's (another scalar type?)"
+            )
+        })
+    }
+}
+
 /// A differentiable renderer. Object-safe: trainers hold `Box<dyn RenderBackend<f32>>`.
 pub trait RenderBackend<R: Real>: Send + Sync {
     fn name(&self) -> &'static str;

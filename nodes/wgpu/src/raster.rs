@@ -776,13 +776,7 @@ impl RenderBackend<f32> for WgpuBackend {
         background: &[f32],
     ) -> Result<(RenderOutput<f32>, SavedForward)> {
         let (out, saved) = self.forward_impl(model, camera, settings, background)?;
-        Ok((
-            out,
-            SavedForward {
-                backend: BACKEND_NAME,
-                state: Box::new(saved),
-            },
-        ))
+        Ok((out, SavedForward::new(BACKEND_NAME, saved)))
     }
 
     fn backward(
@@ -791,16 +785,7 @@ impl RenderBackend<f32> for WgpuBackend {
         saved: &SavedForward,
         grads: &OutputGrads<'_, f32>,
     ) -> Result<ModelGrads<f32>> {
-        if saved.backend != BACKEND_NAME {
-            bail!(
-                "the wgpu backend cannot use state saved by the {:?} backend",
-                saved.backend
-            );
-        }
-        let Some(state) = saved.state.downcast_ref::<WgpuSaved>() else {
-            bail!("the saved forward state was not produced by this wgpu backend");
-        };
-        self.backward_impl(model, state, grads)
+        self.backward_impl(model, saved.state_of::<WgpuSaved>(BACKEND_NAME)?, grads)
     }
 
     fn as_any(&self) -> Option<&dyn std::any::Any> {

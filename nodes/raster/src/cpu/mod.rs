@@ -361,13 +361,7 @@ impl<R: Real> RenderBackend<R> for CpuBackend {
         background: &[R],
     ) -> Result<(RenderOutput<R>, SavedForward)> {
         let (out, saved) = self.forward_impl(model, camera, settings, background)?;
-        Ok((
-            out,
-            SavedForward {
-                backend: BACKEND_NAME,
-                state: Box::new(saved),
-            },
-        ))
+        Ok((out, SavedForward::new(BACKEND_NAME, saved)))
     }
 
     fn backward(
@@ -376,16 +370,7 @@ impl<R: Real> RenderBackend<R> for CpuBackend {
         saved: &SavedForward,
         grads: &OutputGrads<'_, R>,
     ) -> Result<ModelGrads<R>> {
-        if saved.backend != BACKEND_NAME {
-            bail!(
-                "the cpu backend cannot use state saved by the {:?} backend",
-                saved.backend
-            );
-        }
-        let Some(state) = saved.state.downcast_ref::<CpuSaved<R>>() else {
-            bail!("the saved forward state was produced with a different scalar type");
-        };
-        self.backward_impl(model, state, grads)
+        self.backward_impl(model, saved.state_of::<CpuSaved<R>>(BACKEND_NAME)?, grads)
     }
 }
 

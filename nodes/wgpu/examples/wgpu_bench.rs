@@ -1,7 +1,7 @@
 //! Forward+backward iterations per second, wgpu backend against the CPU
 //! backend (2 threads), same scenes, same run.
 //!
-//! `cargo run --release -p objectsplat-wgpu --example bench` runs 320×240 with
+//! `cargo run --release -p objectsplat-wgpu --example wgpu_bench` runs 320×240 with
 //! 2k and 20k faces and 1752×1168 with 100k; `-- --case FACES WIDTH HEIGHT`
 //! runs one case (e.g. `--case 1000000 1752 1168` on a real GPU);
 //! `--no-cpu` skips the CPU side. Prints one Markdown table row per case.
