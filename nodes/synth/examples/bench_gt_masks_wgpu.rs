@@ -5,10 +5,10 @@
 //! Usage: cargo run --release -p objectsplat-synth --example bench_gt_masks_wgpu -- [THREADS] [FRAMES] [auto|gpu|lavapipe]
 
 use anyhow::{Context, Result, bail};
+use objectsplat_synth::gpu_raster::IdRasterizer;
 use objectsplat_synth::gt_masks::{drop_small_objects, face_mask_values, frame_mask};
 use objectsplat_synth::{GtMaskParams, RasterOptions, SyntheticParams, scene};
 use objectsplat_wgpu::device::{AdapterChoice, GpuContext};
-use objectsplat_wgpu::id_raster::IdRasterizer;
 use std::time::Instant;
 
 fn main() -> Result<()> {

@@ -3,6 +3,7 @@
 //! The artifact types they speak (Frames, Mesh, Points, Masks, Component) are
 //! registered by the catalogue crate; [`register`] adds only the node kinds.
 
+use crate::gpu_raster::IdRasterizer;
 use crate::gt_masks::{GtMaskParams, drop_small_objects, face_mask_values, frame_mask};
 use crate::partition::{PartitionParams, partition_folders};
 use crate::raster::RasterOptions;
@@ -14,7 +15,6 @@ use objectsplat_core::mesh_io::MESH_PLY;
 use objectsplat_core::{Frames, SplitPolicy, read_mesh_artifact};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
 use objectsplat_wgpu::device::{AdapterChoice, GpuContext};
-use objectsplat_wgpu::id_raster::IdRasterizer;
 use std::collections::BTreeSet;
 use std::sync::Arc;
 

@@ -79,21 +79,21 @@ impl Raster {
 /// A triangle ready for scan conversion: fixed-point screen vertices with positive
 /// orientation, their inverse depths, its pixel bounding box and the face it came from.
 #[derive(Debug, Clone, Copy)]
-struct ScreenTriangle {
+pub(crate) struct ScreenTriangle {
     /// Fixed-point vertices; the guard band keeps them within ±2^25, so i32 holds them
     /// and the triangle list stays small (48 bytes a triangle) at a million faces.
-    xy: [[i32; 2]; 3],
-    inv_z: [f32; 3],
-    face: u32,
+    pub xy: [[i32; 2]; 3],
+    pub inv_z: [f32; 3],
+    pub face: u32,
     /// Inclusive pixel bounding box, clamped to the image (sides ≤ 65536 pixels).
-    x0: u16,
-    x1: u16,
-    y0: u16,
-    y1: u16,
+    pub x0: u16,
+    pub x1: u16,
+    pub y0: u16,
+    pub y1: u16,
 }
 
 impl ScreenTriangle {
-    fn vertex(&self, k: usize) -> [i64; 2] {
+    pub fn vertex(&self, k: usize) -> [i64; 2] {
         [self.xy[k][0] as i64, self.xy[k][1] as i64]
     }
 }
@@ -202,22 +202,17 @@ fn snap(pixel_coord: f64) -> i64 {
     (pixel_coord * SUBPIXEL as f64).round() as i64
 }
 
-/// Rasterizes `faces` of the mesh `positions` into `camera`'s image.
-///
-/// Errors (never panics) on a bad camera, a non-finite vertex, a face index out of
-/// range or a bad near plane.
-pub fn rasterize(
+/// What both rasterizers (this one and the wgpu one in `gpu_raster`) require of
+/// their inputs; the error says which input is wrong.
+pub(crate) fn validate_inputs(
     positions: &[[f32; 3]],
     faces: &[[u32; 3]],
     camera: &Camera,
-    options: &RasterOptions,
-) -> Result<Raster, String> {
+    near: f64,
+) -> Result<(), String> {
     camera.validate()?;
-    if !(options.near.is_finite() && options.near > 0.0) {
-        return Err(format!(
-            "near plane {} must be finite and positive",
-            options.near
-        ));
+    if !(near.is_finite() && near > 0.0) {
+        return Err(format!("near plane {} must be finite and positive", near));
     }
     if camera.width > 1 << 16 || camera.height > 1 << 16 {
         return Err(format!(
@@ -247,12 +242,37 @@ pub fn rasterize(
             faces.len()
         ));
     }
-    let threads = options.threads.max(1);
-    let projector = Projector::new(camera, options.near);
+    Ok(())
+}
 
+/// The triangles to scan-convert, in face order: projected, clipped against the near
+/// plane and the guard band, snapped, positively oriented and bounded. Inputs must
+/// have passed [`validate_inputs`].
+pub(crate) fn screen_triangles(
+    positions: &[[f32; 3]],
+    faces: &[[u32; 3]],
+    camera: &Camera,
+    near: f64,
+    threads: usize,
+) -> Vec<ScreenTriangle> {
+    let projector = Projector::new(camera, near);
     let projected = project_vertices(positions, &projector, threads);
-    let triangles = setup_triangles(positions, faces, &projected, &projector, threads);
-    drop(projected);
+    setup_triangles(positions, faces, &projected, &projector, threads)
+}
+
+/// Rasterizes `faces` of the mesh `positions` into `camera`'s image.
+///
+/// Errors (never panics) on a bad camera, a non-finite vertex, a face index out of
+/// range or a bad near plane.
+pub fn rasterize(
+    positions: &[[f32; 3]],
+    faces: &[[u32; 3]],
+    camera: &Camera,
+    options: &RasterOptions,
+) -> Result<Raster, String> {
+    validate_inputs(positions, faces, camera, options.near)?;
+    let threads = options.threads.max(1);
+    let triangles = screen_triangles(positions, faces, camera, options.near, threads);
     let (band_offsets, band_members) = bin_by_band(&triangles, camera.height);
 
     let (width, height) = (camera.width, camera.height);
@@ -418,7 +438,7 @@ fn pixel_span(coords: [i64; 3], size: u32) -> (Option<u32>, Option<u32>) {
 /// Edge function of `(a, b)` at `p`: twice the signed area of `(a, b, p)`, positive
 /// when `p` is on the interior side of a positively oriented triangle.
 #[inline]
-fn edge(a: [i64; 2], b: [i64; 2], p: [i64; 2]) -> i64 {
+pub(crate) fn edge(a: [i64; 2], b: [i64; 2], p: [i64; 2]) -> i64 {
     (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
 }
 
@@ -600,4 +620,18 @@ pub fn ray_triangle_plane(
     let l0 = (c - b).cross(p - b).dot(n) / n2;
     let l1 = (a - c).cross(p - c).dot(n) / n2;
     Some((p, [l0, l1, 1.0 - l0 - l1]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn pixel_span_matches_pixel_centres() {
+        // Centres of pixels 0, 1, 2 are at 128, 384, 640 in 1/256 pixel.
+        assert_eq!(pixel_span([128, 384, 200], 10), (Some(0), Some(1)));
+        assert_eq!(pixel_span([129, 383, 200], 10), (None, None));
+        assert_eq!(pixel_span([-5000, 300, 0], 10), (Some(0), Some(0)));
+        assert_eq!(pixel_span([0, 100_000, 5], 10), (Some(0), Some(9)));
+    }
 }

@@ -221,19 +221,33 @@ pub fn wgsl_struct_layout(source: &str, name: &str) -> Result<(u32, Vec<(String,
     bail!("no struct {name} in the WGSL source")
 }
 
-/// Asserts that a Rust mirror of a WGSL struct has its size and offsets
-/// (`rust`: WGSL member name → Rust byte offset).
-#[cfg(test)]
-pub(crate) fn assert_mirrors_wgsl(source: &str, name: &str, size: usize, rust: &[(&str, usize)]) {
-    let (span, members) = wgsl_struct_layout(source, name).unwrap();
-    assert_eq!(span as usize, size, "size of {name}");
-    assert_eq!(members.len(), rust.len(), "members of {name}: {members:?}");
+/// Checks that a Rust mirror of a WGSL struct has its size and member offsets
+/// (`rust`: WGSL member name → Rust byte offset), for the tests of every kernel's host side.
+pub fn check_mirrors_wgsl(
+    source: &str,
+    name: &str,
+    size: usize,
+    rust: &[(&str, usize)],
+) -> Result<()> {
+    let (span, members) = wgsl_struct_layout(source, name)?;
+    if span as usize != size {
+        bail!("{name} is {span} bytes in WGSL but {size} in Rust");
+    }
+    if members.len() != rust.len() {
+        bail!(
+            "{name} has members {members:?} in WGSL, {} in Rust",
+            rust.len()
+        );
+    }
     for (member, offset) in members {
         let Some((_, want)) = rust.iter().find(|(n, _)| *n == member) else {
-            panic!("{name}.{member} has no Rust counterpart");
+            bail!("{name}.{member} has no Rust counterpart");
         };
-        assert_eq!(offset as usize, *want, "offset of {name}.{member}");
+        if offset as usize != *want {
+            bail!("{name}.{member} is at byte {offset} in WGSL but {want} in Rust");
+        }
     }
+    Ok(())
 }
 
 /// Copies `bytes` bytes of `source` (from offset 0) back to the host.

@@ -12,7 +12,6 @@
 
 pub mod atomics;
 pub mod device;
-pub mod id_raster;
 pub mod kernels;
 pub mod raster;
 pub mod scan;
@@ -23,6 +22,8 @@ pub use atomics::FloatAtomics;
 pub use device::{AdapterChoice, GpuContext, validate_wgsl};
 pub use raster::{KernelConfig, WgpuBackend};
 pub use training::DeviceTrainer;
+/// The wgpu this crate is built on, for crates that write kernels on its devices.
+pub use wgpu;
 
 use anyhow::{Result, bail};
 use objectsplat_raster::{CpuBackend, RenderBackend};

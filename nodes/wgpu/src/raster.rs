@@ -796,7 +796,7 @@ impl RenderBackend<f32> for WgpuBackend {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::{assert_mirrors_wgsl, wgsl_struct_layout};
+    use crate::device::{check_mirrors_wgsl, wgsl_struct_layout};
     use std::mem::{offset_of, size_of};
 
     /// The common declarations as compiled (raster_common.wgsl alone refers to
@@ -840,12 +840,13 @@ mod tests {
             transmittance_min,
             opacity_floor
         ));
-        assert_mirrors_wgsl(
+        check_mirrors_wgsl(
             &compiled_source(),
             "RasterParams",
             size_of::<RasterParams>(),
             &rust,
-        );
+        )
+        .unwrap();
     }
 
     #[test]

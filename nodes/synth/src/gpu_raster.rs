@@ -1,11 +1,10 @@
 //! Which face (and so which object) is nearest at every pixel, on wgpu, with results
-//! bit-identical to the CPU z-buffer rasterizer of `objectsplat-synth` (`raster.rs`),
-//! which the `gt_masks` node uses.
+//! bit-identical to the CPU z-buffer rasterizer ([`crate::raster`]), which the
+//! `gt_masks` node uses.
 //!
 //! Identity is by construction, not by tolerance:
 //! - triangle setup (projection, near-plane and guard-band clipping, snapping to 1/256
-//!   pixel, orientation, pixel bounding box) runs on the host with the very f64
-//!   operations, in the same order, as the CPU rasterizer;
+//!   pixel, orientation, pixel bounding box) is the CPU rasterizer's own, on the host;
 //! - coverage uses the same integer edge functions and top-left rule, in emulated
 //!   64-bit integers on the device;
 //! - the perspective-correct inverse depth `(w0·iz0 + w1·iz1 + w2·iz2) / area` is
@@ -20,26 +19,23 @@
 //! sent in several dispatches, in face order; the per-pixel best survives between
 //! dispatches in device buffers.
 
-use crate::device::{GpuContext, map_and_copy};
+use crate::raster::{
+    NO_FACE, ScreenTriangle, default_threads, edge, screen_triangles, validate_inputs,
+};
 use anyhow::{Result, anyhow, bail};
 use bytemuck::{Pod, Zeroable};
 use objectsplat_core::Camera;
+use objectsplat_wgpu::device::{GpuContext, map_and_copy};
+use objectsplat_wgpu::wgpu;
 use std::sync::Mutex;
 use wgpu::util::DeviceExt;
 
-/// Marks a pixel that no face covers, as `objectsplat_synth::raster::NO_FACE`.
-pub const NO_FACE: u32 = u32::MAX;
 /// The id of a pixel that no face covers (the Masks encoding's "no surface").
 pub const NO_SURFACE_ID: u16 = u16::MAX;
 /// The WGSL of the rasterizer (entry point `raster_tile`) and of its soft-float
 /// self-test (entry point `soft_float_check`).
 pub const SHADER_SOURCE: &str = include_str!("id_raster.wgsl");
 
-/// Sub-pixel precision of snapped vertices (must equal the CPU rasterizer's).
-const SUBPIXEL: i64 = 1 << 8;
-/// How far outside the image projected vertices may lie before a triangle is clipped
-/// (must equal the CPU rasterizer's).
-const GUARD_BAND_PX: f64 = 16384.0;
 /// Tile side in pixels; equals the shader's workgroup size.
 const TILE: u32 = 8;
 /// Closest near plane the device path accepts: it bounds `1/z` by 10^20, so no product
@@ -78,153 +74,19 @@ struct Params {
     unused: u32,
 }
 
-// ------------------------------------------------------------------ triangle setup
-//
-// Everything below, up to the binning, mirrors `objectsplat-synth/src/raster.rs`
-// operation by operation: a different rounding anywhere would move a vertex by 1/256
-// pixel and change pixels. The parity tests in `objectsplat-synth` hold the two equal.
+// ------------------------------------------------------------------ triangle records
 
-/// A vertex after projection; `inv_z <= 0` marks one that needs clipping.
-#[derive(Debug, Clone, Copy, Default)]
-struct ProjectedVertex {
-    xy: [i64; 2],
-    inv_z: f32,
-}
-
-#[derive(Debug, Clone, Copy)]
-struct Projector {
-    rotation: [[f64; 3]; 3],
-    translation: [f64; 3],
-    fx: f64,
-    fy: f64,
-    cx: f64,
-    cy: f64,
-    width: u32,
-    height: u32,
-    near: f64,
-}
-
-impl Projector {
-    fn new(camera: &Camera, near: f64) -> Projector {
-        let m = &camera.world_to_camera;
-        Projector {
-            rotation: [
-                [m[0][0], m[0][1], m[0][2]],
-                [m[1][0], m[1][1], m[1][2]],
-                [m[2][0], m[2][1], m[2][2]],
-            ],
-            translation: [m[0][3], m[1][3], m[2][3]],
-            fx: camera.fx,
-            fy: camera.fy,
-            cx: camera.cx,
-            cy: camera.cy,
-            width: camera.width,
-            height: camera.height,
-            near,
-        }
-    }
-
-    fn camera_space(&self, p: [f32; 3]) -> [f64; 3] {
-        let (r, t) = (&self.rotation, &self.translation);
-        let (x, y, z) = (p[0] as f64, p[1] as f64, p[2] as f64);
-        [
-            r[0][0] * x + r[0][1] * y + r[0][2] * z + t[0],
-            r[1][0] * x + r[1][1] * y + r[1][2] * z + t[1],
-            r[2][0] * x + r[2][1] * y + r[2][2] * z + t[2],
-        ]
-    }
-
-    fn pixel_coords(&self, c: [f64; 3]) -> (f64, f64) {
-        (
-            self.fx * c[0] / c[2] + self.cx,
-            self.fy * c[1] / c[2] + self.cy,
-        )
-    }
-
-    fn inside_guard(&self, u: f64, v: f64) -> bool {
-        u >= -GUARD_BAND_PX
-            && u <= self.width as f64 + GUARD_BAND_PX
-            && v >= -GUARD_BAND_PX
-            && v <= self.height as f64 + GUARD_BAND_PX
-    }
-
-    fn project_vertex(&self, p: [f32; 3]) -> ProjectedVertex {
-        let c = self.camera_space(p);
-        if c[2] < self.near {
-            return ProjectedVertex::default();
-        }
-        let (u, v) = self.pixel_coords(c);
-        if !self.inside_guard(u, v) {
-            return ProjectedVertex::default();
-        }
-        ProjectedVertex {
-            xy: [snap(u), snap(v)],
-            inv_z: (1.0 / c[2]) as f32,
-        }
-    }
-
-    /// Near plane and the four guard-band planes, as `a·x + b·y + c·z + d ≥ 0`.
-    fn clip_planes(&self) -> [[f64; 4]; 5] {
-        let g = GUARD_BAND_PX;
-        [
-            [0.0, 0.0, 1.0, -self.near],
-            [self.fx, 0.0, self.cx + g, 0.0],
-            [-self.fx, 0.0, self.width as f64 + g - self.cx, 0.0],
-            [0.0, self.fy, self.cy + g, 0.0],
-            [0.0, -self.fy, self.height as f64 + g - self.cy, 0.0],
-        ]
-    }
-}
-
-fn snap(pixel_coord: f64) -> i64 {
-    (pixel_coord * SUBPIXEL as f64).round() as i64
-}
-
-/// Twice the signed area of `(a, b, p)`.
-fn edge(a: [i64; 2], b: [i64; 2], p: [i64; 2]) -> i64 {
-    (b[0] - a[0]) * (p[1] - a[1]) - (b[1] - a[1]) * (p[0] - a[0])
-}
-
-/// First and last pixel whose centre lies within the fixed-point range of `coords`,
-/// clamped to the image; `None` when there is none.
-fn pixel_span(coords: [i64; 3], size: u32) -> Option<(u32, u32)> {
-    let lo = coords.iter().copied().min().unwrap_or(0);
-    let hi = coords.iter().copied().max().unwrap_or(0);
-    let half = SUBPIXEL / 2;
-    let first = (lo - half).div_euclid(SUBPIXEL) + i64::from((lo - half).rem_euclid(SUBPIXEL) != 0);
-    let last = (hi - half).div_euclid(SUBPIXEL);
-    let first = first.max(0);
-    let last = last.min(size as i64 - 1);
-    (first <= last).then_some((first as u32, last as u32))
-}
-
-/// Orients a projected triangle positively and keeps it if it covers a pixel centre.
-fn push_screen_triangle(
-    out: &mut Vec<GpuTriangle>,
-    mut v: [ProjectedVertex; 3],
-    face: u32,
-    p: &Projector,
-) {
-    let area = edge(v[0].xy, v[1].xy, v[2].xy);
-    if area == 0 {
-        return;
-    }
-    let area = if area < 0 {
-        v.swap(1, 2);
-        -area
-    } else {
-        area
-    };
-    let Some((x0, x1)) = pixel_span([v[0].xy[0], v[1].xy[0], v[2].xy[0]], p.width) else {
-        return;
-    };
-    let Some((y0, y1)) = pixel_span([v[0].xy[1], v[1].xy[1], v[2].xy[1]], p.height) else {
-        return;
-    };
+/// The shader's record of a triangle set up by the CPU rasterizer's own setup
+/// (`raster::screen_triangles`: projection, clipping, snapping, orientation, pixel
+/// box), with what the shader needs beside it: the doubled area, which edges own
+/// the pixel centres exactly on them, and the exactness flags.
+fn pack(t: &ScreenTriangle) -> GpuTriangle {
+    let [a, b, c] = [t.vertex(0), t.vertex(1), t.vertex(2)];
+    // Setup orients every triangle positively, so this is its doubled area (> 0).
+    let area = edge(a, b, c);
     // Weights w0, w1, w2 are the edge functions of (b, c), (c, a), (a, b). An edge owns
     // the pixel centres exactly on it when it is a left edge (∂E/∂x > 0) or a top edge
     // (horizontal, interior below, as y grows downward).
-    let [a, b, c] = [v[0].xy, v[1].xy, v[2].xy];
     let mut flags = 0u32;
     for (k, (from, to)) in [(b, c), (c, a), (a, b)].into_iter().enumerate() {
         let dx = from[1] - to[1];
@@ -242,13 +104,11 @@ fn push_screen_triangle(
     if span(0).saturating_mul(span(1)) < 1 << 30 {
         flags |= FLAG_SMALL;
     }
-    if v.iter().all(|p| p.inv_z >= MIN_ESTIMABLE_INV_Z) {
+    if t.inv_z.iter().all(|&iz| iz >= MIN_ESTIMABLE_INV_Z) {
         flags |= FLAG_ESTIMABLE;
     }
-    // Vertices inside the guard band are within ±2^25 in fixed point and the image is
-    // at most 65536 pixels a side (both checked before setup), so i32 and u16 hold them.
     let word = |x: i64| (x as i32) as u32;
-    out.push(GpuTriangle {
+    GpuTriangle {
         words: [
             word(a[0]),
             word(a[1]),
@@ -256,94 +116,18 @@ fn push_screen_triangle(
             word(b[1]),
             word(c[0]),
             word(c[1]),
-            v[0].inv_z.to_bits(),
-            v[1].inv_z.to_bits(),
-            v[2].inv_z.to_bits(),
+            t.inv_z[0].to_bits(),
+            t.inv_z[1].to_bits(),
+            t.inv_z[2].to_bits(),
             (area as f32).to_bits(),
-            face,
+            t.face,
             flags,
-            x0 | (x1 << 16),
-            y0 | (y1 << 16),
+            u32::from(t.x0) | (u32::from(t.x1) << 16),
+            u32::from(t.y0) | (u32::from(t.y1) << 16),
             0,
             0,
         ],
-    });
-}
-
-/// Sutherland–Hodgman clipping against the near plane and the guard band, then a fan.
-fn clip_and_push(out: &mut Vec<GpuTriangle>, corners: [[f64; 3]; 3], face: u32, p: &Projector) {
-    let mut polygon: Vec<[f64; 3]> = corners.to_vec();
-    let mut next = Vec::with_capacity(8);
-    for plane in p.clip_planes() {
-        let dist = |q: &[f64; 3]| plane[0] * q[0] + plane[1] * q[1] + plane[2] * q[2] + plane[3];
-        next.clear();
-        for i in 0..polygon.len() {
-            let a = polygon[i];
-            let b = polygon[(i + 1) % polygon.len()];
-            let (da, db) = (dist(&a), dist(&b));
-            if da >= 0.0 {
-                next.push(a);
-            }
-            if (da >= 0.0) != (db >= 0.0) {
-                next.push(edge_plane_intersection(a, da, b, db));
-            }
-        }
-        std::mem::swap(&mut polygon, &mut next);
-        if polygon.len() < 3 {
-            return;
-        }
     }
-    let verts: Vec<ProjectedVertex> = polygon
-        .iter()
-        .map(|c| {
-            let (u, v) = p.pixel_coords(*c);
-            ProjectedVertex {
-                xy: [snap(u), snap(v)],
-                inv_z: (1.0 / c[2]) as f32,
-            }
-        })
-        .collect();
-    for i in 1..verts.len() - 1 {
-        push_screen_triangle(out, [verts[0], verts[i], verts[i + 1]], face, p);
-    }
-}
-
-/// Where segment `ab` crosses a plane, from the endpoints in a canonical order so that
-/// two triangles sharing the edge get the same point.
-fn edge_plane_intersection(a: [f64; 3], da: f64, b: [f64; 3], db: f64) -> [f64; 3] {
-    let (s, ds, e, de) = if a < b {
-        (a, da, b, db)
-    } else {
-        (b, db, a, da)
-    };
-    let t = ds / (ds - de);
-    [
-        s[0] + (e[0] - s[0]) * t,
-        s[1] + (e[1] - s[1]) * t,
-        s[2] + (e[2] - s[2]) * t,
-    ]
-}
-
-fn setup_triangles(
-    positions: &[[f32; 3]],
-    faces: &[[u32; 3]],
-    projector: &Projector,
-) -> Vec<GpuTriangle> {
-    let projected: Vec<ProjectedVertex> = positions
-        .iter()
-        .map(|p| projector.project_vertex(*p))
-        .collect();
-    let mut out = Vec::with_capacity(faces.len());
-    for (face_index, f) in faces.iter().enumerate() {
-        let pv = f.map(|v| projected[v as usize]);
-        if pv.iter().all(|v| v.inv_z > 0.0) {
-            push_screen_triangle(&mut out, pv, face_index as u32, projector);
-        } else {
-            let corners = f.map(|v| projector.camera_space(positions[v as usize]));
-            clip_and_push(&mut out, corners, face_index as u32, projector);
-        }
-    }
-    out
 }
 
 // ------------------------------------------------------------------ binning
@@ -530,7 +314,11 @@ impl<'a> IdRasterizer<'a> {
                 pixels as u64 * 4
             );
         }
-        let triangles = setup_triangles(positions, faces, &Projector::new(camera, near));
+        let triangles: Vec<GpuTriangle> =
+            screen_triangles(positions, faces, camera, near, default_threads())
+                .iter()
+                .map(pack)
+                .collect();
         if triangles.is_empty() {
             return Ok(vec![NO_FACE; pixels]);
         }
@@ -669,37 +457,10 @@ pub fn rasterize_ids(
 }
 
 fn validate(positions: &[[f32; 3]], faces: &[[u32; 3]], camera: &Camera, near: f64) -> Result<()> {
-    camera.validate().map_err(|e| anyhow!("camera: {e}"))?;
     if !(near.is_finite() && near >= MIN_NEAR) {
         bail!("near plane {near} must be finite and at least {MIN_NEAR} for the wgpu rasterizer");
     }
-    if camera.width > 1 << 16 || camera.height > 1 << 16 {
-        bail!(
-            "image size {}×{} is larger than 65536 pixels a side",
-            camera.width,
-            camera.height
-        );
-    }
-    if let Some(i) = positions
-        .iter()
-        .position(|p| p.iter().any(|v| !v.is_finite()))
-    {
-        bail!("vertex {i} has a non-finite coordinate");
-    }
-    if let Some((i, f)) = faces
-        .iter()
-        .enumerate()
-        .find(|(_, f)| f.iter().any(|&v| v as usize >= positions.len()))
-    {
-        bail!(
-            "face {i} refers to vertex {f:?} but there are only {} vertices",
-            positions.len()
-        );
-    }
-    if faces.len() >= NO_FACE as usize {
-        bail!("{} faces is more than this rasterizer indexes", faces.len());
-    }
-    Ok(())
+    validate_inputs(positions, faces, camera, near).map_err(|e| anyhow!(e))
 }
 
 /// Runs the shader's soft-float operations on `(a, b, w_lo, w_hi)` cases and returns
@@ -780,7 +541,7 @@ mod tests {
 
     #[test]
     fn shader_passes_naga_validation() {
-        crate::device::validate_wgsl("id_raster.wgsl", SHADER_SOURCE).unwrap();
+        objectsplat_wgpu::device::validate_wgsl("id_raster.wgsl", SHADER_SOURCE).unwrap();
     }
 
     #[test]
@@ -792,8 +553,15 @@ mod tests {
             ("tiles_x", offset_of!(Params, tiles_x)),
             ("unused", offset_of!(Params, unused)),
         ];
-        crate::device::assert_mirrors_wgsl(SHADER_SOURCE, "Params", size_of::<Params>(), &rust);
-        let (size, _) = crate::device::wgsl_struct_layout(SHADER_SOURCE, "Triangle").unwrap();
+        objectsplat_wgpu::device::check_mirrors_wgsl(
+            SHADER_SOURCE,
+            "Params",
+            size_of::<Params>(),
+            &rust,
+        )
+        .unwrap();
+        let (size, _) =
+            objectsplat_wgpu::device::wgsl_struct_layout(SHADER_SOURCE, "Triangle").unwrap();
         assert_eq!(size as usize, size_of::<GpuTriangle>());
     }
 
@@ -802,7 +570,7 @@ mod tests {
     /// shaped like the depth computation's, and u64 conversions near ties.
     #[test]
     fn soft_float_rounds_like_ieee_f32() {
-        let ctx = match crate::device::GpuContext::shared(crate::device::AdapterChoice::Auto) {
+        let ctx = match GpuContext::shared(objectsplat_wgpu::AdapterChoice::Auto) {
             Ok((ctx, _)) => ctx,
             Err(e) => {
                 if std::env::var("OBJECTSPLAT_REQUIRE_ADAPTER").as_deref() == Ok("1") {
@@ -863,15 +631,6 @@ mod tests {
             cases.len(),
             &wrong[..wrong.len().min(5)]
         );
-    }
-
-    #[test]
-    fn pixel_span_matches_pixel_centres() {
-        // Centres of pixels 0, 1, 2 are at 128, 384, 640 in 1/256 pixel.
-        assert_eq!(pixel_span([128, 384, 200], 10), Some((0, 1)));
-        assert_eq!(pixel_span([129, 383, 200], 10), None);
-        assert_eq!(pixel_span([-5000, 300, 0], 10), Some((0, 0)));
-        assert_eq!(pixel_span([0, 100_000, 5], 10), Some((0, 9)));
     }
 
     #[test]
