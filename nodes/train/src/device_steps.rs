@@ -116,7 +116,7 @@ impl DeviceSteps {
                 let view = &data.views[i];
                 let (target, weights, from_background) = supervision_parts(view, data.kind);
                 TrainingView {
-                    camera: view.camera.clone(),
+                    camera: view.camera,
                     target,
                     weights,
                     from_background,

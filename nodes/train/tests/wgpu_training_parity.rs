@@ -1,34 +1,41 @@
-//! A short training run on the wgpu backend reaches about the CPU backend's held-out
-//! PSNR (same scene, seed and schedule). The two backends agree to ~1e-6 per
-//! step, but float atomics make the GPU's sums order-dependent, so the runs are
-//! compared by outcome, not bit for bit.
+//! Training on the wgpu backend (iterations on the device: render, loss, backward and
+//! Adam in WGSL) reaches the CPU backend's held-out PSNR.
+//!
+//! Why two tests (measurements in docs/benchmarks.md, "wgpu training parity"): the
+//! reference schedule anneals the window sharpness σ towards 0, and the backward
+//! factor G^(σ−1) makes training chaotic there. Any last-bit difference then moves
+//! held-out PSNR by 0.2–0.3 dB (1σ), for a CPU run with its gradients scaled by
+//! 1 + 1e-7·noise exactly as for a wgpu run, whose float-atomic sums differ run to run.
+//! So a single annealed run cannot be held to 0.1 dB by any backend that is not
+//! bit-identical. With σ held at 1 the same training (densification, pruning,
+//! connectivity, every gradient group, Adam) is not chaotic and the backends must
+//! agree to 0.02 dB; on the annealed schedule the mean of paired differences over
+//! several training seeds must be near zero.
 
 mod common;
 
-use objectsplat_raster::CpuBackend;
+use objectsplat_core::Points;
+use objectsplat_raster::{CpuBackend, RenderBackend};
 use objectsplat_train::Schedule;
 use objectsplat_train::init::{ComponentMasks, InitSettings};
 use objectsplat_train::trainer::{ComponentData, TrainSettings, held_out_eval, train_component};
 use objectsplat_wgpu::{AdapterChoice, GpuContext, WgpuBackend};
 
-#[test]
-fn wgpu_training_reaches_the_cpu_held_out_psnr() {
-    let ctx = match GpuContext::shared(AdapterChoice::Auto) {
-        Ok((ctx, _)) => ctx,
+fn gpu() -> Option<WgpuBackend> {
+    match GpuContext::shared(AdapterChoice::Auto) {
+        Ok((ctx, _)) => Some(WgpuBackend::new(ctx).unwrap()),
         Err(e) => {
             if std::env::var("OBJECTSPLAT_REQUIRE_ADAPTER").is_ok_and(|v| v == "1") {
                 panic!("no wgpu adapter but OBJECTSPLAT_REQUIRE_ADAPTER=1: {e:#}");
             }
             eprintln!("SKIPPED (no wgpu adapter): {e:#}");
-            return;
+            None
         }
-    };
-    let dir = tempfile::tempdir().unwrap();
-    common::write_component(dir.path());
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let points = masks.component_points(&common::points()).unwrap();
-    let data = ComponentData::read(dir.path()).unwrap();
-    let settings = TrainSettings {
+    }
+}
+
+fn settings(seed: u64, sigma_end: f64) -> TrainSettings {
+    TrainSettings {
         schedule: Schedule::new(
             200,
             serde_json::json!({
@@ -39,38 +46,91 @@ fn wgpu_training_reaches_the_cpu_held_out_psnr() {
                 "densify_until": 30,
                 "densify_always_largest": 0,
                 "patience": 200,
+                "sigma_end": sigma_end,
             })
             .as_object()
             .unwrap(),
         )
         .unwrap(),
-        seed: 3,
+        seed,
         background_randomization: true,
         fixed_background: [0.0; 3],
         init: InitSettings::default(),
         world_scale: 1.0,
         checkpoint: Default::default(),
-    };
-    let cpu = CpuBackend::new(2);
-    let gpu = WgpuBackend::new(ctx).unwrap();
-    let on_cpu = train_component(&cpu, &data, &points, &settings, |_, _| true).unwrap();
-    let on_gpu = train_component(&gpu, &data, &points, &settings, |_, _| true).unwrap();
-    assert_eq!(on_gpu.log.backend, "wgpu");
-    // Both scored by the CPU backend, so only the training differs.
-    let psnr_cpu = held_out_eval(&cpu, &on_cpu.model, &data, &settings)
+    }
+}
+
+struct Plate {
+    _dir: tempfile::TempDir,
+    data: ComponentData,
+    points: Points,
+}
+
+fn plate() -> Plate {
+    let dir = tempfile::tempdir().unwrap();
+    common::write_component(dir.path());
+    let masks = ComponentMasks::read(dir.path()).unwrap();
+    let points = masks.component_points(&common::points()).unwrap();
+    let data = ComponentData::read(dir.path()).unwrap();
+    Plate {
+        _dir: dir,
+        data,
+        points,
+    }
+}
+
+/// Held-out PSNR after training on `backend`, scored by the CPU backend so that
+/// only the training differs.
+fn trained_psnr(backend: &dyn RenderBackend<f32>, plate: &Plate, settings: &TrainSettings) -> f64 {
+    let report =
+        train_component(backend, &plate.data, &plate.points, settings, |_, _| true).unwrap();
+    assert_eq!(report.log.backend, backend.name());
+    held_out_eval(&CpuBackend::new(2), &report.model, &plate.data, settings)
         .unwrap()
-        .psnr;
-    let psnr_gpu = held_out_eval(&cpu, &on_gpu.model, &data, &settings)
-        .unwrap()
-        .psnr;
-    eprintln!("held-out PSNR: cpu {psnr_cpu:.3} dB, wgpu {psnr_gpu:.3} dB");
-    // The issue's target is 0.1 dB. Float atomics make every wgpu run different, and
-    // densification and pruning turn last-bit differences into different trajectories:
-    // observed |Δ| of 0.05–0.29 dB over 5 runs of this test (2026-11-22), so 0.1 dB is
-    // not met reliably (an open item of the wgpu issue). The bound catches a backend that
-    // trains differently (a missing or wrong gradient group), not the spread.
+        .psnr
+}
+
+#[test]
+fn with_a_constant_window_wgpu_training_matches_the_cpu_within_0_02_db() {
+    let Some(gpu) = gpu() else { return };
+    let plate = plate();
+    let settings = settings(3, 1.0);
+    let on_cpu = trained_psnr(&CpuBackend::new(2), &plate, &settings);
+    let on_gpu = trained_psnr(&gpu, &plate, &settings);
+    eprintln!("held-out PSNR, σ = 1: cpu {on_cpu:.4} dB, wgpu {on_gpu:.4} dB");
     assert!(
-        (psnr_cpu - psnr_gpu).abs() <= 1.0,
-        "cpu {psnr_cpu:.3} dB vs wgpu {psnr_gpu:.3} dB"
+        (on_cpu - on_gpu).abs() <= 0.02,
+        "cpu {on_cpu:.4} dB vs wgpu {on_gpu:.4} dB"
+    );
+}
+
+#[test]
+fn on_the_annealed_schedule_wgpu_and_cpu_agree_on_average_over_seeds() {
+    let Some(gpu) = gpu() else { return };
+    let plate = plate();
+    let cpu = CpuBackend::new(2);
+    // Paired differences wgpu − cpu over training seeds: 1σ of one difference measured
+    // 0.24 dB (40 seeds) and 0.35 dB (16 seeds), so the mean of 12 has σ ≈ 0.07–0.10 dB
+    // and 0.35 dB is 3.5–5σ (the mean over 16 seeds measured −0.025 dB). A backend that
+    // trains differently (a wrong or missing gradient group, a biased loss) moves every
+    // seed the same way and fails.
+    let seeds = 0..12u64;
+    let mut deltas = Vec::new();
+    for seed in seeds {
+        let settings = settings(seed, 1e-4);
+        let on_cpu = trained_psnr(&cpu, &plate, &settings);
+        let on_gpu = trained_psnr(&gpu, &plate, &settings);
+        eprintln!("seed {seed}: cpu {on_cpu:.3} dB, wgpu {on_gpu:.3} dB");
+        deltas.push(on_gpu - on_cpu);
+    }
+    let mean = deltas.iter().sum::<f64>() / deltas.len() as f64;
+    eprintln!(
+        "mean paired difference {mean:+.3} dB over {} seeds",
+        deltas.len()
+    );
+    assert!(
+        mean.abs() <= 0.3,
+        "mean wgpu − cpu {mean:+.3} dB: {deltas:?}"
     );
 }

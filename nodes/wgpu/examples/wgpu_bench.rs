@@ -201,7 +201,7 @@ fn device_training_rate(
 ) -> anyhow::Result<f64> {
     let pixels = (camera.width * camera.height) as usize;
     let view = TrainingView {
-        camera: camera.clone(),
+        camera: *camera,
         target: target.to_vec(),
         weights: vec![1.0; pixels],
         from_background: vec![false; pixels],

@@ -291,7 +291,7 @@ impl DeviceTrainer {
             let weight_sum: f32 = view.weights.iter().sum();
             let supervised = weight_sum > 0.0;
             buffers.push(ViewBuffers {
-                camera: view.camera.clone(),
+                camera: view.camera,
                 targets: storage_from(&ctx, "training targets", &targets),
                 from_background: storage_from(&ctx, "background flags", &flags),
                 norm: if supervised {

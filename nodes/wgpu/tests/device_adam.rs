@@ -72,14 +72,14 @@ fn device_adam_follows_the_formula_on_the_cpu_gradient() {
     let cpu = CpuBackend::new(2);
     let mut rng = Rng(99);
     let scene = parity_scenes().swap_remove(3); // random soup, SH degree 3
-    let camera = scene.camera.clone();
+    let camera = scene.camera;
     let pixels = (camera.width * camera.height) as usize;
     let target: Vec<f32> = (0..pixels * 3)
         .map(|_| rng.uniform(0.0, 1.0) as f32)
         .collect();
     let weights = vec![1.0f32; pixels];
     let view = TrainingView {
-        camera: camera.clone(),
+        camera,
         target: target.clone(),
         weights: weights.clone(),
         from_background: vec![false; pixels],
@@ -149,8 +149,8 @@ fn device_adam_follows_the_formula_on_the_cpu_gradient() {
             eprintln!("step {t}: {name}: device vs cpu gradient {d:.2e}");
             assert!(d < 2e-3, "step {t}: {name} gradient differs by {d:.3e}");
             // v_t = β2·v_{t−1} + (1 − β2)·g² with the same g.
-            for i in 0..now.second.len() {
-                let g = device_grad[i] as f64;
+            for (i, &g) in device_grad.iter().enumerate() {
+                let g = g as f64;
                 let want = ADAM.beta2 * before_state.second[i] as f64 + (1.0 - ADAM.beta2) * g * g;
                 let got = now.second[i] as f64;
                 assert!(
@@ -182,7 +182,7 @@ fn overflowing_parameters_are_flagged_not_hidden() {
     let scene = parity_scenes().swap_remove(0);
     let pixels = (scene.camera.width * scene.camera.height) as usize;
     let view = TrainingView {
-        camera: scene.camera.clone(),
+        camera: scene.camera,
         target: vec![0.5; pixels * 3],
         weights: vec![1.0; pixels],
         from_background: vec![false; pixels],

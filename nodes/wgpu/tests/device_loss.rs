@@ -44,7 +44,7 @@ fn device_loss_and_image_gradient_match_the_cpu_loss() {
     let cpu = CpuBackend::new(2);
     let mut rng = Rng(4242);
     for scene in parity_scenes().into_iter().take(5) {
-        let camera = scene.camera.clone();
+        let camera = scene.camera;
         let pixels = (camera.width * camera.height) as usize;
         // Some pixels unsupervised, some half weight, some owned by the background colour.
         let weights: Vec<f32> = (0..pixels)
@@ -56,7 +56,7 @@ fn device_loss_and_image_gradient_match_the_cpu_loss() {
             .collect();
         let background = [0.25f32, 0.6, 0.9];
         let view = TrainingView {
-            camera: camera.clone(),
+            camera,
             target: target.clone(),
             weights: weights.clone(),
             from_background: from_background.clone(),
@@ -124,7 +124,7 @@ fn a_view_without_supervised_pixels_gives_zero_loss_and_moves_nothing() {
     let scene = parity_scenes().swap_remove(0);
     let pixels = (scene.camera.width * scene.camera.height) as usize;
     let view = TrainingView {
-        camera: scene.camera.clone(),
+        camera: scene.camera,
         target: vec![0.5; pixels * 3],
         weights: vec![0.0; pixels],
         from_background: vec![false; pixels],
@@ -176,7 +176,7 @@ fn bad_views_and_steps_are_errors_not_panics() {
     let scene = parity_scenes().swap_remove(0);
     let pixels = (scene.camera.width * scene.camera.height) as usize;
     let good = TrainingView {
-        camera: scene.camera.clone(),
+        camera: scene.camera,
         target: vec![0.5; pixels * 3],
         weights: vec![1.0; pixels],
         from_background: vec![false; pixels],
