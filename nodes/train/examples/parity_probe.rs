@@ -1,6 +1,6 @@
 //! Why does training on wgpu land a few tenths of a dB away from training on
 //! the CPU? Three experiments on the synthetic plate of
-//! `tests/wgpu_training_parity.rs` (results: docs/benchmarks/parity.md):
+//! `tests/wgpu_training_parity.rs` (results: docs/benchmarks.md, "wgpu training parity"):
 //!
 //! - `chaos`: CPU-only runs whose gradients are multiplied by `1 + ε·u`
 //!   (u uniform in [−1, 1], seeded), and 1 vs 2 CPU threads: how far do
