@@ -31,8 +31,8 @@ pub(crate) struct DeviceSteps {
     newest: Newest,
     /// (iteration, view index) of the steps whose losses have not come back yet.
     in_flight: VecDeque<(u64, usize)>,
-    /// (iteration, loss) of the steps that came back and were not yet taken.
-    arrived: Vec<(u64, f32)>,
+    /// Losses of the steps that came back and were not yet taken.
+    arrived: Vec<f32>,
     /// View index within `data.views` of each training view slot.
     views: Vec<usize>,
     uploads: u64,
@@ -198,9 +198,9 @@ impl DeviceSteps {
         Ok(())
     }
 
-    /// The losses of the steps queued since the last call, as (iteration,
-    /// loss); an error naming the first step in which something turned non-finite.
-    pub fn losses(&mut self, data: &ComponentData) -> Result<Vec<(u64, f32)>> {
+    /// The losses of the steps queued since the last call, in order; an error
+    /// naming the first step in which something turned non-finite.
+    pub fn losses(&mut self, data: &ComponentData) -> Result<Vec<f32>> {
         self.fetch(data)?;
         Ok(std::mem::take(&mut self.arrived))
     }
@@ -220,7 +220,7 @@ impl DeviceSteps {
                     result.loss
                 );
             }
-            self.arrived.push((iteration, result.loss));
+            self.arrived.push(result.loss);
         }
         Ok(())
     }

@@ -7,6 +7,10 @@
 //! are never supervised. The schedule drives σ, the SH degree, the opacity
 //! floor, densification, pruning and the connectivity step; the best model on
 //! the held-out views is kept and training stops early after `patience`.
+//!
+//! On a wgpu backend the iterations themselves (render, loss, backward, Adam)
+//! run on the device (`device_steps.rs`); the model comes back to the host
+//! for evaluation and for the schedule's structural edits.
 
 use crate::adam::Adam;
 use crate::connectivity::{ConnectivityOptions, restricted_delaunay};
@@ -585,11 +589,7 @@ pub fn train_component(
         it += 1;
         if it % log_every == 0 || it == s.iterations {
             if let Some(device) = device.as_mut() {
-                window_loss += device
-                    .losses(data)?
-                    .iter()
-                    .map(|(_, l)| *l as f64)
-                    .sum::<f64>();
+                window_loss += device.losses(data)?.iter().map(|&l| l as f64).sum::<f64>();
             }
             let window = (it - 1) % log_every + 1;
             steps.push(StepRecord {
