@@ -18,7 +18,7 @@ use objectsplat_raster::{
     CpuBackend, Model, OutputGrads, RenderBackend, RenderSettings, SH_COEFFS,
 };
 use objectsplat_wgpu::training::{
-    AdamSettings, DeviceTrainer, LearningRates, Moments, OptimizerState, Step, TrainingView,
+    AdamSettings, DeviceTrainer, LearningRates, OptimizerState, Step, TrainingView,
 };
 use objectsplat_wgpu::{AdapterChoice, GpuContext, WgpuBackend};
 use std::time::{Duration, Instant};
@@ -59,6 +59,19 @@ fn soup(count: usize, width: u32, height: u32) -> Model<f32> {
     m
 }
 
+/// The camera every case looks through: 4 units back, focal length = image width.
+fn bench_camera(w: u32, h: u32) -> Camera {
+    Camera::look_at(
+        w,
+        h,
+        w as f64,
+        w as f64,
+        DVec3::new(0.0, 0.0, -4.0),
+        DVec3::ZERO,
+        DVec3::Y,
+    )
+}
+
 /// Iterations per second of forward + backward, running for at least `budget`.
 fn iterations_per_second(
     backend: &dyn RenderBackend<f32>,
@@ -95,11 +108,6 @@ fn iterations_per_second(
     Ok(n as f64 / total)
 }
 
-const ADAM: AdamSettings = AdamSettings {
-    beta1: 0.9,
-    beta2: 0.999,
-    eps: 1e-15,
-};
 const RATES: LearningRates = LearningRates {
     positions: 1e-4,
     sh_dc: 1e-3,
@@ -121,14 +129,15 @@ fn rate(budget: Duration, mut step: impl FnMut() -> anyhow::Result<()>) -> anyho
 
 /// Adam on the host, as the trainer runs it when iterations do not stay on a device.
 fn host_adam(values: &mut [f32], grads: &[f32], m: &mut [f32], v: &mut [f32], lr: f64, t: i32) {
-    let (bc1, bc2) = (1.0 - ADAM.beta1.powi(t), 1.0 - ADAM.beta2.powi(t));
+    let adam = AdamSettings::default();
+    let (bc1, bc2) = (1.0 - adam.beta1.powi(t), 1.0 - adam.beta2.powi(t));
     for i in 0..values.len() {
         let g = grads[i] as f64;
-        let mn = ADAM.beta1 * m[i] as f64 + (1.0 - ADAM.beta1) * g;
-        let vn = ADAM.beta2 * v[i] as f64 + (1.0 - ADAM.beta2) * g * g;
+        let mn = adam.beta1 * m[i] as f64 + (1.0 - adam.beta1) * g;
+        let vn = adam.beta2 * v[i] as f64 + (1.0 - adam.beta2) * g * g;
         m[i] = mn as f32;
         v[i] = vn as f32;
-        values[i] = (values[i] as f64 - lr * (mn / bc1) / ((vn / bc2).sqrt() + ADAM.eps)) as f32;
+        values[i] = (values[i] as f64 - lr * (mn / bc1) / ((vn / bc2).sqrt() + adam.eps)) as f32;
     }
 }
 
@@ -206,21 +215,8 @@ fn device_training_rate(
         weights: vec![1.0; pixels],
         from_background: vec![false; pixels],
     };
-    let mut trainer = DeviceTrainer::new(gpu, &[view], ADAM)?;
-    let nv = model.vertex_count();
-    let zeros = |n: usize| Moments {
-        first: vec![0.0; n],
-        second: vec![0.0; n],
-        steps: 0,
-    };
-    trainer.load(
-        model,
-        &OptimizerState {
-            positions: zeros(nv * 3),
-            sh: zeros(nv * 3 * SH_COEFFS),
-            opacity_logits: zeros(nv),
-        },
-    )?;
+    let mut trainer = DeviceTrainer::new(gpu, &[view], AdamSettings::default())?;
+    trainer.load(model, &OptimizerState::zeros(model.vertex_count()))?;
     let step = Step {
         view: 0,
         background: [0.3; 3],
@@ -255,15 +251,7 @@ fn training_table(
     println!("|---|---|---|---|---|---|---|");
     for &(faces, w, h) in cases {
         let model = soup(faces, w, h);
-        let camera = Camera::look_at(
-            w,
-            h,
-            w as f64,
-            w as f64,
-            DVec3::new(0.0, 0.0, -4.0),
-            DVec3::ZERO,
-            DVec3::Y,
-        );
+        let camera = bench_camera(w, h);
         let target: Vec<f32> = (0..(w * h * 3) as usize)
             .map(|i| (i % 17) as f32 / 17.0)
             .collect();
@@ -310,15 +298,7 @@ fn main() -> anyhow::Result<()> {
     println!("|---|---|---|---|---|");
     for (faces, w, h) in cases {
         let model = soup(faces, w, h);
-        let camera = Camera::look_at(
-            w,
-            h,
-            w as f64,
-            w as f64,
-            DVec3::new(0.0, 0.0, -4.0),
-            DVec3::ZERO,
-            DVec3::Y,
-        );
+        let camera = bench_camera(w, h);
         let pixels = (w * h) as usize;
         let background = vec![0.3f32; pixels * 3];
         let grad: Vec<f32> = (0..pixels * 3)

@@ -76,6 +76,33 @@ pub struct AdamSettings {
     pub eps: f64,
 }
 
+impl Default for AdamSettings {
+    /// The reference trainer's: β = (0.9, 0.999), ε = 1e-15.
+    fn default() -> Self {
+        AdamSettings {
+            beta1: 0.9,
+            beta2: 0.999,
+            eps: 1e-15,
+        }
+    }
+}
+
+impl OptimizerState {
+    /// Fresh state (zero moments, no steps) for a model of `vertices` vertices.
+    pub fn zeros(vertices: usize) -> Self {
+        let moments = |n: usize| Moments {
+            first: vec![0.0; n],
+            second: vec![0.0; n],
+            steps: 0,
+        };
+        OptimizerState {
+            positions: moments(vertices * 3),
+            sh: moments(vertices * SH_VALUES),
+            opacity_logits: moments(vertices),
+        }
+    }
+}
+
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct LearningRates {
     pub positions: f64,

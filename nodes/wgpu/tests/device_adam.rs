@@ -12,6 +12,7 @@ use objectsplat_wgpu::training::{
 };
 use support::{Rng, context, parity_scenes, relative_difference};
 
+/// Written out, not `AdamSettings::default()`: the checks below use these numbers.
 const ADAM: AdamSettings = AdamSettings {
     beta1: 0.9,
     beta2: 0.999,
@@ -23,19 +24,6 @@ const RATES: LearningRates = LearningRates {
     sh_rest: 1e-3,
     opacity: 5e-2,
 };
-
-fn zero_state(nv: usize) -> OptimizerState {
-    let moments = |n: usize| Moments {
-        first: vec![0.0; n],
-        second: vec![0.0; n],
-        steps: 0,
-    };
-    OptimizerState {
-        positions: moments(nv * 3),
-        sh: moments(nv * 48),
-        opacity_logits: moments(nv),
-    }
-}
 
 fn flat(model: &Model<f32>) -> [Vec<f32>; 3] {
     [
@@ -94,10 +82,12 @@ fn device_adam_follows_the_formula_on_the_cpu_gradient() {
     };
     let nv = scene.model.vertex_count();
     let mut trainer = DeviceTrainer::new(&gpu, &[view], ADAM).unwrap();
-    trainer.load(&scene.model, &zero_state(nv)).unwrap();
+    trainer
+        .load(&scene.model, &OptimizerState::zeros(nv))
+        .unwrap();
 
     let mut model = scene.model.clone();
-    let mut previous = zero_state(nv);
+    let mut previous = OptimizerState::zeros(nv);
     for t in 1..=3u64 {
         // The CPU's gradient of the CPU loss at the current parameters.
         let bg: Vec<f32> = (0..pixels * 3).map(|i| background[i % 3]).collect();
@@ -189,7 +179,10 @@ fn overflowing_parameters_are_flagged_not_hidden() {
     };
     let mut trainer = DeviceTrainer::new(&gpu, &[view], ADAM).unwrap();
     trainer
-        .load(&scene.model, &zero_state(scene.model.vertex_count()))
+        .load(
+            &scene.model,
+            &OptimizerState::zeros(scene.model.vertex_count()),
+        )
         .unwrap();
     // The first update moves every value by about the learning rate; the second
     // (|m̂/√v̂| ≈ 0.67 even where the gradient has vanished) passes f32's 3.4e38.

@@ -12,30 +12,12 @@ use objectsplat_wgpu::training::{
 };
 use support::{Rng, context, parity_scenes, relative_difference};
 
-const ADAM: AdamSettings = AdamSettings {
-    beta1: 0.9,
-    beta2: 0.999,
-    eps: 1e-15,
-};
 const FROZEN: LearningRates = LearningRates {
     positions: 0.0,
     sh_dc: 0.0,
     sh_rest: 0.0,
     opacity: 0.0,
 };
-
-fn zero_state(nv: usize) -> OptimizerState {
-    let moments = |n: usize| objectsplat_wgpu::training::Moments {
-        first: vec![0.0; n],
-        second: vec![0.0; n],
-        steps: 0,
-    };
-    OptimizerState {
-        positions: moments(nv * 3),
-        sh: moments(nv * 48),
-        opacity_logits: moments(nv),
-    }
-}
 
 #[test]
 fn device_loss_and_image_gradient_match_the_cpu_loss() {
@@ -61,9 +43,11 @@ fn device_loss_and_image_gradient_match_the_cpu_loss() {
             weights: weights.clone(),
             from_background: from_background.clone(),
         };
-        let mut trainer = DeviceTrainer::new(&gpu, &[view], ADAM).unwrap();
+        let mut trainer = DeviceTrainer::new(&gpu, &[view], AdamSettings::default()).unwrap();
         let nv = scene.model.vertex_count();
-        trainer.load(&scene.model, &zero_state(nv)).unwrap();
+        trainer
+            .load(&scene.model, &OptimizerState::zeros(nv))
+            .unwrap();
         trainer
             .step(&Step {
                 view: 0,
@@ -129,9 +113,12 @@ fn a_view_without_supervised_pixels_gives_zero_loss_and_moves_nothing() {
         weights: vec![0.0; pixels],
         from_background: vec![false; pixels],
     };
-    let mut trainer = DeviceTrainer::new(&gpu, &[view], ADAM).unwrap();
+    let mut trainer = DeviceTrainer::new(&gpu, &[view], AdamSettings::default()).unwrap();
     trainer
-        .load(&scene.model, &zero_state(scene.model.vertex_count()))
+        .load(
+            &scene.model,
+            &OptimizerState::zeros(scene.model.vertex_count()),
+        )
         .unwrap();
     let lr = LearningRates {
         positions: 0.1,
@@ -192,11 +179,13 @@ fn bad_views_and_steps_are_errors_not_panics() {
         (nan, "not finite"),
         (negative, "weight 3"),
     ] {
-        let err = DeviceTrainer::new(&gpu, &[view], ADAM).err().unwrap();
+        let err = DeviceTrainer::new(&gpu, &[view], AdamSettings::default())
+            .err()
+            .unwrap();
         assert!(format!("{err:#}").contains(expect), "{err:#}");
     }
-    assert!(DeviceTrainer::new(&gpu, &[], ADAM).is_err());
-    let mut trainer = DeviceTrainer::new(&gpu, &[good], ADAM).unwrap();
+    assert!(DeviceTrainer::new(&gpu, &[], AdamSettings::default()).is_err());
+    let mut trainer = DeviceTrainer::new(&gpu, &[good], AdamSettings::default()).unwrap();
     let step = Step {
         view: 0,
         background: [0.0; 3],
@@ -210,7 +199,10 @@ fn bad_views_and_steps_are_errors_not_panics() {
         "{err:#}"
     );
     trainer
-        .load(&scene.model, &zero_state(scene.model.vertex_count()))
+        .load(
+            &scene.model,
+            &OptimizerState::zeros(scene.model.vertex_count()),
+        )
         .unwrap();
     let err = trainer
         .step(&Step {
@@ -227,7 +219,10 @@ fn bad_views_and_steps_are_errors_not_panics() {
         .unwrap_err();
     assert!(format!("{err:#}").contains("not finite"), "{err:#}");
     let err = trainer
-        .load(&scene.model, &zero_state(scene.model.vertex_count() + 1))
+        .load(
+            &scene.model,
+            &OptimizerState::zeros(scene.model.vertex_count() + 1),
+        )
         .unwrap_err();
     assert!(format!("{err:#}").contains("moments"), "{err:#}");
 }
