@@ -106,6 +106,8 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    // SAFETY: the first statement of main; no other thread exists yet.
+    unsafe { objectsplat_wgpu::device::quiet_headless_vulkan() };
     let cli = Cli::parse();
     match dispatch(cli) {
         Ok(code) => code,

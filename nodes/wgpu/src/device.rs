@@ -65,31 +65,27 @@ impl GpuContext {
         if std::env::var(NO_GPU_ENV).is_ok_and(|v| !v.is_empty() && v != "0") {
             bail!("disabled by {NO_GPU_ENV}");
         }
-        // Creating an instance panics only when no backend is compiled in; ours has Vulkan and GL.
+        // Vulkan only: the kernels need storage atomics, and probing GL through EGL makes
+        // Mesa print a Wayland "XDG_RUNTIME_DIR is invalid" error on headless machines.
+        // Creating an instance panics only when no backend is compiled in; Vulkan is.
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor {
-            backends: wgpu::Backends::VULKAN | wgpu::Backends::GL,
+            backends: wgpu::Backends::VULKAN,
             ..wgpu::InstanceDescriptor::new_without_display_handle()
         });
-        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::all()));
+        let adapters = pollster::block_on(instance.enumerate_adapters(wgpu::Backends::VULKAN));
         if adapters.is_empty() {
             bail!(
-                "no wgpu adapter found (no Vulkan or GL driver; install mesa-vulkan-drivers for lavapipe)"
+                "no wgpu adapter found (no Vulkan driver; install mesa-vulkan-drivers for lavapipe)"
             );
         }
-        // Prefer Vulkan over GL within each kind: the kernels rely on storage atomics.
-        let rank = |a: &wgpu::Adapter| {
-            let info = a.get_info();
-            let kind = match info.device_type {
-                wgpu::DeviceType::DiscreteGpu => 0,
-                wgpu::DeviceType::IntegratedGpu => 1,
-                wgpu::DeviceType::VirtualGpu | wgpu::DeviceType::Other => 2,
-                wgpu::DeviceType::Cpu => 3,
-            };
-            (kind, u8::from(info.backend != wgpu::Backend::Vulkan))
+        let rank = |a: &wgpu::Adapter| match a.get_info().device_type {
+            wgpu::DeviceType::DiscreteGpu => 0,
+            wgpu::DeviceType::IntegratedGpu => 1,
+            wgpu::DeviceType::VirtualGpu | wgpu::DeviceType::Other => 2,
+            wgpu::DeviceType::Cpu => 3,
         };
         let mut candidates: Vec<&wgpu::Adapter> = adapters
             .iter()
-            .filter(|a| a.get_info().backend == wgpu::Backend::Vulkan)
             .filter(|a| match choice {
                 AdapterChoice::Auto => true,
                 AdapterChoice::Gpu => !is_cpu(&a.get_info()),
@@ -184,6 +180,24 @@ impl GpuContext {
             .poll(wgpu::PollType::wait_indefinitely())
             .map_err(|e| anyhow!("waiting for the device during {what}: {e}"))?;
         self.check_errors(what)
+    }
+}
+
+/// On a headless machine (no `XDG_RUNTIME_DIR`), turns off Mesa's Vulkan
+/// device-select layer, which otherwise connects to Wayland while adapters are
+/// enumerated and prints "error: XDG_RUNTIME_DIR is invalid or not set" to the
+/// terminal. It only orders devices for a display; adapter choice here ranks
+/// them itself. A variable the user set is left alone.
+///
+/// # Safety
+/// Writes the process environment: call it before any other thread starts
+/// (first thing in `main`).
+pub unsafe fn quiet_headless_vulkan() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_none()
+        && std::env::var_os("NODEVICE_SELECT").is_none()
+    {
+        // SAFETY: the caller guarantees that no other thread reads or writes the environment.
+        unsafe { std::env::set_var("NODEVICE_SELECT", "1") };
     }
 }
 
