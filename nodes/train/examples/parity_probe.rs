@@ -55,15 +55,7 @@ environment: PARITY_OVERRIDES='{\"sigma_end\": 1.0}' adds schedule overrides (wh
 /// the connectivity step beyond the budget (densify_start is 7 at 200 iterations,
 /// so densify_until 0 means no densification).
 fn settings(densify: bool, seed: u64, last: bool) -> Result<TrainSettings> {
-    let mut overrides = serde_json::json!({
-        "lr_sh_dc": 0.03,
-        "lr_opacity": 0.1,
-        "lr_vertices_start": 4e-3,
-        "lr_vertices_end": 4e-4,
-        "densify_until": 30,
-        "densify_always_largest": 0,
-        "patience": 200,
-    });
+    let mut overrides = serde_json::json!({ "patience": 200 });
     if !densify {
         overrides["densify_until"] = 0.into();
         overrides["connectivity_at"] = 1_000_000.into();
@@ -76,21 +68,13 @@ fn settings(densify: bool, seed: u64, last: bool) -> Result<TrainSettings> {
             overrides[k] = v;
         }
     }
-    let overrides = overrides
-        .as_object()
-        .context("the overrides literal is an object")?;
     Ok(TrainSettings {
-        schedule: Schedule::new(200, overrides)?,
-        seed,
-        background_randomization: true,
-        fixed_background: [0.0; 3],
-        init: InitSettings::default(),
-        world_scale: 1.0,
         checkpoint: if last {
             Checkpoint::Last
         } else {
             Checkpoint::Best
         },
+        ..common::short_run_settings(200, seed, overrides)
     })
 }
 

@@ -5,8 +5,7 @@
 mod common;
 
 use objectsplat_raster::CpuBackend;
-use objectsplat_train::Schedule;
-use objectsplat_train::init::{ComponentMasks, InitSettings};
+use objectsplat_train::init::ComponentMasks;
 use objectsplat_train::trainer::{ComponentData, TrainSettings, held_out_eval, train_component};
 
 const ITERATIONS: u64 = 300;
@@ -15,28 +14,7 @@ const ITERATIONS: u64 = 300;
 const MIN_PSNR: f64 = 25.0;
 
 fn settings(seed: u64) -> TrainSettings {
-    TrainSettings {
-        schedule: Schedule::new(
-            ITERATIONS,
-            serde_json::json!({
-                "lr_sh_dc": 0.03,
-                "lr_opacity": 0.1,
-                "lr_vertices_start": 4e-3,
-                "lr_vertices_end": 4e-4,
-                "densify_until": 30,
-                "densify_always_largest": 0,
-            })
-            .as_object()
-            .unwrap(),
-        )
-        .unwrap(),
-        seed,
-        background_randomization: true,
-        fixed_background: [0.0; 3],
-        init: InitSettings::default(),
-        world_scale: 1.0,
-        checkpoint: Default::default(),
-    }
+    common::short_run_settings(ITERATIONS, seed, serde_json::json!({}))
 }
 
 #[test]

@@ -13,8 +13,7 @@ mod common;
 use objectsplat_core::Split;
 use objectsplat_core::component::OTHER;
 use objectsplat_raster::{CpuBackend, Model, RenderBackend, RenderSettings};
-use objectsplat_train::Schedule;
-use objectsplat_train::init::{ComponentMasks, InitSettings};
+use objectsplat_train::init::ComponentMasks;
 use objectsplat_train::trainer::{ComponentData, TrainSettings, train_component};
 
 /// Points on the ground plane around the plate, outside its square.
@@ -57,16 +56,11 @@ fn train(randomize: bool) -> Outcome {
     points.colors.extend(ring.colors);
     let data = ComponentData::read(dir.path()).unwrap();
     let settings = TrainSettings {
-        // Learning rates for a short run (the reference ones are tuned for 30k steps).
-        schedule: Schedule::new(
+        background_randomization: randomize,
+        ..common::short_run_settings(
             600,
+            5,
             serde_json::json!({
-                "lr_sh_dc": 0.03,
-                "lr_opacity": 0.1,
-                "lr_vertices_start": 4e-3,
-                "lr_vertices_end": 4e-4,
-                "densify_until": 30,
-                "densify_always_largest": 0,
                 "patience": 600,
                 // Saturated opacities from the start: the regime the paper's
                 // argument is about, where a covered pixel can no longer be
@@ -75,17 +69,8 @@ fn train(randomize: bool) -> Outcome {
                 "floor_base": 0.9,
                 "floor_gain": 0.0999,
                 "floor_ramp": 1,
-            })
-            .as_object()
-            .unwrap(),
+            }),
         )
-        .unwrap(),
-        seed: 5,
-        background_randomization: randomize,
-        fixed_background: [0.0; 3],
-        init: InitSettings::default(),
-        world_scale: 1.0,
-        checkpoint: Default::default(),
     };
     let backend = CpuBackend::new(2);
     let report = train_component(&backend, &data, &points, &settings, |_, _| true).unwrap();

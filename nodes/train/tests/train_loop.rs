@@ -3,9 +3,8 @@
 mod common;
 
 use objectsplat_raster::CpuBackend;
-use objectsplat_train::Schedule;
 use objectsplat_train::init::{ComponentMasks, InitSettings, init_model};
-use objectsplat_train::trainer::{ComponentData, TrainSettings, held_out_score, train_component};
+use objectsplat_train::trainer::{ComponentData, held_out_score, train_component};
 
 #[test]
 fn training_the_plate_lowers_its_held_out_loss() {
@@ -19,30 +18,7 @@ fn training_the_plate_lowers_its_held_out_loss() {
         "the grey points off the plate are not selected"
     );
     let data = ComponentData::read(dir.path()).unwrap();
-    let settings = TrainSettings {
-        // Reference learning rates are tuned for 30k steps; a 200-step test needs larger
-        // ones, and densification limited to what 64×48 views can resolve.
-        schedule: Schedule::new(
-            200,
-            serde_json::json!({
-                "lr_sh_dc": 0.03,
-                "lr_opacity": 0.1,
-                "lr_vertices_start": 4e-3,
-                "lr_vertices_end": 4e-4,
-                "densify_until": 30,
-                "densify_always_largest": 0,
-            })
-            .as_object()
-            .unwrap(),
-        )
-        .unwrap(),
-        seed: 2,
-        background_randomization: true,
-        fixed_background: [0.0; 3],
-        init: InitSettings::default(),
-        world_scale: 1.0,
-        checkpoint: Default::default(),
-    };
+    let settings = common::short_run_settings(200, 2, serde_json::json!({}));
     let backend = CpuBackend::new(2);
     let initial = init_model(
         &points,

@@ -98,3 +98,40 @@ pub fn points() -> Points {
     }
     Points { positions, colors }
 }
+
+/// Settings for a short training run on this plate: the reference learning rates are
+/// tuned for 30k steps, so a few hundred steps need larger ones, and densification
+/// limited to what 64×48 views resolve. `extra` adds or replaces schedule overrides.
+pub fn short_run_settings(
+    iterations: u64,
+    seed: u64,
+    extra: serde_json::Value,
+) -> objectsplat_train::trainer::TrainSettings {
+    let mut overrides = serde_json::json!({
+        "lr_sh_dc": 0.03,
+        "lr_opacity": 0.1,
+        "lr_vertices_start": 4e-3,
+        "lr_vertices_end": 4e-4,
+        "densify_until": 30,
+        "densify_always_largest": 0,
+    });
+    let extra = extra
+        .as_object()
+        .expect("extra overrides are a JSON object");
+    for (key, value) in extra {
+        overrides[key] = value.clone();
+    }
+    objectsplat_train::trainer::TrainSettings {
+        schedule: objectsplat_train::Schedule::new(
+            iterations,
+            overrides.as_object().expect("built as an object above"),
+        )
+        .expect("valid test schedule"),
+        seed,
+        background_randomization: true,
+        fixed_background: [0.0; 3],
+        init: objectsplat_train::init::InitSettings::default(),
+        world_scale: 1.0,
+        checkpoint: Default::default(),
+    }
+}
