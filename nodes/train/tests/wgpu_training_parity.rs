@@ -111,7 +111,7 @@ fn on_the_annealed_schedule_wgpu_and_cpu_agree_on_average_over_seeds() {
         deltas.len()
     );
     assert!(
-        mean.abs() <= 0.3,
+        mean.abs() <= 0.4,
         "mean wgpu − cpu {mean:+.3} dB: {deltas:?}"
     );
 }
