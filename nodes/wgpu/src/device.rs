@@ -267,28 +267,46 @@ pub fn check_mirrors_wgsl(
 /// Copies `bytes` bytes of `source` (from offset 0) back to the host.
 /// `source` needs `COPY_SRC` usage.
 pub fn read_buffer(ctx: &GpuContext, source: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
-    if bytes == 0 {
-        return Ok(Vec::new());
-    }
-    let size = bytes.div_ceil(wgpu::COPY_BUFFER_ALIGNMENT) * wgpu::COPY_BUFFER_ALIGNMENT;
-    if size > source.size() {
-        bail!(
-            "readback of {bytes} bytes from a buffer of {} bytes",
-            source.size()
-        );
-    }
-    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("readback"),
-        size,
-        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
+    let mut all = read_buffers(ctx, &[(source, bytes)])?;
+    Ok(all.pop().unwrap_or_default())
+}
+
+/// Copies several buffers back with one submission and one wait (each
+/// `(buffer, bytes)` from offset 0; buffers need `COPY_SRC` usage).
+pub fn read_buffers(ctx: &GpuContext, sources: &[(&wgpu::Buffer, u64)]) -> Result<Vec<Vec<u8>>> {
     let mut encoder = ctx
         .device
         .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-    encoder.copy_buffer_to_buffer(source, 0, &staging, 0, size);
+    let mut staged = Vec::with_capacity(sources.len());
+    for &(source, bytes) in sources {
+        if bytes == 0 {
+            staged.push(None);
+            continue;
+        }
+        let size = bytes.div_ceil(wgpu::COPY_BUFFER_ALIGNMENT) * wgpu::COPY_BUFFER_ALIGNMENT;
+        if size > source.size() {
+            bail!(
+                "readback of {bytes} bytes from a buffer of {} bytes",
+                source.size()
+            );
+        }
+        let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("readback"),
+            size,
+            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+        encoder.copy_buffer_to_buffer(source, 0, &staging, 0, size);
+        staged.push(Some((staging, bytes)));
+    }
     ctx.queue.submit([encoder.finish()]);
-    map_and_copy(ctx, &staging, bytes)
+    staged
+        .into_iter()
+        .map(|s| match s {
+            Some((staging, bytes)) => map_and_copy(ctx, &staging, bytes),
+            None => Ok(Vec::new()),
+        })
+        .collect()
 }
 
 /// Maps a `MAP_READ` buffer (after the work writing it was submitted) and copies it out.

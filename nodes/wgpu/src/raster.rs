@@ -11,7 +11,7 @@
 //! per-face geometry backward → per-vertex projection/SH/opacity backward.
 
 use crate::atomics::{FloatAtomics, accumulator_wgsl};
-use crate::device::{GpuContext, map_and_copy, read_values};
+use crate::device::{GpuContext, map_and_copy, read_buffers};
 use crate::kernels::{Kernel, groups_for, shader, storage, storage_from, uniform};
 use crate::scan::GpuScan;
 use crate::sort::{GpuSort, SortBuffers, key_bits};
@@ -609,8 +609,17 @@ impl WgpuBackend {
         let p = &saved.params;
         let pixels = p.width as usize * p.height as usize;
         let nf = saved.model.face_count;
-        let image: Vec<f32> = read_values(&self.ctx, &saved.image, pixels * IMAGE_STRIDE)?;
-        let stats: Vec<u32> = read_values(&self.ctx, &saved.face_stats, nf * 2)?;
+        let [image, stats]: [Vec<u8>; 2] = read_buffers(
+            &self.ctx,
+            &[
+                (&saved.image, (pixels * IMAGE_STRIDE * 4) as u64),
+                (&saved.face_stats, (nf * 2 * 4) as u64),
+            ],
+        )?
+        .try_into()
+        .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
+        let image: Vec<f32> = bytemuck::pod_collect_to_vec(&image);
+        let stats: Vec<u32> = bytemuck::pod_collect_to_vec(&stats);
         let mut out = RenderOutput {
             width: p.width,
             height: p.height,
@@ -662,10 +671,21 @@ impl WgpuBackend {
         let upstream = storage_from(&self.ctx, "upstream gradients", &upstream);
         let on_device = self.backward_on(saved, &upstream)?;
         let ctx = &self.ctx;
-        let positions: Vec<f32> = read_values(ctx, &on_device.positions, nv * 3)?;
-        let sh: Vec<f32> = read_values(ctx, &on_device.sh, nv * SH_COEFFS * 3)?;
-        let logits: Vec<f32> = read_values(ctx, &on_device.opacity_logits, nv)?;
-        let background: Vec<f32> = read_values(ctx, &on_device.background, pixels * 3)?;
+        let [positions, sh, logits, background]: [Vec<u8>; 4] = read_buffers(
+            ctx,
+            &[
+                (&on_device.positions, (nv * 3 * 4) as u64),
+                (&on_device.sh, (nv * SH_COEFFS * 3 * 4) as u64),
+                (&on_device.opacity_logits, (nv * 4) as u64),
+                (&on_device.background, (pixels * 3 * 4) as u64),
+            ],
+        )?
+        .try_into()
+        .map_err(|_| anyhow::anyhow!("four readbacks were asked for"))?;
+        let positions: Vec<f32> = bytemuck::pod_collect_to_vec(&positions);
+        let sh: Vec<f32> = bytemuck::pod_collect_to_vec(&sh);
+        let logits: Vec<f32> = bytemuck::pod_collect_to_vec(&logits);
+        let background: Vec<f32> = bytemuck::pod_collect_to_vec(&background);
         let mut result = ModelGrads::<f32>::zeros(nv, pixels);
         for v in 0..nv {
             result.vertices[v].copy_from_slice(&positions[v * 3..v * 3 + 3]);

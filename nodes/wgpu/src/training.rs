@@ -9,7 +9,7 @@
 //! batches ([`DeviceTrainer::results`]); the parameters come back only when
 //! the host needs the model ([`DeviceTrainer::store`]).
 
-use crate::device::read_values;
+use crate::device::{read_buffers, read_values};
 use crate::kernels::{Kernel, groups_for, shader, storage, storage_from, uniform};
 use crate::raster::{ModelBuffers, WgpuBackend};
 use anyhow::{Context, Result, bail};
@@ -668,10 +668,26 @@ impl DeviceTrainer {
                 model.face_count()
             );
         }
-        let ctx = self.backend.context();
-        let positions: Vec<f32> = read_values(ctx, &resident.params.positions, nv * 3)?;
-        let sh: Vec<f32> = read_values(ctx, &resident.params.sh, nv * SH_VALUES)?;
-        model.opacity_logits = read_values(ctx, &resident.params.opacity_logits, nv)?;
+        // One submission for all nine tensors: parameters, then first and second moments.
+        let bytes = [nv * 3, nv * SH_VALUES, nv].map(|n| (n * 4) as u64);
+        let params = &resident.params;
+        let mut sources = vec![
+            (&params.positions, bytes[0]),
+            (&params.sh, bytes[1]),
+            (&params.opacity_logits, bytes[2]),
+        ];
+        sources.extend((0..3).map(|t| (&resident.first[t], bytes[t])));
+        sources.extend((0..3).map(|t| (&resident.second[t], bytes[t])));
+        let mut values = read_buffers(self.backend.context(), &sources)?
+            .into_iter()
+            .map(|b| bytemuck::pod_collect_to_vec::<u8, f32>(&b));
+        let mut next = || {
+            values
+                .next()
+                .expect("read_buffers returns one result per buffer, and nine were asked for")
+        };
+        let (positions, sh) = (next(), next());
+        model.opacity_logits = next();
         for (v, p) in model.vertices.iter_mut().zip(positions.chunks_exact(3)) {
             v.copy_from_slice(p);
         }
@@ -680,18 +696,17 @@ impl DeviceTrainer {
                 coeff.copy_from_slice(rgb);
             }
         }
-        let counts = [nv * 3, nv * SH_VALUES, nv];
-        let read = |t: usize| -> Result<Moments> {
-            Ok(Moments {
-                first: read_values(ctx, &resident.first[t], counts[t])?,
-                second: read_values(ctx, &resident.second[t], counts[t])?,
-                steps: resident.steps[t],
-            })
+        let [f0, f1, f2] = [next(), next(), next()];
+        let [s0, s1, s2] = [next(), next(), next()];
+        let moments = |first, second, t: usize| Moments {
+            first,
+            second,
+            steps: resident.steps[t],
         };
         Ok(OptimizerState {
-            positions: read(0)?,
-            sh: read(1)?,
-            opacity_logits: read(2)?,
+            positions: moments(f0, s0, 0),
+            sh: moments(f1, s1, 1),
+            opacity_logits: moments(f2, s2, 2),
         })
     }
 }
