@@ -10,7 +10,7 @@ use objectsplat_wgpu::WgpuBackend;
 use objectsplat_wgpu::training::{
     AdamSettings, DeviceTrainer, LearningRates, Moments, OptimizerState, Step, TrainingView,
 };
-use support::{Rng, context, parity_scenes, relative_difference};
+use support::{Rng, context, flat_view, parity_scenes, relative_difference, step_at};
 
 /// Written out, not `AdamSettings::default()`: the checks below use these numbers.
 const ADAM: AdamSettings = AdamSettings {
@@ -170,13 +170,7 @@ fn overflowing_parameters_are_flagged_not_hidden() {
     let Some(ctx) = context() else { return };
     let gpu = WgpuBackend::new(ctx).unwrap();
     let scene = parity_scenes().swap_remove(0);
-    let pixels = (scene.camera.width * scene.camera.height) as usize;
-    let view = TrainingView {
-        camera: scene.camera,
-        target: vec![0.5; pixels * 3],
-        weights: vec![1.0; pixels],
-        from_background: vec![false; pixels],
-    };
+    let view = flat_view(&scene, 1.0);
     let mut trainer = DeviceTrainer::new(&gpu, &[view], ADAM).unwrap();
     trainer
         .load(
@@ -186,22 +180,8 @@ fn overflowing_parameters_are_flagged_not_hidden() {
         .unwrap();
     // The first update moves every value by about the learning rate; the second
     // (|m̂/√v̂| ≈ 0.67 even where the gradient has vanished) passes f32's 3.4e38.
-    let huge = LearningRates {
-        positions: 3e38,
-        sh_dc: 3e38,
-        sh_rest: 3e38,
-        opacity: 3e38,
-    };
     for _ in 0..3 {
-        trainer
-            .step(&Step {
-                view: 0,
-                background: [0.0; 3],
-                render: scene.settings.clone(),
-                learning_rates: huge,
-                lambda_dssim: DEFAULT_LAMBDA_DSSIM,
-            })
-            .unwrap();
+        trainer.step(&step_at(&scene, 3e38)).unwrap();
     }
     let results = trainer.results().unwrap();
     eprintln!("{results:?}");

@@ -10,7 +10,7 @@ use objectsplat_wgpu::WgpuBackend;
 use objectsplat_wgpu::training::{
     AdamSettings, DeviceTrainer, LearningRates, OptimizerState, Step, TrainingView,
 };
-use support::{Rng, context, parity_scenes, relative_difference};
+use support::{Rng, context, flat_view, parity_scenes, relative_difference, step_at};
 
 const FROZEN: LearningRates = LearningRates {
     positions: 0.0,
@@ -106,13 +106,7 @@ fn a_view_without_supervised_pixels_gives_zero_loss_and_moves_nothing() {
     let Some(ctx) = context() else { return };
     let gpu = WgpuBackend::new(ctx).unwrap();
     let scene = parity_scenes().swap_remove(0);
-    let pixels = (scene.camera.width * scene.camera.height) as usize;
-    let view = TrainingView {
-        camera: scene.camera,
-        target: vec![0.5; pixels * 3],
-        weights: vec![0.0; pixels],
-        from_background: vec![false; pixels],
-    };
+    let view = flat_view(&scene, 0.0);
     let mut trainer = DeviceTrainer::new(&gpu, &[view], AdamSettings::default()).unwrap();
     trainer
         .load(
@@ -120,22 +114,8 @@ fn a_view_without_supervised_pixels_gives_zero_loss_and_moves_nothing() {
             &OptimizerState::zeros(scene.model.vertex_count()),
         )
         .unwrap();
-    let lr = LearningRates {
-        positions: 0.1,
-        sh_dc: 0.1,
-        sh_rest: 0.1,
-        opacity: 0.1,
-    };
     for _ in 0..2 {
-        trainer
-            .step(&Step {
-                view: 0,
-                background: [0.0; 3],
-                render: scene.settings.clone(),
-                learning_rates: lr,
-                lambda_dssim: DEFAULT_LAMBDA_DSSIM,
-            })
-            .unwrap();
+        trainer.step(&step_at(&scene, 0.1)).unwrap();
     }
     let results = trainer.results().unwrap();
     assert_eq!(results.len(), 2);
@@ -161,13 +141,7 @@ fn bad_views_and_steps_are_errors_not_panics() {
     let Some(ctx) = context() else { return };
     let gpu = WgpuBackend::new(ctx).unwrap();
     let scene = parity_scenes().swap_remove(0);
-    let pixels = (scene.camera.width * scene.camera.height) as usize;
-    let good = TrainingView {
-        camera: scene.camera,
-        target: vec![0.5; pixels * 3],
-        weights: vec![1.0; pixels],
-        from_background: vec![false; pixels],
-    };
+    let good = flat_view(&scene, 1.0);
     let mut short = good.clone();
     short.weights.pop();
     let mut nan = good.clone();
@@ -186,13 +160,7 @@ fn bad_views_and_steps_are_errors_not_panics() {
     }
     assert!(DeviceTrainer::new(&gpu, &[], AdamSettings::default()).is_err());
     let mut trainer = DeviceTrainer::new(&gpu, &[good], AdamSettings::default()).unwrap();
-    let step = Step {
-        view: 0,
-        background: [0.0; 3],
-        render: scene.settings.clone(),
-        learning_rates: FROZEN,
-        lambda_dssim: DEFAULT_LAMBDA_DSSIM,
-    };
+    let step = step_at(&scene, 0.0);
     let err = trainer.step(&step).unwrap_err();
     assert!(
         format!("{err:#}").contains("before a model was loaded"),

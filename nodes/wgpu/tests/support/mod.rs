@@ -256,3 +256,33 @@ pub fn relative_difference(a: &[f32], b: &[f32], floor: f64) -> f64 {
     }
     diff.sqrt() / norm.sqrt().max(floor)
 }
+
+use objectsplat_raster::loss::DEFAULT_LAMBDA_DSSIM;
+use objectsplat_wgpu::training::{LearningRates, Step, TrainingView};
+
+/// One training view of `scene`: a flat grey target, every pixel at `weight`.
+pub fn flat_view(scene: &Scene, weight: f32) -> TrainingView {
+    let pixels = (scene.camera.width * scene.camera.height) as usize;
+    TrainingView {
+        camera: scene.camera,
+        target: vec![0.5; pixels * 3],
+        weights: vec![weight; pixels],
+        from_background: vec![false; pixels],
+    }
+}
+
+/// A step on view 0 over a black background, every tensor at learning rate `lr`.
+pub fn step_at(scene: &Scene, lr: f64) -> Step {
+    Step {
+        view: 0,
+        background: [0.0; 3],
+        render: scene.settings.clone(),
+        learning_rates: LearningRates {
+            positions: lr,
+            sh_dc: lr,
+            sh_rest: lr,
+            opacity: lr,
+        },
+        lambda_dssim: DEFAULT_LAMBDA_DSSIM,
+    }
+}
