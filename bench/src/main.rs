@@ -9,6 +9,8 @@
 //! Everything goes through the ordinary engine and cache: a rerun only
 //! computes what is missing.
 
+mod train_speed;
+
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use objectsplat_export::report::plot::{PlotSpec, Series, line_plot_svg};
@@ -35,6 +37,8 @@ struct Cli {
 enum Command {
     /// Decomposed vs holistic on the synthetic scene, sparse and dense splits.
     Paper(PaperArgs),
+    /// Training iterations per second per component kind, optionally against an older binary.
+    TrainSpeed(train_speed::TrainSpeedArgs),
 }
 
 #[derive(clap::Args)]
@@ -145,6 +149,7 @@ fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Paper(args) => paper(&args),
+        Command::TrainSpeed(args) => train_speed::train_speed(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

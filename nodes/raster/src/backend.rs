@@ -8,6 +8,98 @@ use anyhow::{Result, bail};
 use objectsplat_core::{Camera, Image};
 use std::any::Any;
 
+/// A pixel rectangle `[x0, x1) × [y0, y1)` of an image.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub struct PixelRect {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+}
+
+impl PixelRect {
+    /// The whole `width`×`height` image.
+    pub fn full(width: u32, height: u32) -> Self {
+        PixelRect {
+            x0: 0,
+            y0: 0,
+            x1: width,
+            y1: height,
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.x0 >= self.x1 || self.y0 >= self.y1
+    }
+
+    pub fn width(&self) -> u32 {
+        self.x1.saturating_sub(self.x0)
+    }
+
+    pub fn height(&self) -> u32 {
+        self.y1.saturating_sub(self.y0)
+    }
+
+    pub fn pixels(&self) -> usize {
+        self.width() as usize * self.height() as usize
+    }
+
+    /// The smallest rectangle holding both (an empty one adds nothing).
+    pub fn union(self, o: PixelRect) -> PixelRect {
+        if self.is_empty() {
+            return o;
+        }
+        if o.is_empty() {
+            return self;
+        }
+        PixelRect {
+            x0: self.x0.min(o.x0),
+            y0: self.y0.min(o.y0),
+            x1: self.x1.max(o.x1),
+            y1: self.y1.max(o.y1),
+        }
+    }
+
+    /// Grown by `margin` on every side, clipped to a `width`×`height` image,
+    /// then rounded outwards to multiples of `tile` (still clipped). Empty stays empty.
+    pub fn grown_to_tiles(self, margin: u32, tile: u32, width: u32, height: u32) -> PixelRect {
+        if self.is_empty() {
+            return PixelRect::default();
+        }
+        let tile = tile.max(1);
+        let x0 = self.x0.saturating_sub(margin) / tile * tile;
+        let y0 = self.y0.saturating_sub(margin) / tile * tile;
+        let x1 = (self.x1.saturating_add(margin).min(width)).div_ceil(tile) * tile;
+        let y1 = (self.y1.saturating_add(margin).min(height)).div_ceil(tile) * tile;
+        PixelRect {
+            x0: x0.min(width),
+            y0: y0.min(height),
+            x1: x1.min(width),
+            y1: y1.min(height),
+        }
+    }
+
+    /// Row-major index of image pixel `(x, y)` (inside the rectangle) in a buffer covering it.
+    #[inline]
+    pub fn index(&self, x: u32, y: u32) -> usize {
+        (y - self.y0) as usize * self.width() as usize + (x - self.x0) as usize
+    }
+}
+
+/// Which pixels of the camera's image a pass renders.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Region {
+    /// Every pixel.
+    #[default]
+    Full,
+    /// Only the pixels whose colour can differ from the background or from a
+    /// supervised target: the bounding box of every drawn face's pixels and of
+    /// `include`, grown by `margin` pixels and rounded out to whole 16-px
+    /// tiles. Outside it the image is exactly the background. Pixel values
+    /// inside it are bit-identical to a full render.
+    Footprint { include: PixelRect, margin: u32 },
+}
+
 /// Rendering parameters. Every threshold of the reference renderer is a field,
 /// with the reference value as default.
 #[derive(Debug, Clone, PartialEq)]
@@ -37,6 +129,8 @@ pub struct RenderSettings {
     pub alpha_min: f64,
     /// Compositing stops once the transmittance falls below this (both passes).
     pub transmittance_min: f64,
+    /// The pixels rendered; outputs cover [`RenderOutput::region`].
+    pub region: Region,
 }
 
 impl Default for RenderSettings {
@@ -54,6 +148,7 @@ impl Default for RenderSettings {
             alpha_max: 0.999,
             alpha_min: 1.0 / 255.0,
             transmittance_min: 1e-4,
+            region: Region::Full,
         }
     }
 }
@@ -128,11 +223,15 @@ impl RenderSettings {
     }
 }
 
-/// What a forward pass produces. Images are row-major; colour is H×W×3 interleaved.
-#[derive(Debug, Clone, PartialEq)]
+/// What a forward pass produces. Images cover `region` (the whole image unless
+/// [`RenderSettings::region`] asked for less), row-major; colour is interleaved RGB.
+#[derive(Debug, Clone, PartialEq, Default)]
 pub struct RenderOutput<R: Real = f32> {
+    /// The camera's image size.
     pub width: u32,
     pub height: u32,
+    /// The pixels the images hold.
+    pub region: PixelRect,
     /// `Σ c_n w_n + T·b`.
     pub color: Vec<R>,
     /// `1 − T` (final transmittance).
@@ -148,21 +247,21 @@ pub struct RenderOutput<R: Real = f32> {
 }
 
 impl<R: Real> RenderOutput<R> {
-    /// The colour as an f32 RGB image.
+    /// The colour as an f32 RGB image of the rendered region.
     pub fn color_image(&self) -> Image {
         Image {
-            width: self.width,
-            height: self.height,
+            width: self.region.width(),
+            height: self.region.height(),
             channels: 3,
             data: self.color.iter().map(|v| v.f64() as f32).collect(),
         }
     }
 
-    /// The alpha as an f32 single-channel image.
+    /// The alpha as an f32 single-channel image of the rendered region.
     pub fn alpha_image(&self) -> Image {
         Image {
-            width: self.width,
-            height: self.height,
+            width: self.region.width(),
+            height: self.region.height(),
             channels: 1,
             data: self.alpha.iter().map(|v| v.f64() as f32).collect(),
         }
@@ -200,7 +299,7 @@ impl<'a, R: Real> OutputGrads<'a, R> {
         }
     }
 
-    /// Checks sizes and finiteness for an image of `pixels` pixels.
+    /// Checks sizes and finiteness for a rendered region of `pixels` pixels.
     pub fn validate(&self, pixels: usize) -> Result<()> {
         check_buffer("dL/dcolor", self.color, pixels * 3)?;
         for (name, buf) in [

@@ -8,8 +8,19 @@
 //! `SSIM = Σ_p w_p Σ_c S_pc / (C·Σ_p w_p)` where `S` is the ordinary SSIM map
 //! (the window still sees unweighted neighbours; only the averaging of the
 //! map is weighted). With all weights zero both losses are 0 with zero gradient.
+//!
+//! [`PhotometricLoss`] evaluates the loss on a crop of a larger image whose
+//! pixels outside the crop render exactly their target (a trainer's view of
+//! an object: outside the object's footprint both are the background colour).
+//! There `|x − y| = 0` and the SSIM map is exactly 1 as long as the crop
+//! reaches [`CROP_MARGIN`] pixels beyond every pixel where `x ≠ y` (then the
+//! zero padding at the crop border sees `x = y` too), so the crop's sums plus
+//! the outside weight give the full image's loss and gradient. It keeps its
+//! planes between calls, runs its row passes on several threads, and skips
+//! the gradient when only the value is wanted.
 
 use crate::backend::check_buffer;
+use crate::parallel::{run_iter, run_iter_pooled};
 use crate::real::Real;
 use anyhow::{Result, bail};
 
@@ -19,6 +30,14 @@ pub const SSIM_C1: f64 = 0.01 * 0.01;
 pub const SSIM_C2: f64 = 0.03 * 0.03;
 /// The reference's D-SSIM weight in `(1 − λ)·L1 + λ·(1 − SSIM)`.
 pub const DEFAULT_LAMBDA_DSSIM: f64 = 0.2;
+/// How far beyond the pixels where render and target differ a crop must
+/// reach for its loss and gradient to equal the full image's: the SSIM map at
+/// a pixel reads 5 pixels around it, and its gradient 5 more.
+pub const CROP_MARGIN: u32 = 2 * (SSIM_WINDOW as u32 / 2);
+
+const HALF: usize = SSIM_WINDOW / 2;
+/// Rows per job of the row passes: fixed, so sums do not depend on the thread count.
+const ROWS_PER_JOB: usize = 8;
 
 /// Image shape shared by the rendered image, the target and the gradient.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -48,7 +67,410 @@ pub struct LossGrad<R: Real> {
     pub grad: Vec<R>,
 }
 
-fn check<R: Real>(dims: Dims, rendered: &[R], target: &[R], weights: Option<&[R]>) -> Result<R> {
+/// How the crop's sums become means over the whole image.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Normalization {
+    /// `Σ w` over the whole image (its pixel count when unweighted).
+    pub total_weight: f64,
+    /// `Σ w` over the pixels outside the crop, where render and target agree.
+    pub outside_weight: f64,
+}
+
+impl Normalization {
+    /// The crop is the whole image.
+    pub fn whole(total_weight: f64) -> Self {
+        Normalization {
+            total_weight,
+            outside_weight: 0.0,
+        }
+    }
+}
+
+/// The loss value and its two parts.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct LossValue {
+    pub l1: f64,
+    pub ssim: f64,
+    /// `(1 − λ)·L1 + λ·(1 − SSIM)`; 0 when no pixel is supervised.
+    pub total: f64,
+}
+
+/// `(1 − λ)·L1 + λ·(1 − SSIM)` on a crop, with reusable planes (see the module doc).
+#[derive(Debug, Clone, Default)]
+pub struct PhotometricLoss<R: Real> {
+    /// Row-blurred x, y, x², y², xy of one channel; later the row-blurred gradient maps.
+    rows: [Vec<R>; 5],
+    /// ∂SSIM/∂(μx, σx², σxy) weighted per pixel, of one channel.
+    maps: [Vec<R>; 3],
+    /// Per job: (Σ w·|x − y|, Σ w·S) of its rows.
+    partials: Vec<(f64, f64)>,
+    /// Per worker: rows of x, y and a product (row pass), five blurred rows (column passes).
+    row_scratch: Vec<[Vec<R>; 3]>,
+    column_scratch: Vec<[Vec<R>; 5]>,
+    /// dL/d(rendered), filled by [`PhotometricLoss::evaluate`] when asked for.
+    pub grad: Vec<R>,
+}
+
+fn gaussian_taps<R: Real>() -> [R; SSIM_WINDOW] {
+    let half = HALF as f64;
+    let raw: Vec<f64> = (0..SSIM_WINDOW)
+        .map(|i| (-(i as f64 - half).powi(2) / (2.0 * SSIM_SIGMA * SSIM_SIGMA)).exp())
+        .collect();
+    let sum: f64 = raw.iter().sum();
+    std::array::from_fn(|i| R::of(raw[i] / sum))
+}
+
+/// One row of the zero-padded horizontal blur: `dst[x] = Σ_t taps[t]·src[x + t − 5]`.
+#[inline]
+fn blur_row<R: Real>(src: &[R], taps: &[R; SSIM_WINDOW], dst: &mut [R]) {
+    let w = src.len();
+    if w > 2 * HALF {
+        // Interior: every tap in range, a fixed-length loop the compiler vectorizes.
+        let inner = &mut dst[HALF..w - HALF];
+        inner.fill(R::zero());
+        for (t, &tap) in taps.iter().enumerate() {
+            for (d, &s) in inner.iter_mut().zip(&src[t..t + w - 2 * HALF]) {
+                *d += tap * s;
+            }
+        }
+    }
+    for x in (0..w.min(HALF)).chain(w.saturating_sub(HALF).max(HALF.min(w))..w) {
+        let lo = x.saturating_sub(HALF);
+        let hi = (x + HALF).min(w - 1);
+        let mut acc = R::zero();
+        for xx in lo..=hi {
+            acc += taps[xx + HALF - x] * src[xx];
+        }
+        dst[x] = acc;
+    }
+}
+
+/// Row `y` of the zero-padded vertical blur of a planar `width`-wide image, added into `acc`.
+#[inline]
+fn blur_column_into<R: Real>(
+    src: &[R],
+    width: usize,
+    height: usize,
+    y: usize,
+    taps: &[R; SSIM_WINDOW],
+    acc: &mut [R],
+) {
+    acc.fill(R::zero());
+    let lo = y.saturating_sub(HALF);
+    let hi = (y + HALF).min(height - 1);
+    for yy in lo..=hi {
+        let tap = taps[yy + HALF - y];
+        for (a, &s) in acc.iter_mut().zip(&src[yy * width..(yy + 1) * width]) {
+            *a += tap * s;
+        }
+    }
+}
+
+impl<R: Real> PhotometricLoss<R> {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Evaluates `(1 − λ)·L1 + λ·(1 − SSIM)` of `rendered` against `target`
+    /// on a crop of shape `dims`, with per-pixel `weights` (None = all 1) and
+    /// the whole image's weights in `norm`. With `gradient`, [`Self::grad`]
+    /// holds dL/d(rendered) afterwards (else it is left empty).
+    #[allow(clippy::too_many_arguments)]
+    pub fn evaluate(
+        &mut self,
+        dims: Dims,
+        rendered: &[R],
+        target: &[R],
+        weights: Option<&[R]>,
+        norm: Normalization,
+        lambda_dssim: f64,
+        gradient: bool,
+        threads: usize,
+    ) -> Result<LossValue> {
+        if !(0.0..=1.0).contains(&lambda_dssim) {
+            bail!("lambda_dssim = {lambda_dssim} must lie in [0, 1]");
+        }
+        self.run(
+            dims,
+            rendered,
+            target,
+            weights,
+            norm,
+            [1.0 - lambda_dssim, -lambda_dssim],
+            lambda_dssim > 0.0,
+            gradient,
+            threads,
+        )
+        .map(|(l1, ssim, supervised)| LossValue {
+            l1,
+            ssim,
+            total: if supervised {
+                (1.0 - lambda_dssim) * l1 + lambda_dssim * (1.0 - ssim)
+            } else {
+                0.0
+            },
+        })
+    }
+
+    /// Computes L1 and (when `with_ssim`) SSIM, and the gradient of
+    /// `coef[0]·L1 + coef[1]·SSIM` into `self.grad` when `gradient`.
+    /// Returns (L1, SSIM, whether any pixel is supervised).
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &mut self,
+        dims: Dims,
+        rendered: &[R],
+        target: &[R],
+        weights: Option<&[R]>,
+        norm: Normalization,
+        coef: [f64; 2],
+        with_ssim: bool,
+        gradient: bool,
+        threads: usize,
+    ) -> Result<(f64, f64, bool)> {
+        let (w, h, nc) = (dims.width, dims.height, dims.channels);
+        let n = w * h;
+        if nc == 0 {
+            bail!("loss on an image with no channels");
+        }
+        check_buffer("rendered image", rendered, n * nc)?;
+        check_buffer("target image", target, n * nc)?;
+        if let Some(wt) = weights {
+            check_buffer("loss weights", wt, n)?;
+            if let Some(i) = wt.iter().position(|&v| v < R::zero()) {
+                bail!("loss weight of pixel {i} is negative ({})", wt[i]);
+            }
+        }
+        if !(norm.total_weight.is_finite() && norm.outside_weight.is_finite())
+            || norm.outside_weight < 0.0
+            || norm.outside_weight > norm.total_weight * (1.0 + 1e-9) + 1e-9
+        {
+            bail!(
+                "loss normalization {norm:?}: the weights must be finite, with the outside part within the total"
+            );
+        }
+        self.grad.clear();
+        if gradient {
+            self.grad.resize(n * nc, R::zero());
+        }
+        if norm.total_weight <= 0.0 {
+            return Ok((0.0, 0.0, false));
+        }
+        // Outside the crop the SSIM map is exactly 1 and |x − y| = 0.
+        let outside_ssim = norm.outside_weight / norm.total_weight;
+        if n == 0 {
+            return Ok((0.0, outside_ssim, true));
+        }
+        let inv = 1.0 / (norm.total_weight * nc as f64);
+        let weight = |p: usize| weights.map_or(R::one(), |wt| wt[p]);
+
+        // L1 over the crop (and its gradient, written first; SSIM's is added per channel).
+        let mut l1 = 0.0;
+        let l1_scale = R::of(coef[0] * inv);
+        for p in 0..n {
+            let wp = weight(p);
+            for c in 0..nc {
+                let i = p * nc + c;
+                let d = rendered[i] - target[i];
+                l1 += (wp * d.abs()).f64();
+                if gradient {
+                    self.grad[i] = if d > R::zero() {
+                        wp * l1_scale
+                    } else if d < R::zero() {
+                        -(wp * l1_scale)
+                    } else {
+                        R::zero()
+                    };
+                }
+            }
+        }
+        let l1 = l1 * inv;
+        if !with_ssim {
+            return Ok((l1, outside_ssim, true));
+        }
+
+        let taps = gaussian_taps::<R>();
+        let (c1, c2) = (R::of(SSIM_C1), R::of(SSIM_C2));
+        let two = R::of(2.0);
+        let u_scale = R::of(inv);
+        for plane in self.rows.iter_mut().chain(self.maps.iter_mut()) {
+            plane.clear();
+            plane.resize(n, R::zero());
+        }
+        let jobs = h.div_ceil(ROWS_PER_JOB);
+        self.partials.clear();
+        self.partials.resize(jobs, (0.0, 0.0));
+        let mut ssim_sum = 0.0;
+        for ch in 0..nc {
+            // 1. Row blurs of x, y, x², y², xy.
+            {
+                let [r0, r1, r2, r3, r4] = &mut self.rows;
+                let band = ROWS_PER_JOB * w;
+                let work = r0
+                    .chunks_mut(band)
+                    .zip(r1.chunks_mut(band))
+                    .zip(r2.chunks_mut(band))
+                    .zip(r3.chunks_mut(band))
+                    .zip(r4.chunks_mut(band))
+                    .enumerate();
+                run_iter_pooled(
+                    threads,
+                    work,
+                    &mut self.row_scratch,
+                    Default::default,
+                    |[xs, ys, prod], (j, ((((b0, b1), b2), b3), b4))| {
+                        xs.resize(w, R::zero());
+                        ys.resize(w, R::zero());
+                        let outs: [&mut [R]; 5] = [b0, b1, b2, b3, b4];
+                        let rows_here = outs[0].len() / w.max(1);
+                        for r in 0..rows_here {
+                            let y = j * ROWS_PER_JOB + r;
+                            for x in 0..w {
+                                xs[x] = rendered[(y * w + x) * nc + ch];
+                                ys[x] = target[(y * w + x) * nc + ch];
+                            }
+                            let row = r * w..(r + 1) * w;
+                            blur_row(xs, &taps, &mut outs[0][row.clone()]);
+                            blur_row(ys, &taps, &mut outs[1][row.clone()]);
+                            prod.clear();
+                            prod.extend(xs.iter().map(|&v| v * v));
+                            blur_row(prod, &taps, &mut outs[2][row.clone()]);
+                            prod.clear();
+                            prod.extend(ys.iter().map(|&v| v * v));
+                            blur_row(prod, &taps, &mut outs[3][row.clone()]);
+                            prod.clear();
+                            prod.extend(xs.iter().zip(ys.iter()).map(|(&a, &b)| a * b));
+                            blur_row(prod, &taps, &mut outs[4][row]);
+                        }
+                    },
+                );
+            }
+            // 2. Column blurs, the SSIM map and (for the gradient) its partials.
+            {
+                let rows = &self.rows;
+                let [m0, m1, m2] = &mut self.maps;
+                let band = ROWS_PER_JOB * w;
+                let work = m0
+                    .chunks_mut(band)
+                    .zip(m1.chunks_mut(band))
+                    .zip(m2.chunks_mut(band))
+                    .zip(self.partials.iter_mut())
+                    .enumerate();
+                run_iter_pooled(
+                    threads,
+                    work,
+                    &mut self.column_scratch,
+                    Default::default,
+                    |acc, (j, (((ga, gb), gc), partial))| {
+                        for a in acc.iter_mut() {
+                            a.resize(w, R::zero());
+                        }
+                        let mut sum = 0.0;
+                        let rows_here = ga.len() / w.max(1);
+                        for r in 0..rows_here {
+                            let y = j * ROWS_PER_JOB + r;
+                            for k in 0..5 {
+                                blur_column_into(&rows[k], w, h, y, &taps, &mut acc[k]);
+                            }
+                            for x in 0..w {
+                                let (mux, muy) = (acc[0][x], acc[1][x]);
+                                let vx = acc[2][x] - mux * mux;
+                                let vy = acc[3][x] - muy * muy;
+                                let cxy = acc[4][x] - mux * muy;
+                                let a1 = two * mux * muy + c1;
+                                let a2 = two * cxy + c2;
+                                let b1 = mux * mux + muy * muy + c1;
+                                let b2 = vx + vy + c2;
+                                let s = a1 * a2 / (b1 * b2);
+                                let wp = weight(y * w + x);
+                                sum += (wp * s).f64();
+                                if gradient {
+                                    let u = wp * u_scale;
+                                    let ds_dmux = two * muy * a2 / (b1 * b2) - two * mux * s / b1;
+                                    let ds_dvx = -s / b2;
+                                    let ds_dcxy = two * a1 / (b1 * b2);
+                                    // μx also enters σx² = E[x²] − μx² and σxy = E[xy] − μx·μy.
+                                    let i = r * w + x;
+                                    ga[i] = u * (ds_dmux - two * mux * ds_dvx - muy * ds_dcxy);
+                                    gb[i] = u * ds_dvx;
+                                    gc[i] = u * ds_dcxy;
+                                }
+                            }
+                        }
+                        partial.1 = sum;
+                    },
+                );
+                ssim_sum += self.partials.iter().map(|p| p.1).sum::<f64>();
+            }
+            if !gradient {
+                continue;
+            }
+            // 3. The adjoint: blur the partial maps back (the kernel is symmetric)
+            //    and combine: dS/dx = B(ga) + 2x·B(gb) + y·B(gc).
+            {
+                let maps = &self.maps;
+                let [r0, r1, r2, _, _] = &mut self.rows;
+                let band = ROWS_PER_JOB * w;
+                let work = r0
+                    .chunks_mut(band)
+                    .zip(r1.chunks_mut(band))
+                    .zip(r2.chunks_mut(band))
+                    .enumerate();
+                run_iter(
+                    threads,
+                    work,
+                    || (),
+                    |_, (j, ((b0, b1), b2))| {
+                        let rows_here = b0.len() / w.max(1);
+                        for r in 0..rows_here {
+                            let y = j * ROWS_PER_JOB + r;
+                            let src = y * w..(y + 1) * w;
+                            let row = r * w..(r + 1) * w;
+                            blur_row(&maps[0][src.clone()], &taps, &mut b0[row.clone()]);
+                            blur_row(&maps[1][src.clone()], &taps, &mut b1[row.clone()]);
+                            blur_row(&maps[2][src], &taps, &mut b2[row]);
+                        }
+                    },
+                );
+            }
+            {
+                let rows = &self.rows;
+                let scale = R::of(coef[1]);
+                let band = ROWS_PER_JOB * w * nc;
+                let work = self.grad.chunks_mut(band).enumerate();
+                run_iter_pooled(
+                    threads,
+                    work,
+                    &mut self.column_scratch,
+                    Default::default,
+                    |acc, (j, grad)| {
+                        for a in acc.iter_mut() {
+                            a.resize(w, R::zero());
+                        }
+                        let rows_here = grad.len() / (w * nc).max(1);
+                        for r in 0..rows_here {
+                            let y = j * ROWS_PER_JOB + r;
+                            for k in 0..3 {
+                                blur_column_into(&rows[k], w, h, y, &taps, &mut acc[k]);
+                            }
+                            for x in 0..w {
+                                let p = y * w + x;
+                                let g = acc[0][x]
+                                    + two * rendered[p * nc + ch] * acc[1][x]
+                                    + target[p * nc + ch] * acc[2][x];
+                                grad[(r * w + x) * nc + ch] += scale * g;
+                            }
+                        }
+                    },
+                );
+            }
+        }
+        let ssim = ssim_sum * inv + outside_ssim;
+        Ok((l1, ssim, true))
+    }
+}
+
+fn whole_image_norm<R: Real>(dims: Dims, weights: Option<&[R]>) -> Result<Normalization> {
     if dims.pixels() == 0 || dims.channels == 0 {
         bail!(
             "loss on an empty image ({}×{}×{})",
@@ -57,19 +479,14 @@ fn check<R: Real>(dims: Dims, rendered: &[R], target: &[R], weights: Option<&[R]
             dims.channels
         );
     }
-    let n = dims.pixels() * dims.channels;
-    check_buffer("rendered image", rendered, n)?;
-    check_buffer("target image", target, n)?;
-    match weights {
-        None => Ok(R::of(dims.pixels() as f64)),
+    let total = match weights {
+        None => dims.pixels() as f64,
         Some(w) => {
             check_buffer("loss weights", w, dims.pixels())?;
-            if let Some(i) = w.iter().position(|&v| v < R::zero()) {
-                bail!("loss weight of pixel {i} is negative ({})", w[i]);
-            }
-            Ok(w.iter().fold(R::zero(), |a, &b| a + b))
+            w.iter().map(|v| v.f64()).sum()
         }
-    }
+    };
+    Ok(Normalization::whole(total))
 }
 
 /// Weighted mean absolute error and its (sub)gradient (0 where equal).
@@ -79,77 +496,23 @@ pub fn l1<R: Real>(
     target: &[R],
     weights: Option<&[R]>,
 ) -> Result<LossGrad<R>> {
-    let wsum = check(dims, rendered, target, weights)?;
-    let mut grad = vec![R::zero(); rendered.len()];
-    if wsum <= R::zero() {
-        return Ok(LossGrad {
-            value: R::zero(),
-            grad,
-        });
-    }
-    let norm = R::one() / (wsum * R::of(dims.channels as f64));
-    let mut value = R::zero();
-    for p in 0..dims.pixels() {
-        let w = weights.map_or(R::one(), |w| w[p]) * norm;
-        for c in 0..dims.channels {
-            let i = p * dims.channels + c;
-            let d = rendered[i] - target[i];
-            value += w * d.abs();
-            grad[i] = if d > R::zero() {
-                w
-            } else if d < R::zero() {
-                -w
-            } else {
-                R::zero()
-            };
-        }
-    }
-    Ok(LossGrad { value, grad })
-}
-
-fn gaussian_taps<R: Real>() -> [R; SSIM_WINDOW] {
-    let half = (SSIM_WINDOW / 2) as f64;
-    let raw: Vec<f64> = (0..SSIM_WINDOW)
-        .map(|i| (-(i as f64 - half).powi(2) / (2.0 * SSIM_SIGMA * SSIM_SIGMA)).exp())
-        .collect();
-    let sum: f64 = raw.iter().sum();
-    std::array::from_fn(|i| R::of(raw[i] / sum))
-}
-
-/// Separable Gaussian filter of a planar H×W image with zero padding. The
-/// kernel is symmetric, so this is also its own adjoint.
-fn blur<R: Real>(
-    src: &[R],
-    width: usize,
-    height: usize,
-    taps: &[R; SSIM_WINDOW],
-    tmp: &mut [R],
-    dst: &mut [R],
-) {
-    let half = SSIM_WINDOW / 2;
-    for y in 0..height {
-        let row = &src[y * width..(y + 1) * width];
-        for x in 0..width {
-            let lo = x.saturating_sub(half);
-            let hi = (x + half).min(width - 1);
-            let mut acc = R::zero();
-            for (xx, &v) in row.iter().enumerate().take(hi + 1).skip(lo) {
-                acc += taps[xx + half - x] * v;
-            }
-            tmp[y * width + x] = acc;
-        }
-    }
-    for y in 0..height {
-        let lo = y.saturating_sub(half);
-        let hi = (y + half).min(height - 1);
-        for x in 0..width {
-            let mut acc = R::zero();
-            for yy in lo..=hi {
-                acc += taps[yy + half - y] * tmp[yy * width + x];
-            }
-            dst[y * width + x] = acc;
-        }
-    }
+    let norm = whole_image_norm(dims, weights)?;
+    let mut loss = PhotometricLoss::new();
+    let (value, _, _) = loss.run(
+        dims,
+        rendered,
+        target,
+        weights,
+        norm,
+        [1.0, 0.0],
+        false,
+        true,
+        1,
+    )?;
+    Ok(LossGrad {
+        value: R::of(value),
+        grad: loss.grad,
+    })
 }
 
 /// Weighted mean SSIM and its gradient with respect to `rendered` (the target is constant).
@@ -159,73 +522,23 @@ pub fn ssim<R: Real>(
     target: &[R],
     weights: Option<&[R]>,
 ) -> Result<LossGrad<R>> {
-    let wsum = check(dims, rendered, target, weights)?;
-    let (w, h, nc) = (dims.width, dims.height, dims.channels);
-    let n = w * h;
-    let mut grad = vec![R::zero(); rendered.len()];
-    if wsum <= R::zero() {
-        return Ok(LossGrad {
-            value: R::zero(),
-            grad,
-        });
-    }
-    let norm = R::one() / (wsum * R::of(nc as f64));
-    let taps = gaussian_taps::<R>();
-    let (c1, c2) = (R::of(SSIM_C1), R::of(SSIM_C2));
-    let two = R::of(2.0);
-    let plane = || vec![R::zero(); n];
-    let (mut x, mut y, mut prod, mut tmp) = (plane(), plane(), plane(), plane());
-    let (mut mx, mut my, mut sxx, mut syy, mut sxy) = (plane(), plane(), plane(), plane(), plane());
-    let (mut ga, mut gb, mut gc) = (plane(), plane(), plane());
-    let (mut ba, mut bb, mut bc) = (plane(), plane(), plane());
-    let mut value = R::zero();
-    for ch in 0..nc {
-        for p in 0..n {
-            x[p] = rendered[p * nc + ch];
-            y[p] = target[p * nc + ch];
-        }
-        blur(&x, w, h, &taps, &mut tmp, &mut mx);
-        blur(&y, w, h, &taps, &mut tmp, &mut my);
-        for p in 0..n {
-            prod[p] = x[p] * x[p];
-        }
-        blur(&prod, w, h, &taps, &mut tmp, &mut sxx);
-        for p in 0..n {
-            prod[p] = y[p] * y[p];
-        }
-        blur(&prod, w, h, &taps, &mut tmp, &mut syy);
-        for p in 0..n {
-            prod[p] = x[p] * y[p];
-        }
-        blur(&prod, w, h, &taps, &mut tmp, &mut sxy);
-        for p in 0..n {
-            let (mux, muy) = (mx[p], my[p]);
-            let vx = sxx[p] - mux * mux;
-            let vy = syy[p] - muy * muy;
-            let cxy = sxy[p] - mux * muy;
-            let a1 = two * mux * muy + c1;
-            let a2 = two * cxy + c2;
-            let b1 = mux * mux + muy * muy + c1;
-            let b2 = vx + vy + c2;
-            let s = a1 * a2 / (b1 * b2);
-            let u = weights.map_or(R::one(), |wt| wt[p]) * norm;
-            value += u * s;
-            let ds_dmux = two * muy * a2 / (b1 * b2) - two * mux * s / b1;
-            let ds_dvx = -s / b2;
-            let ds_dcxy = two * a1 / (b1 * b2);
-            // μx also enters σx² = E[x²] − μx² and σxy = E[xy] − μx·μy.
-            ga[p] = u * (ds_dmux - two * mux * ds_dvx - muy * ds_dcxy);
-            gb[p] = u * ds_dvx;
-            gc[p] = u * ds_dcxy;
-        }
-        blur(&ga, w, h, &taps, &mut tmp, &mut ba);
-        blur(&gb, w, h, &taps, &mut tmp, &mut bb);
-        blur(&gc, w, h, &taps, &mut tmp, &mut bc);
-        for p in 0..n {
-            grad[p * nc + ch] = ba[p] + two * x[p] * bb[p] + y[p] * bc[p];
-        }
-    }
-    Ok(LossGrad { value, grad })
+    let norm = whole_image_norm(dims, weights)?;
+    let mut loss = PhotometricLoss::new();
+    let (_, value, _) = loss.run(
+        dims,
+        rendered,
+        target,
+        weights,
+        norm,
+        [0.0, 1.0],
+        true,
+        true,
+        1,
+    )?;
+    Ok(LossGrad {
+        value: R::of(value),
+        grad: loss.grad,
+    })
 }
 
 /// `(1 − λ)·L1 + λ·(1 − SSIM)` (λ = 0.2 in the reference) and its gradient.
@@ -236,24 +549,11 @@ pub fn photometric<R: Real>(
     weights: Option<&[R]>,
     lambda_dssim: f64,
 ) -> Result<LossGrad<R>> {
-    if !(0.0..=1.0).contains(&lambda_dssim) {
-        bail!("lambda_dssim = {lambda_dssim} must lie in [0, 1]");
-    }
-    let l = l1(dims, rendered, target, weights)?;
-    let s = ssim(dims, rendered, target, weights)?;
-    let (wl, ws) = (R::of(1.0 - lambda_dssim), R::of(lambda_dssim));
-    // With no supervised pixel both parts are 0 and so is the loss (not λ·(1 − 0)).
-    let supervised = weights.is_none_or(|w| w.iter().any(|&v| v > R::zero()));
-    let value = if supervised {
-        wl * l.value + ws * (R::one() - s.value)
-    } else {
-        R::zero()
-    };
-    let grad = l
-        .grad
-        .iter()
-        .zip(&s.grad)
-        .map(|(&gl, &gs)| wl * gl - ws * gs)
-        .collect();
-    Ok(LossGrad { value, grad })
+    let norm = whole_image_norm(dims, weights)?;
+    let mut loss = PhotometricLoss::new();
+    let value = loss.evaluate(dims, rendered, target, weights, norm, lambda_dssim, true, 1)?;
+    Ok(LossGrad {
+        value: R::of(value.total),
+        grad: loss.grad,
+    })
 }

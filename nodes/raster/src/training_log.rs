@@ -53,6 +53,10 @@ pub struct TrainingLog {
     /// Held-out PSNR of the returned model (after the final prune).
     pub final_psnr: f64,
     pub final_faces: usize,
+    /// Mean share of the frame a training step rendered and scored (1 = whole
+    /// frames; an object's steps render only its footprint). Absent in older logs.
+    #[serde(default)]
+    pub rendered_fraction: Option<f64>,
     pub steps: Vec<StepRecord>,
     pub evals: Vec<EvalRecord>,
     /// Schedule events (connectivity step, final prune, early stop) in words.

@@ -11,6 +11,9 @@ use anyhow::{Result, bail};
 pub struct AdamGroup {
     pub name: String,
     pub lr: f64,
+    /// Columns from `split` on learn at `lr_rest` instead of `lr` (SH bands above DC).
+    pub split: usize,
+    pub lr_rest: f64,
     /// Values per row (3 for positions, 48 for SH, 1 for opacity logits).
     pub width: usize,
     /// Number of `step` calls applied to this group (bias correction).
@@ -74,12 +77,25 @@ impl Adam {
         self.groups.push(AdamGroup {
             name: name.into(),
             lr,
+            split: width.max(1),
+            lr_rest: lr,
             width: width.max(1),
             steps: 0,
             m: vec![0.0; rows * width.max(1)],
             v: vec![0.0; rows * width.max(1)],
         });
         self.groups.len() - 1
+    }
+
+    /// Columns `split..width` of `group` learn at `lr_rest` from now on.
+    pub fn set_column_split(&mut self, group: usize, split: usize, lr_rest: f64) -> Result<()> {
+        if !lr_rest.is_finite() || lr_rest < 0.0 {
+            bail!("learning rate {lr_rest} must be finite and non-negative");
+        }
+        let g = self.group_mut(group)?;
+        g.split = split.min(g.width);
+        g.lr_rest = lr_rest;
+        Ok(())
     }
 
     pub fn set_lr(&mut self, group: usize, lr: f64) -> Result<()> {
@@ -102,6 +118,21 @@ impl Adam {
     /// `m ← β1·m + (1−β1)·g`, `v ← β2·v + (1−β2)·g²`,
     /// `p ← p − lr·m̂/(√v̂ + ε)` with `m̂ = m/(1−β1^t)`, `v̂ = v/(1−β2^t)`.
     pub fn step(&mut self, group: usize, params: &mut [f32], grads: &[f32]) -> Result<()> {
+        let width = self.group_mut(group)?.width;
+        self.step_columns(group, params, grads, width)
+    }
+
+    /// [`Adam::step`] restricted to the first `active` columns of every row:
+    /// the others must have zero gradients and zero moments (an SH band not
+    /// yet switched on), which leaves them unchanged, so skipping them is exact.
+    /// After the update every changed parameter is checked to be finite.
+    pub fn step_columns(
+        &mut self,
+        group: usize,
+        params: &mut [f32],
+        grads: &[f32],
+        active: usize,
+    ) -> Result<()> {
         let (b1, b2, eps) = (self.beta1, self.beta2, self.eps);
         let g = self.group_mut(group)?;
         if params.len() != g.m.len() || grads.len() != g.m.len() {
@@ -113,6 +144,7 @@ impl Adam {
                 g.m.len()
             );
         }
+        let (w, active) = (g.width, active.min(g.width));
         if let Some(i) = grads.iter().position(|x| !x.is_finite()) {
             bail!(
                 "Adam group {:?}: gradient {i} is {} (not finite)",
@@ -122,21 +154,52 @@ impl Adam {
         }
         g.steps += 1;
         let t = g.steps as i32;
+        // m̂/(√v̂ + ε) = (m/(1−β1^t)) / (√v/√(1−β2^t) + ε), in f32 as on the device.
+        let (b1f, b2f) = (b1 as f32, b2 as f32);
+        let (c1, c2) = ((1.0 - b1) as f32, (1.0 - b2) as f32);
+        let inv_sqrt_bc2 = (1.0 / (1.0 - b2.powi(t)).sqrt()) as f32;
         let bc1 = 1.0 - b1.powi(t);
-        let bc2 = 1.0 - b2.powi(t);
-        let lr = g.lr;
-        for ((p, &gr), (m, v)) in params
-            .iter_mut()
-            .zip(grads)
-            .zip(g.m.iter_mut().zip(g.v.iter_mut()))
-        {
-            let gr = gr as f64;
-            let m_new = b1 * (*m as f64) + (1.0 - b1) * gr;
-            let v_new = b2 * (*v as f64) + (1.0 - b2) * gr * gr;
-            *m = m_new as f32;
-            *v = v_new as f32;
-            let update = lr * (m_new / bc1) / ((v_new / bc2).sqrt() + eps);
-            *p = (*p as f64 - update) as f32;
+        let eps = eps as f32;
+        let spans = [
+            (0, g.split.min(active), (g.lr / bc1) as f32),
+            (g.split.min(active), active, (g.lr_rest / bc1) as f32),
+        ];
+        let mut finite = true;
+        let rows = g.m.len() / w;
+        for (lo, hi, step) in spans.into_iter().filter(|s| s.0 < s.1) {
+            // Whole rows are one contiguous run; otherwise one run per row.
+            let (runs, run_len) = if hi - lo == w {
+                (1, rows * w)
+            } else {
+                (rows, hi - lo)
+            };
+            for run in 0..runs {
+                let start = if runs == 1 { 0 } else { run * w + lo };
+                let r = start..start + run_len;
+                let (p, gr) = (&mut params[r.clone()], &grads[r.clone()]);
+                let (m, v) = (&mut g.m[r.clone()], &mut g.v[r]);
+                for i in 0..p.len() {
+                    let mi = b1f * m[i] + c1 * gr[i];
+                    let vi = b2f * v[i] + c2 * gr[i] * gr[i];
+                    m[i] = mi;
+                    v[i] = vi;
+                    p[i] -= step * mi / (vi.sqrt() * inv_sqrt_bc2 + eps);
+                    finite &= p[i].is_finite();
+                }
+            }
+        }
+        if !finite {
+            // Found only on the slow path: which value overflowed.
+            let i = params.iter().position(|x| !x.is_finite()).unwrap_or(0);
+            bail!(
+                "Adam group {:?}: value {i} (row {}) is not finite ({}) after a step with \
+                 learning rate {} and gradient {}",
+                g.name,
+                i / w,
+                params[i],
+                if i % w < g.split { g.lr } else { g.lr_rest },
+                grads[i]
+            );
         }
         Ok(())
     }
@@ -155,15 +218,15 @@ impl Adam {
         }
         for g in &mut self.groups {
             let w = g.width;
-            let filter = |src: &[f32]| -> Vec<f32> {
-                src.chunks_exact(w)
-                    .zip(keep)
-                    .filter(|(_, k)| **k)
-                    .flat_map(|(row, _)| row.iter().copied())
-                    .collect()
-            };
-            g.m = filter(&g.m);
-            g.v = filter(&g.v);
+            // In place: surviving rows move down, in order.
+            let mut next = 0;
+            for (row, _) in keep.iter().enumerate().filter(|(_, k)| **k) {
+                g.m.copy_within(row * w..(row + 1) * w, next * w);
+                g.v.copy_within(row * w..(row + 1) * w, next * w);
+                next += 1;
+            }
+            g.m.truncate(next * w);
+            g.v.truncate(next * w);
         }
         Ok(())
     }

@@ -105,6 +105,8 @@ pub struct VertexEdit {
     pub keep: Vec<bool>,
     /// Vertices appended after the kept ones.
     pub appended: usize,
+    /// Per face after the edit: the face before the edit it is (kept) or comes from (split).
+    pub face_origin: Vec<u32>,
 }
 
 /// Splits each selected face into 4 at its edge midpoints. A midpoint is one
@@ -153,15 +155,18 @@ pub fn subdivide_faces(model: &mut Model<f32>, selected: &[usize]) -> Result<Ver
         let ca = mid(c, a)?;
         children.extend([[a, ab, ca], [ab, b, bc], [ca, bc, c], [ab, bc, ca]]);
     }
-    let mut faces: Vec<[u32; 3]> = (0..t)
-        .filter(|&f| !is_selected[f])
-        .map(|f| model.faces[f])
-        .collect();
+    let kept = (0..t).filter(|&f| !is_selected[f]);
+    let mut faces: Vec<[u32; 3]> = kept.clone().map(|f| model.faces[f]).collect();
     faces.extend(children);
     model.faces = faces;
+    let mut face_origin: Vec<u32> = kept.map(|f| f as u32).collect();
+    for f in (0..t).filter(|&f| is_selected[f]) {
+        face_origin.extend([f as u32; 4]);
+    }
     Ok(VertexEdit {
         keep: vec![true; old_vertices],
         appended: model.vertices.len() - old_vertices,
+        face_origin,
     })
 }
 
@@ -175,15 +180,17 @@ pub fn prune_faces(model: &mut Model<f32>, keep_face: &[bool]) -> Result<VertexE
             model.faces.len()
         );
     }
-    let faces: Vec<[u32; 3]> = model
-        .faces
+    let face_origin: Vec<u32> = (0..keep_face.len() as u32)
+        .filter(|&f| keep_face[f as usize])
+        .collect();
+    let faces: Vec<[u32; 3]> = face_origin
         .iter()
-        .zip(keep_face)
-        .filter(|(_, k)| **k)
-        .map(|(f, _)| *f)
+        .map(|&f| model.faces[f as usize])
         .collect();
     model.faces = faces;
-    remove_unreferenced_vertices(model)
+    let mut edit = remove_unreferenced_vertices(model)?;
+    edit.face_origin = face_origin;
+    Ok(edit)
 }
 
 /// Drops vertices no face references and renumbers the faces.
@@ -214,7 +221,11 @@ pub fn remove_unreferenced_vertices(model: &mut Model<f32>) -> Result<VertexEdit
     retain_by_mask(&mut model.vertices, &keep);
     retain_by_mask(&mut model.sh, &keep);
     retain_by_mask(&mut model.opacity_logits, &keep);
-    Ok(VertexEdit { keep, appended: 0 })
+    Ok(VertexEdit {
+        keep,
+        appended: 0,
+        face_origin: (0..model.faces.len() as u32).collect(),
+    })
 }
 
 fn retain_by_mask<T>(rows: &mut Vec<T>, keep: &[bool]) {

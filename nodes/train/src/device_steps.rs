@@ -5,18 +5,16 @@
 //! Parameters cross to the host only when an event needs the model, losses
 //! only at the loss-log points.
 
-use crate::trainer::{ComponentData, Optim, supervision_parts};
+use crate::optim::Optim;
+use crate::supervision::{ComponentData, supervision_parts};
 use anyhow::{Result, bail};
 use objectsplat_raster::loss::DEFAULT_LAMBDA_DSSIM;
-use objectsplat_raster::model::SH_COEFFS;
 use objectsplat_raster::{Model, RenderSettings};
 use objectsplat_wgpu::WgpuBackend;
 use objectsplat_wgpu::training::{
     AdamSettings, DeviceTrainer, LearningRates, Moments, OptimizerState, Step, TrainingView,
 };
 use std::collections::VecDeque;
-
-const SH_REST: usize = 3 * (SH_COEFFS - 1);
 
 /// Which side holds the newest parameters.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -40,63 +38,39 @@ pub(crate) struct DeviceSteps {
 }
 
 impl Optim {
-    fn device_state(&self) -> Result<OptimizerState> {
+    fn device_state(&self) -> OptimizerState {
         let g = &self.adam.groups;
-        let (dc, rest) = (&g[self.sh_dc], &g[self.sh_rest]);
-        if dc.steps != rest.steps {
-            bail!(
-                "the SH groups have taken {} and {} Adam steps; the device steps them together",
-                dc.steps,
-                rest.steps
-            );
-        }
-        let interleave = |a: &[f32], b: &[f32]| -> Vec<f32> {
-            a.chunks_exact(3)
-                .zip(b.chunks_exact(SH_REST))
-                .flat_map(|(d, r)| d.iter().chain(r).copied())
-                .collect()
-        };
         let moments = |i: usize| Moments {
             first: g[i].first_moment().to_vec(),
             second: g[i].second_moment().to_vec(),
             steps: g[i].steps,
         };
-        Ok(OptimizerState {
+        // The SH group's rows are the device's layout already (16×3 per vertex, DC first).
+        OptimizerState {
             positions: moments(self.vertices),
-            sh: Moments {
-                first: interleave(dc.first_moment(), rest.first_moment()),
-                second: interleave(dc.second_moment(), rest.second_moment()),
-                steps: dc.steps,
-            },
+            sh: moments(self.sh),
             opacity_logits: moments(self.opacity),
-        })
+        }
     }
 
     fn set_device_state(&mut self, state: OptimizerState) -> Result<()> {
-        let split = |values: &[f32]| -> (Vec<f32>, Vec<f32>) {
-            let rows = values.chunks_exact(3 + SH_REST);
-            (
-                rows.clone().flat_map(|r| r[..3].iter().copied()).collect(),
-                rows.flat_map(|r| r[3..].iter().copied()).collect(),
-            )
-        };
-        let (dc_first, rest_first) = split(&state.sh.first);
-        let (dc_second, rest_second) = split(&state.sh.second);
         let g = &mut self.adam.groups;
-        let p = state.positions;
-        g[self.vertices].set_moments(p.first, p.second, p.steps)?;
-        g[self.sh_dc].set_moments(dc_first, dc_second, state.sh.steps)?;
-        g[self.sh_rest].set_moments(rest_first, rest_second, state.sh.steps)?;
-        let o = state.opacity_logits;
-        g[self.opacity].set_moments(o.first, o.second, o.steps)
+        for (group, m) in [
+            (self.vertices, state.positions),
+            (self.sh, state.sh),
+            (self.opacity, state.opacity_logits),
+        ] {
+            g[group].set_moments(m.first, m.second, m.steps)?;
+        }
+        Ok(())
     }
 
     fn learning_rates(&self) -> LearningRates {
         let g = &self.adam.groups;
         LearningRates {
             positions: g[self.vertices].lr,
-            sh_dc: g[self.sh_dc].lr,
-            sh_rest: g[self.sh_rest].lr,
+            sh_dc: g[self.sh].lr,
+            sh_rest: g[self.sh].lr_rest,
             opacity: g[self.opacity].lr,
         }
     }
@@ -183,7 +157,7 @@ impl DeviceSteps {
         render: RenderSettings,
     ) -> Result<()> {
         if self.newest == Newest::Host {
-            self.trainer.load(model, &optim.device_state()?)?;
+            self.trainer.load(model, &optim.device_state())?;
             self.uploads += 1;
         }
         self.trainer.step(&Step {

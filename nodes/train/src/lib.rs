@@ -15,12 +15,16 @@ pub mod connectivity;
 pub mod delaunay;
 pub mod densify;
 mod device_steps;
+pub mod face_stats;
+mod host_steps;
 pub mod init;
+pub mod optim;
 pub mod schedule;
 
 pub use adam::{Adam, LogLinearDecay};
 pub use schedule::Schedule;
 pub mod node;
+pub mod supervision;
 pub mod trainer;
 
 pub use node::register;

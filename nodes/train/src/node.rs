@@ -1,7 +1,7 @@
 //! The `train` node: one component (fanned out over `[Component]` in graphs)
 //! and the sparse points → a trained Model.
 
-use crate::init::{ComponentMasks, InitSettings};
+use crate::init::ComponentMasks;
 use crate::schedule::Schedule;
 use crate::trainer::{Checkpoint, ComponentData, TrainSettings, train_component};
 use anyhow::{Result, bail};
@@ -43,7 +43,7 @@ pub struct TrainNode;
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("train", "2")
+        NodeSpec::new("train", "3")
             .doc(
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
@@ -142,13 +142,11 @@ impl Node for TrainNode {
         );
         let data = ComponentData::read(&component_dir)?;
         let settings = TrainSettings {
-            schedule,
             seed: seed as u64,
             background_randomization: randomize,
-            fixed_background: [0.0; 3],
-            init: InitSettings::default(),
             world_scale,
             checkpoint,
+            ..TrainSettings::new(schedule)
         };
         let report = {
             let ctx_ref = &*ctx;

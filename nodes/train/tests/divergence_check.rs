@@ -29,6 +29,7 @@ fn absurd_run(backend: &dyn RenderBackend<f32>) -> String {
         init: InitSettings::default(),
         world_scale: 1.0,
         checkpoint: Default::default(),
+        crop: true,
     };
     let err = train_component(backend, &data, &points, &settings, |_, _| true)
         .err()

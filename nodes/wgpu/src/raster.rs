@@ -620,9 +620,11 @@ impl WgpuBackend {
         .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
         let image: Vec<f32> = bytemuck::pod_collect_to_vec(&image);
         let stats: Vec<u32> = bytemuck::pod_collect_to_vec(&stats);
+        // Regions are not cropped on this backend yet: every pass covers the whole image.
         let mut out = RenderOutput {
             width: p.width,
             height: p.height,
+            region: objectsplat_raster::backend::PixelRect::full(p.width, p.height),
             color: vec![0.0; pixels * 3],
             alpha: vec![0.0; pixels],
             depth: vec![0.0; pixels],

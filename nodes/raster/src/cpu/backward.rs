@@ -47,7 +47,7 @@ impl<R: Real> FacePartial<R> {
     }
 }
 
-/// Upstream gradients, row-major full images.
+/// Upstream gradients, row-major over the rendered region.
 pub struct PixelGrads<'a, R: Real> {
     pub color: &'a [R],
     pub alpha: Option<&'a [R]>,
@@ -73,6 +73,7 @@ pub struct TileScratch<R: Real> {
     hits: Vec<u32>,
 }
 
+/// `background` covers the rendered region (as the gradients do).
 #[allow(clippy::too_many_arguments)]
 pub fn backward_tile<R: Real>(
     grid: &TileGrid,
@@ -154,7 +155,7 @@ pub fn backward_tile<R: Real>(
     let mut behind = [R::zero(); TILE_PIXELS];
     for y in y0..y1 {
         for x in x0..x1 {
-            let (i, pix) = (local(x, y), (y * grid.width + x) as usize);
+            let (i, pix) = (local(x, y), grid.rect.index(x, y));
             let g = [0, 1, 2].map(|ch| grads.color[pix * 3 + ch]);
             let ga = grads.alpha.map_or(R::zero(), |a| a[pix]);
             gd[i] = grads.depth.map_or(R::zero(), |d| d[pix]);

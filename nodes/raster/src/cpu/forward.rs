@@ -160,6 +160,26 @@ pub fn row_span<R: Real>(f: &ScreenFace<R>, y: u32, xa: u32, xb: u32) -> Option<
     Some((lo_int, hi as u32))
 }
 
+/// What shows through where the faces leave transmittance.
+#[derive(Debug, Clone, Copy)]
+pub enum Background<'a, R: Real> {
+    /// A colour per pixel of the whole image (H×W×3, row-major).
+    Image(&'a [R]),
+    /// One colour everywhere.
+    Uniform([R; 3]),
+}
+
+impl<R: Real> Background<'_, R> {
+    /// The colour at row-major image pixel `pixel`.
+    #[inline]
+    pub fn at(&self, pixel: usize) -> [R; 3] {
+        match self {
+            Background::Image(b) => [b[3 * pixel], b[3 * pixel + 1], b[3 * pixel + 2]],
+            Background::Uniform(c) => *c,
+        }
+    }
+}
+
 /// Composites one tile front to back. Faces are walked in depth order and
 /// each visits only the tile pixels it can cover, keeping per-pixel state;
 /// every pixel therefore sees its fragments in exactly the per-pixel order.
@@ -171,7 +191,7 @@ pub fn render_tile<R: Real>(
     tile: usize,
     faces: &[ScreenFace<R>],
     entries: &[u32],
-    background: &[R],
+    background: &Background<'_, R>,
     rules: &PixelRules<R>,
     pixels: &mut [PixelOut<R>],
     stats: &mut [EntryStats<R>],
@@ -232,10 +252,10 @@ pub fn render_tile<R: Real>(
     for y in y0..y1 {
         for x in x0..x1 {
             let i = ((y - y0) * TILE + (x - x0)) as usize;
-            let pix = ((y * grid.width + x) * 3) as usize;
+            let bg = background.at(y as usize * grid.image_width as usize + x as usize);
             let out = &mut pixels[i];
             for ch in 0..3 {
-                out.color[ch] += t[i] * background[pix + ch];
+                out.color[ch] += t[i] * bg[ch];
             }
             out.transmittance = t[i];
         }

@@ -1,5 +1,10 @@
 //! The CPU reference backend: multi-threaded over tiles (crossbeam scoped
 //! threads), deterministic for any thread count, generic over f32/f64.
+//!
+//! [`CpuBackend::forward_into`] and [`CpuBackend::backward_into`] work in a
+//! caller-held [`CpuWorkspace`] whose buffers are reused from pass to pass, so
+//! a training loop allocates nothing once they have grown to the model and the
+//! image; the [`RenderBackend`] methods wrap them with a fresh workspace.
 
 pub mod backward;
 pub mod binning;
@@ -7,19 +12,22 @@ pub mod forward;
 pub mod preprocess;
 
 use crate::backend::{
-    OutputGrads, RenderBackend, RenderOutput, RenderSettings, SavedForward, check_buffer,
+    OutputGrads, PixelRect, Region, RenderBackend, RenderOutput, RenderSettings, SavedForward,
+    check_buffer,
 };
 use crate::model::{Model, ModelGrads, sigmoid};
-use crate::parallel::{chunk_size, for_chunks_mut, run_jobs};
+use crate::parallel::{chunk_size, for_chunks_mut, run_iter, run_iter_pooled};
 use crate::real::Real;
 use crate::sh;
 use anyhow::{Context, Result, bail};
-use backward::{CornerGrads, FacePartial, PixelGrads, backward_tile, face_backward};
-use binning::{TILE, TILE_PIXELS, TileGrid, TileLists, bin_faces};
+use backward::{CornerGrads, FacePartial, PixelGrads, TileScratch, backward_tile, face_backward};
+use binning::{SplitBy, TILE, TILE_PIXELS, TileGrid, TileLists};
+pub use forward::Background;
 use forward::{EntryStats, PixelOut, PixelRules, render_tile};
 use objectsplat_core::Camera;
 use preprocess::{
-    CameraParams, ScreenFace, VertexData, preprocess_faces, preprocess_vertices, shade_vertices,
+    CameraParams, ScreenFace, VertexData, footprint, order_by_tile, preprocess_faces,
+    preprocess_vertices, shade_vertices,
 };
 
 const BACKEND_NAME: &str = "cpu";
@@ -38,24 +46,74 @@ impl CpuBackend {
     }
 }
 
-/// What the forward pass leaves for the backward pass.
-struct CpuSaved<R: Real> {
+/// What a forward pass leaves for its backward pass.
+#[derive(Default)]
+struct ForwardState<R: Real> {
     settings: RenderSettings,
-    camera: CameraParams<R>,
+    camera: Option<CameraParams<R>>,
     vertex_count: usize,
     face_count: usize,
     verts: VertexData<R>,
     faces: Vec<ScreenFace<R>>,
     grid: TileGrid,
     tiles: TileLists,
+    /// The background of the rendered region (its pixels, row-major).
     background: Vec<R>,
+}
+
+/// Scratch of the forward pass.
+#[derive(Default)]
+struct ForwardScratch<R: Real> {
+    slots: Vec<Option<ScreenFace<R>>>,
+    faces: Vec<ScreenFace<R>>,
+    counts: Vec<usize>,
+    used: Vec<bool>,
+    pixels: Vec<PixelOut<R>>,
+    stats: Vec<EntryStats<R>>,
+}
+
+/// Scratch of the backward pass.
+#[derive(Default)]
+struct BackwardScratch<R: Real> {
+    partials: Vec<FacePartial<R>>,
+    d_background: Vec<[R; 3]>,
+    face_entry_offsets: Vec<usize>,
+    cursor: Vec<usize>,
+    face_entries: Vec<usize>,
+    corner_grads: Vec<CornerGrads<R>>,
+    vertex_offsets: Vec<usize>,
+    vertex_corners: Vec<(u32, u8)>,
+    tiles: Vec<TileScratch<R>>,
+}
+
+/// Everything one forward + backward pass needs, kept between passes.
+/// [`CpuWorkspace::output`] holds the last forward's outputs and
+/// [`CpuWorkspace::grads`] the last backward's gradients.
+pub struct CpuWorkspace<R: Real> {
+    state: ForwardState<R>,
+    forward: ForwardScratch<R>,
+    backward: BackwardScratch<R>,
+    pub output: RenderOutput<R>,
+    pub grads: ModelGrads<R>,
+}
+
+impl<R: Real> Default for CpuWorkspace<R> {
+    fn default() -> Self {
+        CpuWorkspace {
+            state: ForwardState::default(),
+            forward: ForwardScratch::default(),
+            backward: BackwardScratch::default(),
+            output: RenderOutput::default(),
+            grads: ModelGrads::zeros(0, 0),
+        }
+    }
 }
 
 fn check_inputs<R: Real>(
     model: &Model<R>,
     camera: &Camera,
     settings: &RenderSettings,
-    background: &[R],
+    background: &Background<'_, R>,
 ) -> Result<()> {
     model.validate().context("invalid model")?;
     camera
@@ -64,288 +122,353 @@ fn check_inputs<R: Real>(
         .context("invalid camera")?;
     settings.validate()?;
     let pixels = camera.width as usize * camera.height as usize;
-    check_buffer("background", background, pixels * 3)
+    match background {
+        Background::Image(b) => check_buffer("background", b, pixels * 3),
+        Background::Uniform(c) => check_buffer("background colour", c, 3),
+    }
+}
+
+/// Resizes `v` to `n` copies of `value` without shrinking its allocation.
+fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
+    v.clear();
+    v.resize(n, value);
 }
 
 impl CpuBackend {
-    /// Renders and keeps the state the backward pass needs.
-    fn forward_impl<R: Real>(
+    /// Renders into `ws.output` and keeps in `ws` what the backward pass needs.
+    pub fn forward_into<R: Real>(
         &self,
+        ws: &mut CpuWorkspace<R>,
         model: &Model<R>,
         camera: &Camera,
         settings: &RenderSettings,
-        background: &[R],
-    ) -> Result<(RenderOutput<R>, CpuSaved<R>)> {
-        check_inputs(model, camera, settings, background)?;
+        background: Background<'_, R>,
+    ) -> Result<()> {
+        check_inputs(model, camera, settings, &background)?;
         let threads = self.threads;
         let cam = CameraParams::<R>::new(camera);
-        let mut verts = preprocess_vertices(model, &cam, threads);
-        let mut faces = preprocess_faces(model, &verts, &cam, settings, threads);
-        shade_vertices(model, &mut verts, &mut faces, settings.sh_degree, threads);
-        let grid = TileGrid::new(camera.width, camera.height);
-        let tiles = bin_faces(&faces, &grid, threads);
+        let (st, fw) = (&mut ws.state, &mut ws.forward);
+        preprocess_vertices(model, &cam, threads, &mut st.verts);
+        preprocess_faces(
+            model,
+            &st.verts,
+            &cam,
+            settings,
+            threads,
+            &mut fw.slots,
+            &mut st.faces,
+        );
+        let (w, h) = (camera.width, camera.height);
+        let region = match settings.region {
+            Region::Full => PixelRect::full(w, h),
+            Region::Footprint { include, margin } => footprint(&st.faces)
+                .union(include)
+                .grown_to_tiles(margin, TILE, w, h),
+        };
+        st.grid = TileGrid::new(w, h, region);
+        order_by_tile(&mut st.faces, &st.grid, &mut fw.faces, &mut fw.counts);
+        shade_vertices(
+            model,
+            &mut st.verts,
+            &mut st.faces,
+            settings.sh_degree,
+            threads,
+            &mut fw.used,
+        );
+        st.tiles.bin(&st.faces, &st.grid, threads);
         let rules = PixelRules::<R>::new(settings);
 
+        let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
         let tile_count = grid.tile_count();
-        let mut pixel_buf = vec![PixelOut::<R>::default(); tile_count * TILE_PIXELS];
-        let mut stats = vec![EntryStats::<R>::default(); tiles.entries.len()];
+        refill(
+            &mut fw.pixels,
+            tile_count * TILE_PIXELS,
+            PixelOut::default(),
+        );
+        refill(&mut fw.stats, tiles.entries.len(), EntryStats::default());
         {
-            let mut jobs = Vec::with_capacity(tile_count);
-            let mut pix_rest: &mut [PixelOut<R>] = &mut pixel_buf;
-            let mut stat_rest: &mut [EntryStats<R>] = &mut stats;
-            for t in 0..tile_count {
-                let (p, pr) = pix_rest.split_at_mut(TILE_PIXELS);
-                let (s, sr) = stat_rest.split_at_mut(tiles.offsets[t + 1] - tiles.offsets[t]);
-                pix_rest = pr;
-                stat_rest = sr;
-                jobs.push((t, p, s));
-            }
-            run_jobs(
+            let jobs = fw
+                .pixels
+                .chunks_mut(TILE_PIXELS)
+                .zip(SplitBy::new(&mut fw.stats[..], &tiles.offsets))
+                .enumerate();
+            run_iter(
                 threads,
                 jobs,
                 || (),
-                |_, (t, p, s)| {
+                |_, (t, (p, s))| {
                     let entries = &tiles.entries[tiles.offsets[t]..tiles.offsets[t + 1]];
-                    render_tile(&grid, t, &faces, entries, background, &rules, p, s);
+                    render_tile(grid, t, faces, entries, &background, &rules, p, s);
                 },
             );
         }
 
-        let (w, h) = (camera.width as usize, camera.height as usize);
-        let mut out = RenderOutput {
-            width: camera.width,
-            height: camera.height,
-            color: vec![R::zero(); w * h * 3],
-            alpha: vec![R::zero(); w * h],
-            depth: vec![R::zero(); w * h],
-            median_depth: vec![R::zero(); w * h],
-            face_max_weight: vec![R::zero(); model.face_count()],
-            face_pixel_count: vec![0; model.face_count()],
-        };
+        let out = &mut ws.output;
+        let n = region.pixels();
+        out.width = w;
+        out.height = h;
+        out.region = region;
+        refill(&mut out.color, n * 3, R::zero());
+        refill(&mut out.alpha, n, R::zero());
+        refill(&mut out.depth, n, R::zero());
+        refill(&mut out.median_depth, n, R::zero());
+        refill(&mut out.face_max_weight, model.face_count(), R::zero());
+        refill(&mut out.face_pixel_count, model.face_count(), 0);
+        refill(&mut st.background, n * 3, R::zero());
         for t in 0..tile_count {
             let [x0, y0, x1, y1] = grid.tile_rect(t);
             for y in y0..y1 {
                 for x in x0..x1 {
-                    let src = &pixel_buf[t * TILE_PIXELS + ((y - y0) * TILE + (x - x0)) as usize];
-                    let i = y as usize * w + x as usize;
+                    let src = &fw.pixels[t * TILE_PIXELS + ((y - y0) * TILE + (x - x0)) as usize];
+                    let i = region.index(x, y);
                     out.color[i * 3..i * 3 + 3].copy_from_slice(&src.color);
                     out.alpha[i] = R::one() - src.transmittance;
                     out.depth[i] = src.depth;
                     out.median_depth[i] = src.median_depth;
+                    let b = background.at(y as usize * w as usize + x as usize);
+                    st.background[i * 3..i * 3 + 3].copy_from_slice(&b);
                 }
             }
         }
-        for (e, st) in stats.iter().enumerate() {
+        for (e, s) in fw.stats.iter().enumerate() {
             let f = faces[tiles.entries[e] as usize].face as usize;
-            out.face_max_weight[f] = out.face_max_weight[f].max(st.max_weight);
-            out.face_pixel_count[f] += st.pixels;
+            out.face_max_weight[f] = out.face_max_weight[f].max(s.max_weight);
+            out.face_pixel_count[f] += s.pixels;
         }
-        let saved = CpuSaved {
-            settings: settings.clone(),
-            camera: cam,
-            vertex_count: model.vertex_count(),
-            face_count: model.face_count(),
-            verts,
-            faces,
-            grid,
-            tiles,
-            background: background.to_vec(),
-        };
-        Ok((out, saved))
+        st.settings = settings.clone();
+        st.camera = Some(cam);
+        st.vertex_count = model.vertex_count();
+        st.face_count = model.face_count();
+        Ok(())
     }
 
-    fn backward_impl<R: Real>(
+    /// Back-propagates `grads` (covering the last forward's region) to the
+    /// model's parameters and the region's background, into `ws.grads`.
+    /// `model` must be the one the forward pass rendered.
+    pub fn backward_into<R: Real>(
         &self,
+        ws: &mut CpuWorkspace<R>,
         model: &Model<R>,
-        saved: &CpuSaved<R>,
         grads: &OutputGrads<'_, R>,
-    ) -> Result<ModelGrads<R>> {
-        if model.vertex_count() != saved.vertex_count || model.face_count() != saved.face_count {
-            bail!(
-                "backward got a model with {} vertices / {} faces, but the forward pass rendered {} / {}",
-                model.vertex_count(),
-                model.face_count(),
-                saved.vertex_count,
-                saved.face_count
-            );
-        }
-        let (grid, tiles, faces) = (&saved.grid, &saved.tiles, &saved.faces);
-        let pixels = grid.width as usize * grid.height as usize;
-        grads.validate(pixels)?;
-        let threads = self.threads;
-        let rules = PixelRules::<R>::new(&saved.settings);
-        let pixel_grads = PixelGrads {
-            color: grads.color,
-            alpha: grads.alpha,
-            depth: grads.depth,
-            median_depth: grads.median_depth,
-        };
+    ) -> Result<()> {
+        backward_impl(
+            self.threads,
+            &ws.state,
+            &mut ws.backward,
+            &mut ws.grads,
+            model,
+            grads,
+        )
+    }
+}
 
-        // 1. Per (tile, face) partials and the background gradient, tile by tile.
-        let tile_count = grid.tile_count();
-        let mut partials = vec![FacePartial::<R>::default(); tiles.entries.len()];
-        let mut d_bg_tiles = vec![[R::zero(); 3]; tile_count * TILE_PIXELS];
-        {
-            let mut jobs = Vec::with_capacity(tile_count);
-            let mut part_rest: &mut [FacePartial<R>] = &mut partials;
-            let mut bg_rest: &mut [[R; 3]] = &mut d_bg_tiles;
-            for t in 0..tile_count {
-                let (p, pr) = part_rest.split_at_mut(tiles.offsets[t + 1] - tiles.offsets[t]);
-                let (b, br) = bg_rest.split_at_mut(TILE_PIXELS);
-                part_rest = pr;
-                bg_rest = br;
-                jobs.push((t, p, b));
-            }
-            run_jobs(
-                threads,
-                jobs,
-                backward::TileScratch::default,
-                |scratch, (t, p, b)| {
-                    let entries = &tiles.entries[tiles.offsets[t]..tiles.offsets[t + 1]];
-                    backward_tile(
-                        grid,
-                        t,
-                        faces,
-                        entries,
-                        &saved.background,
-                        &rules,
-                        &pixel_grads,
-                        scratch,
-                        p,
-                        b,
-                    );
-                },
-            );
-        }
+fn backward_impl<R: Real>(
+    threads: usize,
+    st: &ForwardState<R>,
+    bw: &mut BackwardScratch<R>,
+    result: &mut ModelGrads<R>,
+    model: &Model<R>,
+    grads: &OutputGrads<'_, R>,
+) -> Result<()> {
+    let Some(cam) = &st.camera else {
+        bail!("backward pass before any forward pass");
+    };
+    if model.vertex_count() != st.vertex_count || model.face_count() != st.face_count {
+        bail!(
+            "backward got a model with {} vertices / {} faces, but the forward pass rendered {} / {}",
+            model.vertex_count(),
+            model.face_count(),
+            st.vertex_count,
+            st.face_count
+        );
+    }
+    let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
+    let pixels = grid.rect.pixels();
+    grads.validate(pixels)?;
+    let rules = PixelRules::<R>::new(&st.settings);
+    let pixel_grads = PixelGrads {
+        color: grads.color,
+        alpha: grads.alpha,
+        depth: grads.depth,
+        median_depth: grads.median_depth,
+    };
 
-        // 2. Per visible face: sum its partials in tile order, then back through the 2D geometry.
-        let mut face_entry_offsets = vec![0usize; faces.len() + 1];
-        for &fi in &tiles.entries {
-            face_entry_offsets[fi as usize + 1] += 1;
-        }
-        for i in 0..faces.len() {
-            face_entry_offsets[i + 1] += face_entry_offsets[i];
-        }
-        let mut cursor = face_entry_offsets.clone();
-        let mut face_entries = vec![0usize; tiles.entries.len()];
-        for (e, &fi) in tiles.entries.iter().enumerate() {
-            face_entries[cursor[fi as usize]] = e;
-            cursor[fi as usize] += 1;
-        }
-        let mut corner_grads = vec![CornerGrads::<R>::default(); faces.len()];
+    // 1. Per (tile, face) partials and the background gradient, tile by tile.
+    let tile_count = grid.tile_count();
+    refill(
+        &mut bw.partials,
+        tiles.entries.len(),
+        FacePartial::default(),
+    );
+    refill(
+        &mut bw.d_background,
+        tile_count * TILE_PIXELS,
+        [R::zero(); 3],
+    );
+    {
+        let jobs = SplitBy::new(&mut bw.partials[..], &tiles.offsets)
+            .zip(bw.d_background.chunks_mut(TILE_PIXELS))
+            .enumerate();
+        run_iter_pooled(
+            threads,
+            jobs,
+            &mut bw.tiles,
+            TileScratch::default,
+            |scratch, (t, (p, b))| {
+                let entries = &tiles.entries[tiles.offsets[t]..tiles.offsets[t + 1]];
+                backward_tile(
+                    grid,
+                    t,
+                    faces,
+                    entries,
+                    &st.background,
+                    &rules,
+                    &pixel_grads,
+                    scratch,
+                    p,
+                    b,
+                );
+            },
+        );
+    }
+
+    // 2. Per visible face: sum its partials in tile order, then back through the 2D geometry.
+    refill(&mut bw.face_entry_offsets, faces.len() + 1, 0);
+    for &fi in &tiles.entries {
+        bw.face_entry_offsets[fi as usize + 1] += 1;
+    }
+    for i in 0..faces.len() {
+        bw.face_entry_offsets[i + 1] += bw.face_entry_offsets[i];
+    }
+    bw.cursor.clear();
+    bw.cursor.extend_from_slice(&bw.face_entry_offsets);
+    refill(&mut bw.face_entries, tiles.entries.len(), 0);
+    for (e, &fi) in tiles.entries.iter().enumerate() {
+        bw.face_entries[bw.cursor[fi as usize]] = e;
+        bw.cursor[fi as usize] += 1;
+    }
+    refill(&mut bw.corner_grads, faces.len(), CornerGrads::default());
+    {
+        let (offsets, entries, partials) = (&bw.face_entry_offsets, &bw.face_entries, &bw.partials);
+        let n = faces.len();
         for_chunks_mut(
             threads,
-            &mut corner_grads,
-            chunk_size(faces.len(), threads, 1024),
+            &mut bw.corner_grads,
+            chunk_size(n, threads, 1024),
             |start, chunk| {
                 for (i, out) in chunk.iter_mut().enumerate() {
                     let fi = start + i;
                     let mut sum = FacePartial::<R>::default();
-                    for &e in &face_entries[face_entry_offsets[fi]..face_entry_offsets[fi + 1]] {
+                    for &e in &entries[offsets[fi]..offsets[fi + 1]] {
                         sum.add(&partials[e]);
                     }
                     *out = face_backward(&faces[fi], &sum);
                 }
             },
         );
-
-        // 3. Per vertex: gather its corners in face order, then projection, SH and opacity backward.
-        let nv = model.vertex_count();
-        let mut vertex_offsets = vec![0usize; nv + 1];
-        for f in faces {
-            for &v in &model.faces[f.face as usize] {
-                vertex_offsets[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..nv {
-            vertex_offsets[i + 1] += vertex_offsets[i];
-        }
-        let mut cursor = vertex_offsets.clone();
-        let mut vertex_corners = vec![(0u32, 0u8); vertex_offsets[nv]];
-        for (fi, f) in faces.iter().enumerate() {
-            for (k, &v) in model.faces[f.face as usize].iter().enumerate() {
-                vertex_corners[cursor[v as usize]] = (fi as u32, k as u8);
-                cursor[v as usize] += 1;
-            }
-        }
-
-        let mut result = ModelGrads::<R>::zeros(nv, pixels);
-        let cam = &saved.camera;
-        let verts = &saved.verts;
-        let floor = R::of(model.opacity_floor);
-        let degree = saved.settings.sh_degree;
-        // Each job owns the same vertex range of the three gradient arrays.
-        let chunk = chunk_size(nv, threads, 1024);
-        let jobs: Vec<_> = result
-            .vertices
-            .chunks_mut(chunk)
-            .zip(result.sh.chunks_mut(chunk))
-            .zip(result.opacity_logits.chunks_mut(chunk))
-            .enumerate()
-            .map(|(j, ((pos, sh), logit))| (j * chunk, pos, sh, logit))
-            .collect();
-        run_jobs(
-            threads,
-            jobs,
-            || (),
-            |_, (start, pos_out, sh_out, logit_out)| {
-                for i in 0..pos_out.len() {
-                    let v = start + i;
-                    let corners = &vertex_corners[vertex_offsets[v]..vertex_offsets[v + 1]];
-                    if corners.is_empty() {
-                        continue;
-                    }
-                    let mut d_screen = [R::zero(); 2];
-                    let mut d_zcam = R::zero();
-                    let mut d_color = [R::zero(); 3];
-                    let mut d_opacity = R::zero();
-                    for &(fi, k) in corners {
-                        let g = &corner_grads[fi as usize];
-                        let k = k as usize;
-                        d_screen[0] += g.d_screen[k][0];
-                        d_screen[1] += g.d_screen[k][1];
-                        d_zcam += g.d_z[k];
-                        for ch in 0..3 {
-                            d_color[ch] += g.d_color[k][ch];
-                        }
-                        d_opacity += g.d_opacity[k];
-                    }
-                    // u = fx·x/z + cx, v = fy·y/z + cy.
-                    let [x, y, z] = verts[v].cam;
-                    let gu = d_screen[0] * cam.fx / z;
-                    let gv = d_screen[1] * cam.fy / z;
-                    let d_cam = [gu, gv, d_zcam - (gu * x + gv * y) / z];
-                    let mut position = cam.to_world_vector(d_cam);
-                    let via_dir = sh::vertex_color_backward(
-                        &model.sh[v],
-                        verts[v].dir,
-                        verts[v].distance,
-                        degree,
-                        verts[v].clamped,
-                        d_color,
-                        &mut sh_out[i],
-                    );
-                    for a in 0..3 {
-                        position[a] += via_dir[a];
-                    }
-                    pos_out[i] = position;
-                    let s = sigmoid(model.opacity_logits[v]);
-                    logit_out[i] = d_opacity * (R::one() - floor) * s * (R::one() - s);
-                }
-            },
-        );
-        for t in 0..tile_count {
-            let [x0, y0, x1, y1] = grid.tile_rect(t);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let i = (y * grid.width + x) as usize;
-                    let src = d_bg_tiles[t * TILE_PIXELS + ((y - y0) * TILE + (x - x0)) as usize];
-                    result.background[i * 3..i * 3 + 3].copy_from_slice(&src);
-                }
-            }
-        }
-        Ok(result)
     }
+
+    // 3. Per vertex: gather its corners in face order, then projection, SH and opacity backward.
+    let nv = model.vertex_count();
+    refill(&mut bw.vertex_offsets, nv + 1, 0);
+    for f in faces {
+        for &v in &model.faces[f.face as usize] {
+            bw.vertex_offsets[v as usize + 1] += 1;
+        }
+    }
+    for i in 0..nv {
+        bw.vertex_offsets[i + 1] += bw.vertex_offsets[i];
+    }
+    bw.cursor.clear();
+    bw.cursor.extend_from_slice(&bw.vertex_offsets);
+    refill(&mut bw.vertex_corners, bw.vertex_offsets[nv], (0, 0));
+    for (fi, f) in faces.iter().enumerate() {
+        for (k, &v) in model.faces[f.face as usize].iter().enumerate() {
+            bw.vertex_corners[bw.cursor[v as usize]] = (fi as u32, k as u8);
+            bw.cursor[v as usize] += 1;
+        }
+    }
+
+    refill(&mut result.vertices, nv, [R::zero(); 3]);
+    refill(&mut result.sh, nv, [[R::zero(); 3]; crate::SH_COEFFS]);
+    refill(&mut result.opacity_logits, nv, R::zero());
+    refill(&mut result.background, pixels * 3, R::zero());
+    let verts = &st.verts;
+    let floor = R::of(model.opacity_floor);
+    let degree = st.settings.sh_degree;
+    let (vertex_offsets, vertex_corners, corner_grads) =
+        (&bw.vertex_offsets, &bw.vertex_corners, &bw.corner_grads);
+    // Each job owns the same vertex range of the three gradient arrays.
+    let chunk = chunk_size(nv, threads, 1024);
+    let jobs = result
+        .vertices
+        .chunks_mut(chunk)
+        .zip(result.sh.chunks_mut(chunk))
+        .zip(result.opacity_logits.chunks_mut(chunk))
+        .enumerate()
+        .map(|(j, ((pos, sh), logit))| (j * chunk, pos, sh, logit));
+    run_iter(
+        threads,
+        jobs,
+        || (),
+        |_, (start, pos_out, sh_out, logit_out)| {
+            for i in 0..pos_out.len() {
+                let v = start + i;
+                let corners = &vertex_corners[vertex_offsets[v]..vertex_offsets[v + 1]];
+                if corners.is_empty() {
+                    continue;
+                }
+                let mut d_screen = [R::zero(); 2];
+                let mut d_zcam = R::zero();
+                let mut d_color = [R::zero(); 3];
+                let mut d_opacity = R::zero();
+                for &(fi, k) in corners {
+                    let g = &corner_grads[fi as usize];
+                    let k = k as usize;
+                    d_screen[0] += g.d_screen[k][0];
+                    d_screen[1] += g.d_screen[k][1];
+                    d_zcam += g.d_z[k];
+                    for ch in 0..3 {
+                        d_color[ch] += g.d_color[k][ch];
+                    }
+                    d_opacity += g.d_opacity[k];
+                }
+                // u = fx·x/z + cx, v = fy·y/z + cy.
+                let [x, y, z] = verts[v].cam;
+                let gu = d_screen[0] * cam.fx / z;
+                let gv = d_screen[1] * cam.fy / z;
+                let d_cam = [gu, gv, d_zcam - (gu * x + gv * y) / z];
+                let mut position = cam.to_world_vector(d_cam);
+                let via_dir = sh::vertex_color_backward(
+                    &model.sh[v],
+                    verts[v].dir,
+                    verts[v].distance,
+                    degree,
+                    verts[v].clamped,
+                    d_color,
+                    &mut sh_out[i],
+                );
+                for a in 0..3 {
+                    position[a] += via_dir[a];
+                }
+                pos_out[i] = position;
+                let s = sigmoid(model.opacity_logits[v]);
+                logit_out[i] = d_opacity * (R::one() - floor) * s * (R::one() - s);
+            }
+        },
+    );
+    let region = grid.rect;
+    for t in 0..tile_count {
+        let [x0, y0, x1, y1] = grid.tile_rect(t);
+        for y in y0..y1 {
+            for x in x0..x1 {
+                let i = region.index(x, y);
+                let src = bw.d_background[t * TILE_PIXELS + ((y - y0) * TILE + (x - x0)) as usize];
+                result.background[i * 3..i * 3 + 3].copy_from_slice(&src);
+            }
+        }
+    }
+    Ok(())
 }
 
 impl<R: Real> RenderBackend<R> for CpuBackend {
@@ -360,8 +483,20 @@ impl<R: Real> RenderBackend<R> for CpuBackend {
         settings: &RenderSettings,
         background: &[R],
     ) -> Result<(RenderOutput<R>, SavedForward)> {
-        let (out, saved) = self.forward_impl(model, camera, settings, background)?;
-        Ok((out, SavedForward::new(BACKEND_NAME, saved)))
+        let mut ws = CpuWorkspace::<R>::default();
+        self.forward_into(
+            &mut ws,
+            model,
+            camera,
+            settings,
+            Background::Image(background),
+        )?;
+        let out = std::mem::take(&mut ws.output);
+        Ok((out, SavedForward::new(BACKEND_NAME, ws.state)))
+    }
+
+    fn as_any(&self) -> Option<&dyn std::any::Any> {
+        Some(self)
     }
 
     fn backward(
@@ -370,7 +505,17 @@ impl<R: Real> RenderBackend<R> for CpuBackend {
         saved: &SavedForward,
         grads: &OutputGrads<'_, R>,
     ) -> Result<ModelGrads<R>> {
-        self.backward_impl(model, saved.state_of::<CpuSaved<R>>(BACKEND_NAME)?, grads)
+        let state = saved.state_of::<ForwardState<R>>(BACKEND_NAME)?;
+        let mut result = ModelGrads::zeros(0, 0);
+        backward_impl(
+            self.threads,
+            state,
+            &mut BackwardScratch::default(),
+            &mut result,
+            model,
+            grads,
+        )?;
+        Ok(result)
     }
 }
 
@@ -382,8 +527,8 @@ pub fn render_model<R: Real>(
     threads: usize,
 ) -> Result<objectsplat_core::Image> {
     let settings = RenderSettings::for_model(model);
-    let pixels = camera.width as usize * camera.height as usize;
-    let bg: Vec<R> = (0..pixels * 3).map(|i| R::of(background[i % 3])).collect();
-    let (out, _) = CpuBackend::new(threads).forward_impl(model, camera, &settings, &bg)?;
-    Ok(out.color_image())
+    let mut ws = CpuWorkspace::<R>::default();
+    let bg = Background::Uniform(background.map(R::of));
+    CpuBackend::new(threads).forward_into(&mut ws, model, camera, &settings, bg)?;
+    Ok(ws.output.color_image())
 }

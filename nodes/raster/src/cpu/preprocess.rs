@@ -9,7 +9,8 @@
 //! and the edge-normal normalisation are the factor `P/L_k`. Differentiating
 //! this expression is the full chain rule through all of them.
 
-use crate::backend::RenderSettings;
+use super::binning::TileGrid;
+use crate::backend::{PixelRect, RenderSettings};
 use crate::model::Model;
 use crate::parallel::{chunk_size, for_chunks_mut};
 use crate::real::Real;
@@ -78,12 +79,14 @@ pub struct VertexRow<R: Real> {
 pub type VertexData<R> = Vec<VertexRow<R>>;
 
 /// Camera-space position, projection, view direction and opacity of every
-/// vertex; colours come later, only for vertices of visible faces ([`shade_vertices`]).
+/// vertex into `rows` (resized to the model); colours come later, only for
+/// vertices of visible faces ([`shade_vertices`]).
 pub fn preprocess_vertices<R: Real>(
     model: &Model<R>,
     cam: &CameraParams<R>,
     threads: usize,
-) -> VertexData<R> {
+    rows: &mut VertexData<R>,
+) {
     let n = model.vertex_count();
     let zero = VertexRow {
         cam: [R::zero(); 3],
@@ -94,10 +97,11 @@ pub fn preprocess_vertices<R: Real>(
         distance: R::zero(),
         opacity: R::zero(),
     };
-    let mut rows = vec![zero; n];
+    rows.clear();
+    rows.resize(n, zero);
     for_chunks_mut(
         threads,
-        &mut rows,
+        rows,
         chunk_size(n, threads, 4096),
         |start, chunk| {
             for (i, row) in chunk.iter_mut().enumerate() {
@@ -124,7 +128,6 @@ pub fn preprocess_vertices<R: Real>(
             }
         },
     );
-    rows
 }
 
 /// Everything the pixel loop needs about one visible face, in a local 2D
@@ -285,18 +288,23 @@ pub fn preprocess_face<R: Real>(
     })
 }
 
+/// The faces that survive culling, in face order, into `visible`; `slots`
+/// is scratch (one per model face).
 pub fn preprocess_faces<R: Real>(
     model: &Model<R>,
     verts: &VertexData<R>,
     cam: &CameraParams<R>,
     settings: &RenderSettings,
     threads: usize,
-) -> Vec<ScreenFace<R>> {
+    slots: &mut Vec<Option<ScreenFace<R>>>,
+    visible: &mut Vec<ScreenFace<R>>,
+) {
     let n = model.face_count();
-    let mut slots: Vec<Option<ScreenFace<R>>> = vec![None; n];
+    slots.clear();
+    slots.resize(n, None);
     for_chunks_mut(
         threads,
-        &mut slots,
+        slots,
         chunk_size(n, threads, 4096),
         |start, chunk| {
             for (i, slot) in chunk.iter_mut().enumerate() {
@@ -304,26 +312,41 @@ pub fn preprocess_faces<R: Real>(
             }
         },
     );
-    let visible: Vec<ScreenFace<R>> = slots.into_iter().flatten().collect();
-    order_by_tile(visible, cam.width)
+    visible.clear();
+    visible.extend(slots.iter().flatten().copied());
+}
+
+/// The bounding rectangle of the faces' pixel boxes (empty without faces).
+pub fn footprint<R: Real>(faces: &[ScreenFace<R>]) -> PixelRect {
+    faces.iter().fold(PixelRect::default(), |r, f| {
+        r.union(PixelRect {
+            x0: f.pixels[0],
+            y0: f.pixels[1],
+            x1: f.pixels[2] + 1,
+            y1: f.pixels[3] + 1,
+        })
+    })
 }
 
 /// Evaluates the SH colour of every vertex used by a visible face and copies
-/// the corner colours into the faces.
+/// the corner colours into the faces. `used` is scratch.
 pub fn shade_vertices<R: Real>(
     model: &Model<R>,
     verts: &mut VertexData<R>,
     faces: &mut [ScreenFace<R>],
     sh_degree: u32,
     threads: usize,
+    used: &mut Vec<bool>,
 ) {
-    let mut used = vec![false; verts.len()];
+    used.clear();
+    used.resize(verts.len(), false);
     for f in faces.iter() {
         for &v in &model.faces[f.face as usize] {
             used[v as usize] = true;
         }
     }
     let n = verts.len();
+    let used: &[bool] = used;
     for_chunks_mut(
         threads,
         verts,
@@ -349,26 +372,33 @@ pub fn shade_vertices<R: Real>(
 }
 
 /// Stable counting sort of the visible faces by the tile of their pixel box's
-/// top-left corner, so a tile's faces sit close together in memory.
-fn order_by_tile<R: Real>(faces: Vec<ScreenFace<R>>, width: u32) -> Vec<ScreenFace<R>> {
-    let tiles_x = width.div_ceil(super::binning::TILE) as usize;
+/// top-left corner, so a tile's faces sit close together in memory. Row-major
+/// tile order restricted to a tile-aligned region is the full grid's order, so
+/// a region's faces get the slots they would have in a full render.
+pub fn order_by_tile<R: Real>(
+    faces: &mut [ScreenFace<R>],
+    grid: &TileGrid,
+    scratch: &mut Vec<ScreenFace<R>>,
+    counts: &mut Vec<usize>,
+) {
     let key = |f: &ScreenFace<R>| {
-        (f.pixels[1] / super::binning::TILE) as usize * tiles_x
-            + (f.pixels[0] / super::binning::TILE) as usize
+        grid.tile_range(f.pixels)
+            .map_or(0, |(tx, ty, _, _)| (ty * grid.tiles_x + tx) as usize)
     };
-    let buckets = faces.iter().map(key).max().map_or(0, |m| m + 1);
-    let mut start = vec![0usize; buckets + 1];
-    for f in &faces {
-        start[key(f) + 1] += 1;
+    let buckets = grid.tile_count().max(1);
+    counts.clear();
+    counts.resize(buckets + 1, 0);
+    for f in faces.iter() {
+        counts[key(f) + 1] += 1;
     }
     for b in 0..buckets {
-        start[b + 1] += start[b];
+        counts[b + 1] += counts[b];
     }
-    let mut order = vec![0usize; faces.len()];
-    for (i, f) in faces.iter().enumerate() {
+    scratch.clear();
+    scratch.extend_from_slice(faces);
+    for f in scratch.iter() {
         let k = key(f);
-        order[start[k]] = i;
-        start[k] += 1;
+        faces[counts[k]] = *f;
+        counts[k] += 1;
     }
-    order.into_iter().map(|i| faces[i]).collect()
 }

@@ -14,6 +14,11 @@ pub const RED: [f32; 3] = [0.8, 0.2, 0.2];
 pub const GREY: [f32; 3] = [0.5, 0.5, 0.5];
 
 pub fn cameras() -> Vec<(Camera, Split)> {
+    cameras_sized(W, H)
+}
+
+/// The same cameras (same focal length) with a `w`×`h` image: a wider frame sees more around the plate.
+pub fn cameras_sized(w: u32, h: u32) -> Vec<(Camera, Split)> {
     let eyes = [
         (DVec3::new(0.0, -0.4, 2.2), Split::Train),
         (DVec3::new(0.5, 0.2, 2.0), Split::Train),
@@ -24,7 +29,7 @@ pub fn cameras() -> Vec<(Camera, Split)> {
     eyes.iter()
         .map(|&(eye, split)| {
             (
-                Camera::look_at(W, H, 56.0, 56.0, eye, DVec3::ZERO, DVec3::Y),
+                Camera::look_at(w, h, 56.0, 56.0, eye, DVec3::ZERO, DVec3::Y),
                 split,
             )
         })
@@ -49,6 +54,11 @@ pub fn pixel_sees_square(cam: &Camera, i: u32, j: u32) -> bool {
 }
 
 pub fn write_component(dir: &Path) {
+    write_component_sized(dir, W, H)
+}
+
+/// The plate component with `w`×`h` views.
+pub fn write_component_sized(dir: &Path, w: u32, h: u32) {
     let info = ComponentInfo::object(1, "plate");
     std::fs::write(
         dir.join("component.json"),
@@ -58,9 +68,9 @@ pub fn write_component(dir: &Path) {
     std::fs::create_dir_all(dir.join("masks")).unwrap();
     std::fs::create_dir_all(dir.join("images")).unwrap();
     let mut frames = Vec::new();
-    for (k, (cam, split)) in cameras().into_iter().enumerate() {
+    for (k, (cam, split)) in cameras_sized(w, h).into_iter().enumerate() {
         let name = format!("v{k}");
-        let img = Image::from_fn(W, H, 3, |i, j, c| {
+        let img = Image::from_fn(w, h, 3, |i, j, c| {
             if pixel_sees_square(&cam, i, j) {
                 RED[c as usize]
             } else {
@@ -69,7 +79,7 @@ pub fn write_component(dir: &Path) {
         });
         img.save_png8(&dir.join(format!("images/{name}.png")))
             .unwrap();
-        let mask = image::GrayImage::from_fn(W, H, |i, j| {
+        let mask = image::GrayImage::from_fn(w, h, |i, j| {
             image::Luma([if pixel_sees_square(&cam, i, j) {
                 OWN
             } else {
@@ -133,5 +143,6 @@ pub fn short_run_settings(
         init: objectsplat_train::init::InitSettings::default(),
         world_scale: 1.0,
         checkpoint: Default::default(),
+        crop: true,
     }
 }

@@ -1,0 +1,56 @@
+//! Trains one component folder and prints where the time went: for profiling.
+//! Usage: cargo run --release -p objectsplat-train --example train_one -- COMPONENT_DIR POINTS_PLY ITERATIONS [last|best] [threads]
+
+use anyhow::{Context, Result};
+use objectsplat_core::Points;
+use objectsplat_raster::CpuBackend;
+use objectsplat_train::Schedule;
+use objectsplat_train::init::ComponentMasks;
+use objectsplat_train::trainer::{Checkpoint, ComponentData, TrainSettings, train_component};
+use std::path::PathBuf;
+
+fn main() -> Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let usage = "usage: train_one COMPONENT_DIR POINTS_PLY ITERATIONS [last|best] [threads]";
+    let dir = PathBuf::from(args.first().context(usage)?);
+    let points = Points::read_ply(&PathBuf::from(args.get(1).context(usage)?))?;
+    let iterations: u64 = args.get(2).context(usage)?.parse()?;
+    let checkpoint = match args.get(3).map(String::as_str) {
+        Some("best") => Checkpoint::Best,
+        _ => Checkpoint::Last,
+    };
+    let threads: usize = args.get(4).map_or(Ok(1), |t| t.parse())?;
+    let masks = ComponentMasks::read(&dir)?;
+    let points = masks.component_points(&points)?;
+    let data = ComponentData::read(&dir)?;
+    // Schedule overrides as a JSON object in $SCHEDULE, e.g. '{"lr_sh_dc": 0.03}'.
+    let overrides: serde_json::Map<String, serde_json::Value> = match std::env::var("SCHEDULE") {
+        Ok(text) => serde_json::from_str(&text).context("$SCHEDULE is not a JSON object")?,
+        Err(_) => Default::default(),
+    };
+    let settings = TrainSettings {
+        checkpoint,
+        ..TrainSettings::new(Schedule::new(iterations, &overrides)?)
+    };
+    let start = std::time::Instant::now();
+    let report = train_component(
+        &CpuBackend::new(threads),
+        &data,
+        &points,
+        &settings,
+        |_, _| true,
+    )?;
+    let secs = start.elapsed().as_secs_f64();
+    println!(
+        "{}: {} iterations in {secs:.2} s ({:.1} it/s), {} faces, held-out PSNR {:.2} dB",
+        data.name,
+        report.iterations_run,
+        report.iterations_run as f64 / secs,
+        report.model.face_count(),
+        report.log.final_psnr
+    );
+    for n in &report.notes {
+        println!("  {n}");
+    }
+    Ok(())
+}
