@@ -86,8 +86,8 @@ const EDITS_DOC: &str = "list of edits applied in order, e.g. [Move(target: Id(3
 
 impl Node for EditScene {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("edit_scene", "1")
-            .doc("Edits a composed scene. Rotation and scale act about the member's centroid; a duplicate gets the next free id. When `fills` (inpainted background views) is wired, it is stored with the scene and `render` shows it wherever no triangle covers a pixel, e.g. where a moved object used to be.")
+        NodeSpec::new("edit_scene", "2")
+            .doc("Edits a composed scene. Rigid edits (move, rotate, scale, a duplicate's offset) change the member's placement, not its model, so the exported .glb node carries them as its transform; rotation and scale act about the member's pivot (its centroid); a duplicate gets the next free id. The scene records the edits it has been through (scene.json `edits`). When `fills` (inpainted background views) is wired, it is stored with the scene and `render` shows it wherever no triangle covers a pixel, e.g. where a moved object used to be.")
             .input("scene", "Scene", "the scene to edit")
             .optional_input("fills", "Images", "per-frame inpainted background images (<frame stem>.png)")
             .output("scene", "Scene", "the edited scene")
@@ -344,7 +344,8 @@ pub struct ExportGltf;
 pub const GLB_FILE: &str = "scene.glb";
 pub const PLY_DIR: &str = "ply";
 
-/// The scene's members as export objects: visible faces, display colours (sRGB).
+/// The scene's members as export objects: model-frame vertices with the member's
+/// placement (the node transform, pivot on the centroid), visible faces, display colours (sRGB).
 pub fn export_objects(scene: &Scene) -> Vec<ExportObject> {
     scene
         .objects
@@ -354,14 +355,15 @@ pub fn export_objects(scene: &Scene) -> Vec<ExportObject> {
             positions: o.model.vertices.clone(),
             faces: visible_faces(&o.model),
             colors_srgb: SrgbColors::F32(display_colors(&o.model)),
+            placement: o.placement(),
         })
         .collect()
 }
 
 impl Node for ExportGltf {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("export_gltf", "1")
-            .doc("Exports the scene as scene.glb (a node per member named obj_<id>_<label> or background, extras with id and label, linear vertex colours from the SH DC term, unlit material, Z-up → Y-up root) and ply/<member>.ply (capture frame, 8-bit sRGB). Faces too faint for the renderer to draw (opacity < 0.01) are left out.")
+        NodeSpec::new("export_gltf", "2")
+            .doc("Exports the scene as scene.glb (a node per member named obj_<id>_<label> or background, its origin on the member's centre and its placement — edits included — as the node's translation / rotation / scale, vertices in the object's frame, extras with id and label, linear vertex colours from the SH DC term, unlit material, Z-up → Y-up root) and ply/<member>.ply (capture frame, 8-bit sRGB). Faces too faint for the renderer to draw (opacity < 0.01) are left out.")
             .input("scene", "Scene", "the scene to export")
             .output("file", "File", "scene.glb + ply/<member>.ply")
     }
