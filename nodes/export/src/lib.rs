@@ -5,6 +5,7 @@
 //! - [`placement`]: an object's pivot and world transform (the `.glb` node's TRS);
 //! - [`ply`]: one binary PLY per component;
 //! - [`report`]: a self-contained HTML report of a run;
+//! - [`viewer`]: the interactive 3D page (WebGL2) that picks, edits and exports edits;
 //! - [`nodes`]: the `report` dataflow node ([`register`]).
 
 pub mod color;
@@ -14,6 +15,7 @@ pub mod object;
 pub mod placement;
 pub mod ply;
 pub mod report;
+pub mod viewer;
 
 pub use glb::{ExportedComponent, build_glb, write_glb};
 pub use nodes::register;
