@@ -1,8 +1,9 @@
 //! The `viewer` page in headless Chromium (WebGL on SwiftShader), opened from `file://`:
 //! it lists the scene's members, picking the centre pixel of a member's rendered mask
 //! returns that member, a move changes the picture where that object was or is and
-//! nowhere else, the mouse and keys select and edit, and the page logs no error and
-//! requests nothing but its own file.
+//! nowhere else, the mouse and keys select and edit, it draws what the project's own
+//! renderer draws from the same camera (turned and scaled objects included), and the
+//! page logs no error and requests nothing but its own file.
 //!
 //! The masks come from the screenshot, not from the page's picking: every member is
 //! recolored to its own flat colour first (the page draws unlit), so a pixel's colour
@@ -365,6 +366,164 @@ fn mouse_and_keys_select_edit_undo_and_export() {
         page.screenshot([0.0, 0.0, WIDTH as f64, HEIGHT as f64])
             .save(Path::new(&keep).join("viewer_selected.png"))
             .unwrap();
+    }
+    assert_clean(&mut page, &page_path);
+}
+
+/// The scene's palette: backdrop, floor and the three boxes (sRGB).
+fn palette() -> Vec<[f64; 3]> {
+    let mut colours = vec![[0.16, 0.17, 0.19], [0.55, 0.55, 0.5]];
+    colours.extend(
+        support::small_scene::BOXES
+            .iter()
+            .map(|b| b.4.map(f64::from)),
+    );
+    colours
+}
+
+/// The palette entry nearest each pixel.
+fn labels(pixels: impl Iterator<Item = [f64; 3]>) -> Vec<usize> {
+    let palette = palette();
+    pixels
+        .map(|p| {
+            (0..palette.len())
+                .min_by(|&a, &b| {
+                    let d = |c: &[f64; 3]| (0..3).map(|k| (p[k] - c[k]).powi(2)).sum::<f64>();
+                    d(&palette[a]).total_cmp(&d(&palette[b]))
+                })
+                .unwrap()
+        })
+        .collect()
+}
+
+#[test]
+fn viewer_draws_what_render_draws() {
+    use objectsplat_core::glam;
+    use objectsplat_core::{Camera, Split};
+    use objectsplat_scene::render::{Backdrop, render_view};
+    let Some(mut browser) = Browser::launch("viewer_draws_what_render_draws") else {
+        return;
+    };
+    // Turned, scaled and moved objects, seen from a frame's camera.
+    let tmp = tempfile::tempdir().unwrap();
+    let mut scene = support::small_scene::scene();
+    let edits: Vec<objectsplat_runtime::Value> = [
+        "Rotate(target: Id(7), axis: (1, 0.5, 0), degrees: 70)",
+        "Scale(target: Id(7), factor: 0.8)",
+        "Move(target: Id(7), by: (0.1, -0.2, 0.3))",
+        "Rotate(target: Label(\"chair\"), axis: (0, 0, 1), degrees: 30)",
+    ]
+    .iter()
+    .map(|t| objectsplat_runtime::syntax::parse(t).unwrap().to_value())
+    .collect();
+    objectsplat_scene::apply_edits(&mut scene, &objectsplat_scene::parse_edits(&edits).unwrap())
+        .unwrap();
+    let scene_dir = tmp.path().join("scene");
+    objectsplat_scene::save_scene(&scene, &scene_dir).unwrap();
+    let frames = tmp.path().join("frames");
+    let capture = Camera::look_at(
+        320,
+        240,
+        300.0,
+        300.0,
+        glam::DVec3::new(1.2, -2.4, 1.6),
+        glam::DVec3::new(0.0, 0.0, 0.3),
+        glam::DVec3::Z,
+    );
+    std::fs::create_dir_all(frames.join("images")).unwrap();
+    objectsplat_core::Image::from_fn(320, 240, 3, |_, _, _| 0.5)
+        .save_png8(&frames.join("images/f0.png"))
+        .unwrap();
+    objectsplat_core::Frames::write_json(
+        &frames,
+        &[objectsplat_core::Frame::new(
+            "f0",
+            "images/f0.png",
+            &capture,
+            Split::Train,
+        )],
+    )
+    .unwrap();
+    let run = run_node(
+        &objectsplat_scene::nodes::Viewer,
+        &[("scene", &scene_dir), ("frames", &frames)],
+        "()",
+        &tmp.path().join("viewer"),
+        None,
+    )
+    .unwrap();
+    let dir = run.outputs["file"].clone();
+    let (_, view) = objectsplat_export::viewer::read_viewer(&dir).unwrap();
+    let start = view.camera.unwrap();
+
+    let page_path = dir.join("index.html");
+    let mut page = browser.open(&page_path, WIDTH, HEIGHT);
+    page.eval("window.objectsplat.ready");
+    let rect = canvas_rect(&mut page);
+    let shot = page.screenshot(rect);
+    let (w, h) = shot.dimensions();
+    // The same pinhole camera: the viewer's eye, target and vertical field of view.
+    let fy = h as f64 / 2.0 / (start.fov_y_degrees.to_radians() / 2.0).tan();
+    let camera = Camera::look_at(
+        w,
+        h,
+        fy,
+        fy,
+        glam::DVec3::from_array(start.eye),
+        glam::DVec3::from_array(start.target),
+        glam::DVec3::Z,
+    );
+    let merged = scene.merged_model().unwrap().model;
+    let rendered = render_view(
+        &merged,
+        &camera,
+        &Backdrop::Uniform([0.16, 0.17, 0.19]),
+        &objectsplat_raster::CpuBackend::new(1),
+    )
+    .unwrap();
+    if let Some(keep) = std::env::var_os("OBJECTSPLAT_KEEP_SCREENSHOT") {
+        shot.save(Path::new(&keep).join("viewer_vs_render_page.png"))
+            .unwrap();
+        rendered
+            .save_png8(&Path::new(&keep).join("viewer_vs_render_render.png"))
+            .unwrap();
+    }
+    let page_labels = labels(
+        shot.pixels()
+            .map(|p| [0, 1, 2].map(|k| p.0[k] as f64 / 255.0)),
+    );
+    let rgb = rendered.to_rgb();
+    let render_labels = labels(
+        rgb.data
+            .chunks(3)
+            .map(|c| [c[0] as f64, c[1] as f64, c[2] as f64]),
+    );
+    assert_eq!(page_labels.len(), render_labels.len());
+    let agree = page_labels
+        .iter()
+        .zip(&render_labels)
+        .filter(|(a, b)| a == b)
+        .count() as f64
+        / page_labels.len() as f64;
+    eprintln!("page and renderer agree on {:.3}% of pixels", agree * 100.0);
+    assert!(
+        agree > 0.995,
+        "the page and the renderer agree on {:.2}% of pixels",
+        agree * 100.0
+    );
+    // Each box: the same pixels (intersection over union).
+    for label in 2..5 {
+        let a: Vec<bool> = page_labels.iter().map(|&l| l == label).collect();
+        let b: Vec<bool> = render_labels.iter().map(|&l| l == label).collect();
+        let inter = a.iter().zip(&b).filter(|(x, y)| **x && **y).count() as f64;
+        let union = a.iter().zip(&b).filter(|(x, y)| **x || **y).count() as f64;
+        assert!(union > 500.0, "box {label} hardly visible");
+        eprintln!("box {label}: IoU {:.4}", inter / union);
+        assert!(
+            inter / union > 0.98,
+            "box {label}: IoU {:.3}",
+            inter / union
+        );
     }
     assert_clean(&mut page, &page_path);
 }

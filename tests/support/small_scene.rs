@@ -74,18 +74,31 @@ pub fn cuboid(lo: [f32; 3], hi: [f32; 3], rgb: [f32; 3]) -> Model<f32> {
     coloured(vertices, faces, rgb)
 }
 
+/// A 4 m × 4 m floor at z = 0 in 0.25 m squares: small triangles, so the splatting
+/// renderer's per-tile depth order (by triangle centroid) puts the boxes in front of it.
+fn floor() -> Model<f32> {
+    const CELLS: u32 = 16;
+    let mut vertices = Vec::new();
+    for j in 0..=CELLS {
+        for i in 0..=CELLS {
+            vertices.push([-2.0 + 0.25 * i as f32, -2.0 + 0.25 * j as f32, 0.0]);
+        }
+    }
+    let mut faces = Vec::new();
+    for j in 0..CELLS {
+        for i in 0..CELLS {
+            let a = j * (CELLS + 1) + i;
+            let (b, c, d) = (a + 1, a + CELLS + 2, a + CELLS + 1);
+            faces.push([a, b, c]);
+            faces.push([a, c, d]);
+        }
+    }
+    coloured(vertices, faces, [0.55, 0.55, 0.5])
+}
+
 /// The floor (background) and the three boxes.
 pub fn scene() -> Scene {
-    let floor = coloured(
-        vec![
-            [-2.0, -2.0, 0.0],
-            [2.0, -2.0, 0.0],
-            [2.0, 2.0, 0.0],
-            [-2.0, 2.0, 0.0],
-        ],
-        vec![[0, 1, 2], [0, 2, 3]],
-        [0.55, 0.55, 0.5],
-    );
+    let floor = floor();
     let mut members = vec![SceneObject {
         entry: SceneEntry::from_component(
             &objectsplat_core::ComponentInfo::background(),

@@ -619,13 +619,16 @@
     }
   }
 
+  /** Whether background members are drawn (and pickable): hiding the room helps to see into it. */
+  let showBackground = true;
+
   function drawMembers(program, perMember) {
     const { viewProj } = matrices();
     gl.useProgram(program.program);
     gl.uniformMatrix4fv(program.uniforms.u_view_proj, false, new Float32Array(viewProj));
     members.forEach((m, index) => {
       const mesh = gpuMeshes.get(m.mesh);
-      if (!mesh) return;
+      if (!mesh || (!showBackground && m.kind === "background")) return;
       gl.uniformMatrix4fv(program.uniforms.u_model, false, new Float32Array(placementMatrix(m.placement)));
       perMember(m, index);
       gl.bindVertexArray(mesh.vao);
@@ -881,6 +884,17 @@
     resetCamera();
     requestDraw();
   });
+  const backgroundToggle = element("label", "osv-toggle");
+  const backgroundBox = element("input");
+  backgroundBox.type = "checkbox";
+  backgroundBox.checked = true;
+  backgroundBox.addEventListener("change", () => {
+    showBackground = backgroundBox.checked;
+    draw();
+  });
+  backgroundToggle.append(backgroundBox, " background");
+  backgroundToggle.title = "show the background (uncheck to see into a room)";
+  tools.appendChild(backgroundToggle);
   const copyButton = element("button", "osv-button", "Copy");
   copyButton.type = "button";
   copyButton.addEventListener("click", () => {
