@@ -9,8 +9,11 @@ use std::path::Path;
 /// Logit of an almost opaque vertex (sigmoid(8) ≈ 0.9997).
 const OPAQUE: f32 = 8.0;
 
-/// The objects: (id, label, lower corner, upper corner, sRGB colour).
-pub const BOXES: [(u16, &str, [f32; 3], [f32; 3], [f32; 3]); 3] = [
+/// An object: (id, label, lower corner, upper corner, sRGB colour).
+pub type BoxSpec = (u16, &'static str, [f32; 3], [f32; 3], [f32; 3]);
+
+/// The objects.
+pub const BOXES: [BoxSpec; 3] = [
     (
         3,
         "chair",

@@ -23,7 +23,7 @@ fn viewer_folder_holds_page_glb_and_scene_description() {
     .unwrap();
     let camera = common::front_camera(64, 48);
     let frames = tmp.path().join("frames");
-    common::write_frames(&frames, &[("f0".into(), camera.clone(), Split::Train)]);
+    common::write_frames(&frames, &[("f0".into(), camera, Split::Train)]);
     let run = run_node(
         &Viewer,
         &[("scene", &edited), ("frames", &frames)],
@@ -85,12 +85,8 @@ fn viewer_folder_holds_page_glb_and_scene_description() {
     let start = view.camera.unwrap();
     assert_eq!(start.eye, camera.center().to_array());
     let target = [(-0.6 + 0.8) / 2.0, 0.25, 0.25];
-    for k in 0..3 {
-        assert!(
-            (start.target[k] - target[k]).abs() < 1e-6,
-            "{:?}",
-            start.target
-        );
+    for (got, want) in start.target.iter().zip(target) {
+        assert!((got - want).abs() < 1e-6, "{:?}", start.target);
     }
     // fx = fy = width: the vertical field of view is 2·atan(48 / 128).
     assert!((start.fov_y_degrees - 2.0 * (48.0f64 / 128.0).atan().to_degrees()).abs() < 1e-9);
