@@ -683,6 +683,8 @@
 
   let frameRequested = false;
   function requestDraw() {
+    // Picking before the frame is drawn must see the new camera too.
+    idFresh = false;
     if (frameRequested) return;
     frameRequested = true;
     requestAnimationFrame(() => {
@@ -1113,7 +1115,7 @@
   draw();
 
   window.objectsplat = {
-    /** Resolves once the scene is drawn. */
+    /** Resolves (to true) once the scene is drawn; rejects when the view cannot start. */
     ready,
     /** The scene's members now: `[{name, label}]` (label null for the background). */
     objects: () => members.map((m) => ({ name: m.name, label: m.label })),
@@ -1136,5 +1138,6 @@
     /** Undoes the last edit done here. */
     undo,
   };
-  requestAnimationFrame(() => resolveReady(true));
+  // The first frame was drawn above, synchronously.
+  resolveReady(true);
 })();
