@@ -2,7 +2,9 @@
 //!
 //! Layout (see `docs/formats.md` §8): a root node `scene` carrying the Z-up→Y-up rotation,
 //! one child node per component named `obj_<id>_<label>` (or `background`) with `extras`
-//! `{"kind", "object_id", "label", "num_faces", "num_vertices"}`, vertex colours as linear
+//! `{"kind", "object_id", "label", "num_faces", "num_vertices"}` and the component's
+//! [`Placement`](crate::Placement) as its translation / rotation / scale (vertices relative
+//! to the pivot, so the node's origin is the object's centre), vertex colours as linear
 //! `COLOR_0` (f32 VEC3), `u32` indices, a single unlit material listed in `extensionsUsed`
 //! only, and scene metadata in `asset.extras`.
 
@@ -173,7 +175,7 @@ pub fn build_glb(
         let positions_out: Vec<[f32; 3]> = mesh
             .vertex_source
             .iter()
-            .map(|&v| object.positions[v as usize])
+            .map(|&v| object.local_position(v as usize))
             .collect();
         let linear_colors: Vec<[f32; 3]> = mesh
             .vertex_source
@@ -260,10 +262,16 @@ pub fn build_glb(
                 weights: None,
             }))
         };
+        let (translation, rotation, scale) = object.placement.node_trs();
         children.push(root.push(json::Node {
             mesh: mesh_index,
             name: Some(name.clone()),
             extras: raw_extras(&extras)?,
+            // Defaults are left out, as glTF writers customarily do.
+            translation: (translation != [0.0; 3]).then_some(translation),
+            rotation:
+                (rotation != [0.0, 0.0, 0.0, 1.0]).then_some(json::scene::UnitQuaternion(rotation)),
+            scale: (scale != [1.0; 3]).then_some(scale),
             ..Default::default()
         }));
         summary.push(ExportedComponent {

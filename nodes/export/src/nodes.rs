@@ -70,11 +70,12 @@ fn training_logs(items: &[(String, std::path::PathBuf)]) -> Result<Vec<ModelTrai
 impl Node for ReportNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("report", "2")
-            .doc("A self-contained HTML report (index.html): the run's graph with each node's status and time (filled in by `objectsplat run` on the materialized copy), metrics table, test-view triplets (ground truth / render / error heatmap), training curves of the models; no external resources.")
+            .doc("A self-contained HTML report (index.html): the run's graph with each node's status and time (filled in by `objectsplat run` on the materialized copy), the interactive 3D view of the scene (when a `viewer` folder is wired), metrics table, test-view triplets (ground truth / render / error heatmap), training curves of the models; no external resources.")
             .optional_input("metrics", "Metrics", "the evaluation (metrics.json)")
             .optional_input("frames", "Frames", "the capture; its test-split frames are the ground truth of the views")
             .optional_input("renders", "Images", "renders of the test frames, named <frame stem>.png")
             .optional_input("models", "[Model]", "trained models; their training.json gives the training curves")
+            .optional_input("viewer", "File", "a `viewer` node's folder (index.html, scene.glb, viewer.json): its 3D view is embedded")
             .output("file", "File", "a folder with index.html")
             .param("title", ParamType::Str, Some("\"ObjectSplat run\""), "page title")
             .param("max_views", ParamType::int_range(0, 64), Some("4"), "test views shown (spread evenly over the test split)")
@@ -109,12 +110,17 @@ impl Node for ReportNode {
             let logged = training.iter().filter(|t| t.log.is_some()).count();
             ctx.note("training logs", format!("{logged} of {}", training.len()));
         }
+        let viewer = ctx.input_opt("viewer").map(Path::to_path_buf);
+        if viewer.is_some() {
+            ctx.note("3D view", "embedded");
+        }
         let data = ReportData {
             title,
             metrics,
             views,
             training,
             error_scale,
+            viewer,
             ..Default::default()
         };
         ctx.progress(0, 1, "writing report");

@@ -1,5 +1,6 @@
 //! The export input: one component's mesh with sRGB vertex colours, and its validation.
 
+use crate::placement::Placement;
 use anyhow::{Result, bail, ensure};
 use objectsplat_core::ComponentInfo;
 
@@ -28,10 +29,15 @@ impl SrgbColors {
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExportObject {
     pub component: ComponentInfo,
-    /// World coordinates in metres, Z up (the capture's frame).
+    /// Model coordinates in metres; [`ExportObject::placement`] maps them into the
+    /// capture's world frame (Z up).
     pub positions: Vec<[f32; 3]>,
     pub faces: Vec<[u32; 3]>,
     pub colors_srgb: SrgbColors,
+    /// The object's pivot and world transform: the `.glb` node carries the transform
+    /// and its vertices are `position − pivot`. [`Placement::IDENTITY`] (the
+    /// constructors' default) writes world coordinates under an untransformed node.
+    pub placement: Placement,
 }
 
 impl ExportObject {
@@ -47,6 +53,7 @@ impl ExportObject {
             positions,
             faces,
             colors_srgb,
+            placement: Placement::IDENTITY,
         }
     }
 
@@ -60,7 +67,32 @@ impl ExportObject {
             positions,
             faces,
             colors_srgb,
+            placement: Placement::IDENTITY,
         }
+    }
+
+    /// The same object with `placement` (positions stay in the model frame).
+    pub fn placed(self, placement: Placement) -> Self {
+        ExportObject { placement, ..self }
+    }
+
+    /// Vertex `v` in the capture's world frame.
+    pub fn world_position(&self, v: usize) -> [f32; 3] {
+        let p = self.positions[v];
+        if self.placement.is_unmoved() {
+            // Exact: the PLY of an object that was not moved keeps the input's bits.
+            return p;
+        }
+        self.placement.world(p.map(f64::from)).map(|x| x as f32)
+    }
+
+    /// Vertex `v` in the node's frame (relative to the pivot), as the `.glb` stores it.
+    pub fn local_position(&self, v: usize) -> [f32; 3] {
+        let p = self.positions[v];
+        if self.placement.pivot == [0.0; 3] {
+            return p;
+        }
+        self.placement.local(p.map(f64::from)).map(|x| x as f32)
     }
 }
 
@@ -86,6 +118,25 @@ pub(crate) fn clean_mesh(object: &ExportObject) -> Result<CleanMesh> {
     ensure!(
         (n as u64) < u32::MAX as u64,
         "{name}: {n} vertices exceed the u32 index range"
+    );
+    let placement = &object.placement;
+    ensure!(
+        placement
+            .pivot
+            .iter()
+            .chain(&placement.translation)
+            .chain(&placement.rotation)
+            .all(|v| v.is_finite()),
+        "{name}: placement {placement:?} has a non-finite value"
+    );
+    ensure!(
+        placement.scale.is_finite() && placement.scale > 0.0,
+        "{name}: placement scale {} must be finite and positive",
+        placement.scale
+    );
+    ensure!(
+        placement.rotation.iter().any(|&v| v != 0.0),
+        "{name}: placement rotation is the zero quaternion"
     );
     if let Some(i) = object
         .positions

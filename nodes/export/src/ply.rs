@@ -15,7 +15,7 @@ pub fn component_mesh(object: &ExportObject) -> Result<Mesh> {
     let positions = clean
         .vertex_source
         .iter()
-        .map(|&v| object.positions[v as usize])
+        .map(|&v| object.world_position(v as usize))
         .collect();
     let colors = clean
         .vertex_source

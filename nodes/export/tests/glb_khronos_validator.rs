@@ -1,5 +1,5 @@
-//! The exported `.glb` passes the official Khronos glTF validator (npm `gltf-validator`)
-//! with zero errors and zero warnings, and the same harness does report an error on a
+//! The exported `.glb` (objects with node transforms: pivot, turn, scale) passes the official
+//! Khronos glTF validator (npm `gltf-validator`) with zero errors and zero warnings, and the same harness does report an error on a
 //! deliberately broken file (so a pass means something).
 //!
 //! Needs `node`; the validator is installed from the pinned lockfile with `npm ci` in
@@ -69,6 +69,16 @@ fn validate(file: &Path) -> (i32, Value) {
 fn exported_scene_has_no_validator_errors_or_warnings() {
     let dir = tempfile::tempdir().unwrap();
     let mut objects = common::scene();
+    // Objects placed by edits: node transforms with a turn, a scale and a pivot.
+    let chair = objects[0].clone();
+    objects[0] = chair.placed(
+        objectsplat_export::Placement::at([0.25, 0.25, 0.45])
+            .rotated([1.0, 2.0, 3.0], 33.3)
+            .scaled(1.5)
+            .moved([0.5, -1.0, 0.0]),
+    );
+    let lamp = objects[1].clone();
+    objects[1] = lamp.placed(objectsplat_export::Placement::at([1.1, -0.9, 1.0]));
     // Also a component whose faces are all degenerate (a mesh-less node).
     objects.push(common::cuboid(
         9,

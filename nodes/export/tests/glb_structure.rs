@@ -225,3 +225,41 @@ fn a_component_with_no_faces_left_is_a_mesh_less_node() {
     assert_eq!(extras(&chair)["num_faces"], 0);
     assert_eq!(summary[0].triangles, 0);
 }
+
+#[test]
+fn a_placed_object_is_a_node_transform_over_pivot_relative_vertices() {
+    let mut objects = scene();
+    let placement = objectsplat_export::Placement::at([0.25, 0.25, 0.45])
+        .rotated([0.0, 0.0, 1.0], 90.0)
+        .scaled(2.0)
+        .moved([1.0, 0.0, 0.0]);
+    objects[0] = objects[0].clone().placed(placement);
+    let (bytes, _) = build_glb(&objects, None).unwrap();
+    let doc = parse(&bytes);
+    let chair = node(&doc, "obj_3_chair");
+    let (t, r, s) = chair.transform().decomposed();
+    assert_eq!(t, [1.25, 0.25, 0.45]);
+    assert_eq!(s, [2.0; 3]);
+    let h = std::f32::consts::FRAC_1_SQRT_2;
+    assert!(r[0] == 0.0 && r[1] == 0.0 && (r[2] - h).abs() < 1e-7 && (r[3] - h).abs() < 1e-7);
+    // The box [0, 0.5]×[0, 0.5]×[0, 0.9] around its pivot (0.25, 0.25, 0.45).
+    let data = primitive_data(&doc, "obj_3_chair");
+    assert_eq!(data.bounds.min, [-0.25, -0.25, -0.45]);
+    assert_eq!(data.bounds.max, [0.25, 0.25, 0.45]);
+    // The node puts local corner (0.25, 0, 0) (+X of the pivot) at pivot-in-world + 2·(+Y)·0.25.
+    let m = chair.transform().matrix();
+    let p = [0.25f32, 0.0, 0.0];
+    let world: Vec<f32> = (0..3)
+        .map(|k| m[0][k] * p[0] + m[1][k] * p[1] + m[2][k] * p[2] + m[3][k])
+        .collect();
+    let want = [1.25, 0.75, 0.45];
+    for k in 0..3 {
+        assert!((world[k] - want[k]).abs() < 1e-6, "{world:?}");
+    }
+    // Unplaced components keep world coordinates under an untransformed node.
+    let lamp = node(&doc, "obj_7_desk_lamp");
+    assert_eq!(
+        lamp.transform().decomposed(),
+        ([0.0; 3], [0.0, 0.0, 0.0, 1.0], [1.0; 3])
+    );
+}

@@ -15,18 +15,25 @@
 //!   label; `Name("obj_3_chair")` the member of that name (the only way to reach the
 //!   background). A target that matches nothing is an error naming the edit.
 //! - Edits apply in list order; each sees the result of the previous ones.
-//! - `Rotate` and `Scale` act about the member's centroid (mean vertex position);
-//!   rotation also rotates the view-dependent SH colour, so the object looks the
-//!   same from the rotated viewpoints. `Scale` is uniform and must be positive.
+//! - Rigid edits (`Move`, `Rotate`, `Scale`, the offset of a `Duplicate`) change the
+//!   member's [`Placement`](objectsplat_export::Placement), not its model: the model
+//!   stays in the frame it was trained in and the placement maps it into the world
+//!   (the exported `.glb` node carries it as its transform).
+//! - `Rotate` and `Scale` act about the member's pivot: its centroid (mean vertex
+//!   position, rounded to f32) where it was trained, carried along by every edit, so
+//!   it stays the centroid. Rotation also rotates the view-dependent SH colour (when
+//!   the scene is placed in the world), so the object looks the same from the rotated
+//!   viewpoints. `Scale` is uniform and must be positive.
 //! - `Duplicate` adds a copy shifted by `offset` with the next free object id
 //!   (largest id in the scene + 1) and the name `obj_<id>_<label>`.
 //! - `Recolor` sets a view-independent sRGB colour in [0, 1] (SH DC term; higher
 //!   bands zeroed); opacities are kept.
+//! - The scene records every applied edit (its RON text) in `Scene::edits`, after the
+//!   edits it already carried, so a viewer can export the whole list.
 
 use crate::scene::{Scene, SceneEntry, SceneObject};
-use crate::sh_rotation::ShRotation;
 use anyhow::{Context, Result, bail, ensure};
-use glam::{DMat3, DVec3};
+use glam::DVec3;
 use objectsplat_core::ComponentKind;
 use objectsplat_raster::SH_COEFFS;
 use objectsplat_raster::sh::SH_DC;
@@ -113,6 +120,10 @@ pub enum Edit {
 
 fn vec3(v: &[Num; 3]) -> DVec3 {
     DVec3::new(v[0].0, v[1].0, v[2].0)
+}
+
+fn array3(v: &[Num; 3]) -> [f64; 3] {
+    v.map(|x| x.0)
 }
 
 fn show3(v: &[Num; 3]) -> String {
@@ -257,36 +268,25 @@ fn resolve(scene: &Scene, target: &Target) -> Result<Vec<usize>> {
     Ok(found)
 }
 
-/// Mean vertex position (the origin for an empty model).
-fn centroid(object: &SceneObject) -> DVec3 {
-    let n = object.model.vertices.len();
-    if n == 0 {
-        return DVec3::ZERO;
-    }
-    let sum: DVec3 = object
-        .model
-        .vertices
-        .iter()
-        .map(|v| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64))
-        .sum();
-    sum / n as f64
+/// Replaces the member's placement by `f` of its current one.
+fn replace_placement(
+    object: &mut SceneObject,
+    f: impl Fn(objectsplat_export::Placement) -> objectsplat_export::Placement,
+) {
+    object.entry.placement = Some(f(object.placement()));
 }
 
-fn map_vertices(object: &mut SceneObject, f: impl Fn(DVec3) -> DVec3) {
-    for v in &mut object.model.vertices {
-        let p = f(DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64));
-        *v = [p.x as f32, p.y as f32, p.z as f32];
-    }
-}
-
-/// Applies `edits` in order. On error the scene is left partially edited; callers
-/// work on a copy (the nodes always do).
+/// Applies `edits` in order and appends them to the scene's edit record. On error the
+/// scene is left partially edited; callers work on a copy (the nodes always do).
 pub fn apply_edits(scene: &mut Scene, edits: &[Edit]) -> Result<EditLog> {
     let mut log = EditLog::default();
     for (i, edit) in edits.iter().enumerate() {
         apply_one(scene, edit, &mut log).with_context(|| format!("edit {i} `{edit}`"))?;
     }
+    let mut record = std::mem::take(&mut scene.edits);
+    record.extend(edits.iter().map(|e| e.to_string()));
     *scene = Scene::new(std::mem::take(&mut scene.objects))?;
+    scene.edits = record;
     Ok(log)
 }
 
@@ -301,34 +301,27 @@ fn apply_one(scene: &mut Scene, edit: &Edit, log: &mut EditLog) -> Result<()> {
     let targets = resolve(scene, edit.target())?;
     match edit {
         Edit::Move { by, .. } => {
-            let by = vec3(by);
             for &t in &targets {
-                map_vertices(&mut scene.objects[t], |p| p + by);
+                replace_placement(&mut scene.objects[t], |p| p.moved(array3(by)));
                 note_displaced(log, &scene.objects[t].entry.name.clone());
             }
         }
         Edit::Rotate { axis, degrees, .. } => {
-            let rotation = DMat3::from_axis_angle(vec3(axis).normalize(), degrees.0.to_radians());
-            let sh = ShRotation::new(rotation)?;
             for &t in &targets {
-                let c = centroid(&scene.objects[t]);
-                let object = &mut scene.objects[t];
-                map_vertices(object, |p| c + rotation * (p - c));
-                for rows in &mut object.model.sh {
-                    *rows = sh.apply(rows);
-                }
-                note_displaced(log, &object.entry.name.clone());
+                replace_placement(&mut scene.objects[t], |p| {
+                    p.rotated(array3(axis), degrees.0)
+                });
+                note_displaced(log, &scene.objects[t].entry.name.clone());
             }
         }
         Edit::Scale { factor, .. } => {
             for &t in &targets {
-                let c = centroid(&scene.objects[t]);
-                map_vertices(&mut scene.objects[t], |p| c + (p - c) * factor.0);
+                replace_placement(&mut scene.objects[t], |p| p.scaled(factor.0));
                 note_displaced(log, &scene.objects[t].entry.name.clone());
             }
         }
         Edit::Duplicate { offset, .. } => {
-            let offset = vec3(offset);
+            let offset = array3(offset);
             for &t in &targets {
                 let original = &scene.objects[t];
                 ensure!(
@@ -349,7 +342,7 @@ fn apply_one(scene: &mut Scene, edit: &Edit, log: &mut EditLog) -> Result<()> {
                     entry: SceneEntry::object(id, &label, &original.entry.source),
                     model: original.model.clone(),
                 };
-                map_vertices(&mut copy, |p| p + offset);
+                copy.entry.placement = Some(original.placement().moved(offset));
                 log.added.push(copy.entry.name.clone());
                 scene.objects.push(copy);
             }

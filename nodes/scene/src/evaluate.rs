@@ -122,8 +122,11 @@ pub fn evaluate_scene(
             let mut pred_objects = Vec::new();
             for o in &scene.objects {
                 if let Some(id) = o.entry.id {
-                    let points = surface_points(&visible_mesh(&o.model), &settings.mesh)
-                        .with_context(|| format!("sampling the surface of {:?}", o.entry.name))?;
+                    let points =
+                        surface_points(&visible_mesh(o.world_model()?.as_ref()), &settings.mesh)
+                            .with_context(|| {
+                                format!("sampling the surface of {:?}", o.entry.name)
+                            })?;
                     pred_objects.push((id, points));
                 }
             }

@@ -1,10 +1,11 @@
-//! Dataflow nodes: `compose`, `edit_scene`, `render`, `evaluate` and `export_gltf`.
+//! Dataflow nodes: `compose`, `load_scene`, `edit_scene`, `render`, `evaluate`,
+//! `export_gltf` and `viewer`.
 //!
 //! (`report` is registered by `objectsplat-export`, which owns the report library.)
 
 use crate::edit::{apply_edits, parse_edits};
 use crate::evaluate::{EvaluateSettings, GroundTruth, evaluate_scene};
-use crate::render::{Backdrop, orbit_cameras, render_view};
+use crate::render::{Backdrop, focus_bounds, orbit_cameras, render_view};
 use crate::scene::{
     FILLS_DIR, Scene, SceneEntry, SceneObject, component_of_item, load_scene, save_scene,
 };
@@ -12,7 +13,8 @@ use crate::surface::{display_colors, visible_faces};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::frames::frame_stem;
 use objectsplat_core::{Frames, Image, Split, read_mesh_artifact};
-use objectsplat_export::{ExportObject, SrgbColors, write_glb};
+use objectsplat_export::viewer::{ViewerCamera, ViewerMember, ViewerScene, write_viewer};
+use objectsplat_export::{ExportObject, ExportedComponent, SrgbColors, build_glb};
 use objectsplat_metrics::{Lpips, MeshEvalParams, SampleCount, SsimMode};
 use objectsplat_raster::load_model;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, Value};
@@ -62,6 +64,33 @@ impl Node for Compose {
     }
 }
 
+/// `load_scene`: a Scene folder from disk, e.g. one a previous run materialized.
+pub struct LoadScene;
+
+impl Node for LoadScene {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("load_scene", "1")
+            .doc("Reads a Scene folder (scene.json + objects/<name>/ + optional fills/) from disk, e.g. one a previous run wrote under OUT/<node>/scene/, and checks it.")
+            .output("scene", "Scene", "the scene as read")
+            .param("path", ParamType::Path, None, "the Scene folder, relative to the graph file")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let path: String = ctx.param("path")?;
+        let dir = PathBuf::from(&path);
+        let scene = load_scene(&dir)?;
+        let out = ctx.output("scene")?;
+        save_scene(&scene, &out)?;
+        if dir.join(FILLS_DIR).is_dir() {
+            let fills = copy_pngs(&dir.join(FILLS_DIR), &out.join(FILLS_DIR))?;
+            ctx.note("background fills", fills);
+        }
+        ctx.note("members", scene.objects.len());
+        ctx.note("triangles", scene.face_count());
+        Ok(Outcome::Done)
+    }
+}
+
 /// Copies the PNGs of `from` into `to` (created), returning how many.
 fn copy_pngs(from: &Path, to: &Path) -> Result<usize> {
     let mut names: Vec<PathBuf> = std::fs::read_dir(from)
@@ -86,8 +115,8 @@ const EDITS_DOC: &str = "list of edits applied in order, e.g. [Move(target: Id(3
 
 impl Node for EditScene {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("edit_scene", "1")
-            .doc("Edits a composed scene. Rotation and scale act about the member's centroid; a duplicate gets the next free id. When `fills` (inpainted background views) is wired, it is stored with the scene and `render` shows it wherever no triangle covers a pixel, e.g. where a moved object used to be.")
+        NodeSpec::new("edit_scene", "2")
+            .doc("Edits a composed scene. Rigid edits (move, rotate, scale, a duplicate's offset) change the member's placement, not its model, so the exported .glb node carries them as its transform; rotation and scale act about the member's pivot (its centroid); a duplicate gets the next free id. The scene records the edits it has been through (scene.json `edits`). When `fills` (inpainted background views) is wired, it is stored with the scene and `render` shows it wherever no triangle covers a pixel, e.g. where a moved object used to be.")
             .input("scene", "Scene", "the scene to edit")
             .optional_input("fills", "Images", "per-frame inpainted background images (<frame stem>.png)")
             .output("scene", "Scene", "the edited scene")
@@ -338,13 +367,23 @@ impl Node for Evaluate {
     }
 }
 
+/// The scene as `.glb` bytes (what `export_gltf` writes) and what each node holds.
+pub fn scene_glb(scene: &Scene) -> Result<(Vec<u8>, Vec<ExportedComponent>)> {
+    let extras = serde_json::json!({
+        "generator": "objectsplat export_gltf",
+        "members": scene.objects.len(),
+    });
+    build_glb(&export_objects(scene), Some(&extras))
+}
+
 /// `export_gltf`: the scene as one .glb plus one PLY per member.
 pub struct ExportGltf;
 
 pub const GLB_FILE: &str = "scene.glb";
 pub const PLY_DIR: &str = "ply";
 
-/// The scene's members as export objects: visible faces, display colours (sRGB).
+/// The scene's members as export objects: model-frame vertices with the member's
+/// placement (the node transform, pivot on the centroid), visible faces, display colours (sRGB).
 pub fn export_objects(scene: &Scene) -> Vec<ExportObject> {
     scene
         .objects
@@ -354,14 +393,15 @@ pub fn export_objects(scene: &Scene) -> Vec<ExportObject> {
             positions: o.model.vertices.clone(),
             faces: visible_faces(&o.model),
             colors_srgb: SrgbColors::F32(display_colors(&o.model)),
+            placement: o.placement(),
         })
         .collect()
 }
 
 impl Node for ExportGltf {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("export_gltf", "1")
-            .doc("Exports the scene as scene.glb (a node per member named obj_<id>_<label> or background, extras with id and label, linear vertex colours from the SH DC term, unlit material, Z-up → Y-up root) and ply/<member>.ply (capture frame, 8-bit sRGB). Faces too faint for the renderer to draw (opacity < 0.01) are left out.")
+        NodeSpec::new("export_gltf", "2")
+            .doc("Exports the scene as scene.glb (a node per member named obj_<id>_<label> or background, its origin on the member's centre and its placement — edits included — as the node's translation / rotation / scale, vertices in the object's frame, extras with id and label, linear vertex colours from the SH DC term, unlit material, Z-up → Y-up root) and ply/<member>.ply (capture frame, 8-bit sRGB). Faces too faint for the renderer to draw (opacity < 0.01) are left out.")
             .input("scene", "Scene", "the scene to export")
             .output("file", "File", "scene.glb + ply/<member>.ply")
     }
@@ -370,12 +410,12 @@ impl Node for ExportGltf {
         let scene = load_scene(ctx.input("scene")?)?;
         let objects = export_objects(&scene);
         let out = ctx.output("file")?;
-        let extras = serde_json::json!({
-            "generator": "objectsplat export_gltf",
-            "members": scene.objects.len(),
-        });
         ctx.progress(0, 2, "writing scene.glb");
-        let written = write_glb(&out.join(GLB_FILE), &objects, Some(&extras))?;
+        let glb_path = out.join(GLB_FILE);
+        let (bytes, written) = scene_glb(&scene)
+            .with_context(|| format!("{}: cannot export the scene", glb_path.display()))?;
+        std::fs::write(&glb_path, bytes)
+            .with_context(|| format!("{}: cannot write .glb", glb_path.display()))?;
         ctx.progress(1, 2, "writing PLYs");
         objectsplat_export::ply::write_component_plys(&out.join(PLY_DIR), &objects)?;
         ctx.progress(2, 2, "exported");
@@ -387,6 +427,82 @@ impl Node for ExportGltf {
         let dropped: usize = written.iter().map(|c| c.degenerate_faces_dropped).sum();
         if dropped > 0 {
             ctx.note("degenerate faces dropped", dropped);
+        }
+        Ok(Outcome::Done)
+    }
+}
+
+/// `viewer`: the scene as an interactive page.
+pub struct Viewer;
+
+/// The view from `frames`' first camera toward the centre of the scene's objects, with
+/// that camera's vertical field of view; `None` without frames or vertices.
+fn starting_camera(scene: &Scene, frames: Option<&Frames>) -> Result<Option<ViewerCamera>> {
+    let Some(first) = frames.and_then(|f| f.frames.first()) else {
+        return Ok(None);
+    };
+    let Some((lo, hi)) = focus_bounds(scene)? else {
+        return Ok(None);
+    };
+    let camera = first.camera();
+    let eye = camera.center();
+    let target = (lo + hi) * 0.5;
+    if (eye - target).length() < 1e-9 {
+        return Ok(None);
+    }
+    let fov = 2.0 * (camera.height as f64 / (2.0 * camera.fy)).atan();
+    Ok(Some(ViewerCamera {
+        eye: eye.to_array(),
+        target: target.to_array(),
+        fov_y_degrees: fov.to_degrees(),
+    }))
+}
+
+impl Node for Viewer {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("viewer", "1")
+            .doc("The scene as an interactive page (index.html; opens from disk with no network; WebGL2): orbit / pan / zoom, click an object to select it (highlight + name and label), move / turn / scale it with the mouse or keys, duplicate, remove, recolor, undo; `Export edits` gives the RON list that edit_scene's `edits` takes (the scene's own earlier edits first), so a graph reproduces what was done by hand. Scripting surface window.objectsplat: ready, objects(), pick(x, y), apply(edit), edits(). Also writes scene.glb (as export_gltf) and viewer.json; the report embeds the view when given this folder.")
+            .input("scene", "Scene", "the scene to show")
+            .optional_input("frames", "Frames", "the capture: the view starts from its first camera, looking at the objects")
+            .output("file", "File", "index.html + scene.glb + viewer.json")
+            .param("title", ParamType::Str, Some("\"ObjectSplat scene\""), "page title")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let title: String = ctx.param("title")?;
+        let scene = load_scene(ctx.input("scene")?)?;
+        let frames = match ctx.input_opt("frames") {
+            Some(dir) => Some(Frames::read(dir)?),
+            None => None,
+        };
+        ctx.progress(0, 1, "writing the viewer");
+        let (glb, written) = scene_glb(&scene)?;
+        let members = scene
+            .objects
+            .iter()
+            .map(|o| ViewerMember {
+                name: o.entry.name.clone(),
+                kind: o.entry.kind,
+                id: o.entry.id,
+                label: o.entry.label.clone(),
+                placement: o.placement(),
+            })
+            .collect();
+        let view = ViewerScene {
+            title,
+            members,
+            edits: scene.edits.clone(),
+            camera: starting_camera(&scene, frames.as_ref())?,
+        };
+        write_viewer(&ctx.output("file")?, &glb, &view)?;
+        ctx.progress(1, 1, "viewer written");
+        ctx.note("members", scene.objects.len());
+        ctx.note(
+            "triangles",
+            written.iter().map(|c| c.triangles).sum::<usize>(),
+        );
+        if !scene.edits.is_empty() {
+            ctx.note("earlier edits", scene.edits.len());
         }
         Ok(Outcome::Done)
     }
@@ -404,4 +520,8 @@ pub fn register(reg: &mut Registry) {
         .expect("node kind `evaluate` is registered once");
     reg.add_node(Arc::new(ExportGltf))
         .expect("node kind `export_gltf` is registered once");
+    reg.add_node(Arc::new(LoadScene))
+        .expect("node kind `load_scene` is registered once");
+    reg.add_node(Arc::new(Viewer))
+        .expect("node kind `viewer` is registered once");
 }

@@ -47,18 +47,23 @@ pub fn render_view(
     Ok(out.color_image())
 }
 
-/// Axis-aligned bounds of the object members' vertices, or of every member when the
-/// scene has no object with vertices. `None` for a scene without vertices.
-pub fn focus_bounds(scene: &Scene) -> Option<(DVec3, DVec3)> {
+/// Axis-aligned world bounds of the object members' vertices, or of every member when
+/// the scene has no object with vertices. `None` for a scene without vertices.
+pub fn focus_bounds(scene: &Scene) -> Result<Option<(DVec3, DVec3)>> {
+    let world: Vec<_> = scene
+        .objects
+        .iter()
+        .map(|o| Ok((o.entry.kind, o.world_model()?)))
+        .collect::<Result<_>>()?;
     let bounds_of = |objects_only: bool| {
         let mut lo = DVec3::splat(f64::INFINITY);
         let mut hi = DVec3::splat(f64::NEG_INFINITY);
         let mut any = false;
-        for o in &scene.objects {
-            if objects_only && o.entry.kind != ComponentKind::Object {
+        for (kind, model) in &world {
+            if objects_only && *kind != ComponentKind::Object {
                 continue;
             }
-            for v in &o.model.vertices {
+            for v in &model.vertices {
                 let p = DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
                 lo = lo.min(p);
                 hi = hi.max(p);
@@ -67,7 +72,7 @@ pub fn focus_bounds(scene: &Scene) -> Option<(DVec3, DVec3)> {
         }
         any.then_some((lo, hi))
     };
-    bounds_of(true).or_else(|| bounds_of(false))
+    Ok(bounds_of(true).or_else(|| bounds_of(false)))
 }
 
 /// `count` cameras on a circle around the scene's focus (the centre of the objects'
@@ -79,7 +84,7 @@ pub fn orbit_cameras(scene: &Scene, frames: &[Frame], count: usize) -> Result<Ve
     let Some(first) = frames.first() else {
         bail!("an orbit needs at least one frame for its intrinsics and scale");
     };
-    let Some((lo, hi)) = focus_bounds(scene) else {
+    let Some((lo, hi)) = focus_bounds(scene)? else {
         bail!("the scene has no vertices to orbit around");
     };
     let focus = (lo + hi) * 0.5;

@@ -2,15 +2,22 @@
 //!
 //! Encoding (a folder, see the crate README):
 //! - `scene.json`: `{"objects": [{"name", "kind": "object" | "background", "id", "label",
-//!   "source"}]}`, background entries first, then objects by id;
-//! - `objects/<name>/`: one Model folder per entry (`model.ply` + `model.json`);
+//!   "source", "placement"?}], "edits"?: [RON text]}`, background entries first, then
+//!   objects by id; `placement` (absent = the model is where it was trained) places the
+//!   model in the world, `edits` records the edits that made the scene from the composed one;
+//! - `objects/<name>/`: one Model folder per entry (`model.ply` + `model.json`), in the
+//!   member's model frame (the frame it was trained in);
 //! - `fills/<frame stem>.png` (optional, written by `edit_scene`): background images
 //!   that `render` shows wherever no triangle covers a pixel.
 
+use crate::sh_rotation::ShRotation;
 use anyhow::{Context, Result, bail, ensure};
+use glam::DMat3;
 use objectsplat_core::{ComponentInfo, ComponentKind};
+use objectsplat_export::Placement;
 use objectsplat_raster::{Model, load_model, save_model};
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::collections::HashSet;
 use std::path::Path;
 
@@ -19,7 +26,7 @@ pub const OBJECTS_DIR: &str = "objects";
 pub const FILLS_DIR: &str = "fills";
 
 /// One entry of `scene.json`.
-#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct SceneEntry {
     /// Unique within the scene; also the folder name under `objects/`.
     pub name: String,
@@ -30,6 +37,10 @@ pub struct SceneEntry {
     pub label: Option<String>,
     /// The component (collection item) the model was trained as; a duplicate keeps its original's.
     pub source: String,
+    /// Where the model sits in the world; `None`: where it was trained (scenes written
+    /// before placements existed, and members no rigid edit touched).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub placement: Option<Placement>,
 }
 
 impl SceneEntry {
@@ -40,6 +51,7 @@ impl SceneEntry {
             id: info.object_id,
             label: info.label.clone(),
             source: source.to_string(),
+            placement: None,
         }
     }
 
@@ -69,19 +81,86 @@ impl SceneEntry {
 #[derive(Debug, Serialize, Deserialize)]
 struct SceneJson {
     objects: Vec<SceneEntry>,
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    edits: Vec<String>,
 }
 
-/// One member of a scene: its description and its model (world coordinates).
+/// One member of a scene: its description and its model (model frame; see
+/// [`SceneObject::world_model`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct SceneObject {
     pub entry: SceneEntry,
     pub model: Model<f32>,
 }
 
+/// The mean vertex of `model` (the origin for an empty model), rounded to f32 so that a
+/// glTF node (f32) sits exactly on it.
+pub fn model_centroid(model: &Model<f32>) -> [f64; 3] {
+    let n = model.vertices.len();
+    if n == 0 {
+        return [0.0; 3];
+    }
+    let mut sum = [0.0f64; 3];
+    for v in &model.vertices {
+        for k in 0..3 {
+            sum[k] += f64::from(v[k]);
+        }
+    }
+    sum.map(|s| f64::from((s / n as f64) as f32))
+}
+
+impl SceneObject {
+    /// The member's placement: the stored one, else its model where it was trained with
+    /// the pivot on the model's centroid ([`model_centroid`]).
+    pub fn placement(&self) -> Placement {
+        self.entry
+            .placement
+            .unwrap_or_else(|| Placement::at(model_centroid(&self.model)))
+    }
+
+    /// The model in world coordinates: vertices through the placement, view-dependent
+    /// colour (SH) rotated with it. Without a stored placement, the model itself.
+    pub fn world_model(&self) -> Result<Cow<'_, Model<f32>>> {
+        let Some(placement) = self.entry.placement else {
+            return Ok(Cow::Borrowed(&self.model));
+        };
+        Ok(Cow::Owned(
+            place_model(&self.model, &placement)
+                .with_context(|| format!("scene member {:?}", self.entry.name))?,
+        ))
+    }
+}
+
+/// `model` moved into the world by `placement`.
+pub fn place_model(model: &Model<f32>, placement: &Placement) -> Result<Model<f32>> {
+    let mut out = model.clone();
+    for v in &mut out.vertices {
+        *v = placement.world(v.map(f64::from)).map(|x| x as f32);
+    }
+    let r = placement.rotation_matrix();
+    let identity = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    if r != identity {
+        // DMat3 is column-major: column j holds row entries r[·][j].
+        let m = DMat3::from_cols_array_2d(&[
+            [r[0][0], r[1][0], r[2][0]],
+            [r[0][1], r[1][1], r[2][1]],
+            [r[0][2], r[1][2], r[2][2]],
+        ]);
+        let sh = ShRotation::new(m)?;
+        for rows in &mut out.sh {
+            *rows = sh.apply(rows);
+        }
+    }
+    Ok(out)
+}
+
 /// A composed scene: separable members in the deterministic order of `scene.json`.
 #[derive(Debug, Clone, PartialEq, Default)]
 pub struct Scene {
     pub objects: Vec<SceneObject>,
+    /// The edits (RON text, in order) that made this scene from the composed one; replaying
+    /// them with `edit_scene` on that scene gives this one.
+    pub edits: Vec<String>,
 }
 
 /// The union of a scene's models as one model, and which member each face came from.
@@ -96,7 +175,10 @@ impl Scene {
     /// Builds a scene, sorting members into the canonical order and checking the entries.
     pub fn new(mut objects: Vec<SceneObject>) -> Result<Scene> {
         objects.sort_by_key(|o| o.entry.order_key());
-        let scene = Scene { objects };
+        let scene = Scene {
+            objects,
+            edits: Vec::new(),
+        };
         scene.validate()?;
         Ok(scene)
     }
@@ -139,6 +221,20 @@ impl Scene {
                 }
                 (ComponentKind::Background, None) => {}
             }
+            if let Some(p) = &e.placement {
+                ensure!(
+                    p.pivot
+                        .iter()
+                        .chain(&p.translation)
+                        .chain(&p.rotation)
+                        .all(|v| v.is_finite())
+                        && p.scale.is_finite()
+                        && p.scale > 0.0
+                        && p.rotation.iter().any(|&v| v != 0.0),
+                    "scene member {:?} has an invalid placement {p:?} (finite values, a non-zero rotation and a positive scale are required)",
+                    e.name
+                );
+            }
             o.model
                 .validate()
                 .with_context(|| format!("scene member {:?}", e.name))?;
@@ -163,7 +259,7 @@ impl Scene {
         self.objects.iter().map(|o| o.model.face_count()).sum()
     }
 
-    /// Concatenates all members' triangles into one model (no re-optimization).
+    /// Concatenates all members' triangles, placed in the world, into one model (no re-optimization).
     ///
     /// The members keep their opacities: the merged opacity floor is the smallest member
     /// floor and each member's logits are re-mapped to it. Colours above a member's own
@@ -193,7 +289,7 @@ impl Scene {
         }
         let mut face_owner = Vec::with_capacity(self.face_count());
         for (index, o) in self.objects.iter().enumerate() {
-            let mut m = o.model.clone();
+            let mut m = o.world_model()?.into_owned();
             // Re-mapping clamps extreme logits, so members already on the floor keep theirs.
             if m.opacity_floor != merged.opacity_floor {
                 m.set_opacity_floor(merged.opacity_floor)
@@ -243,6 +339,7 @@ pub fn save_scene(scene: &Scene, dir: &Path) -> Result<()> {
     }
     let json = SceneJson {
         objects: sorted.objects.iter().map(|o| o.entry.clone()).collect(),
+        edits: sorted.edits.clone(),
     };
     let path = dir.join(SCENE_JSON);
     std::fs::write(&path, serde_json::to_string_pretty(&json)? + "\n")
@@ -273,7 +370,10 @@ pub fn load_scene(dir: &Path) -> Result<Scene> {
             .with_context(|| format!("{}: member {:?}", path.display(), entry.name))?;
         objects.push(SceneObject { entry, model });
     }
-    let scene = Scene { objects };
+    let scene = Scene {
+        objects,
+        edits: json.edits,
+    };
     scene
         .validate()
         .with_context(|| format!("{}: invalid scene", path.display()))?;

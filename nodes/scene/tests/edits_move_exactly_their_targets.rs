@@ -1,12 +1,18 @@
-//! Edits touch exactly their targets: moving shifts only that object's vertices,
-//! rotation and scale act about the centroid, removal leaves the other members'
-//! folders byte-identical, and bad edits are errors that name the edit.
+//! Edits touch exactly their targets: moving shifts only that object's (world) vertices,
+//! rotation and scale act about the centroid, rigid edits leave every model file
+//! byte-identical (they change placements), removal leaves the other members' folders
+//! byte-identical, the scene records the edits, and bad edits are errors that name the edit.
 
 mod common;
 
 use glam::{DMat3, DVec3};
 use objectsplat_raster::sh::SH_DC;
-use objectsplat_scene::load_scene;
+use objectsplat_scene::{Scene, load_scene};
+
+fn world_vertices(scene: &Scene, id: u16) -> Vec<[f32; 3]> {
+    let o = &scene.objects[scene.find_id(id).unwrap()];
+    o.world_model().unwrap().vertices.clone()
+}
 
 #[test]
 fn moving_an_object_moves_exactly_its_triangles() {
@@ -23,22 +29,21 @@ fn moving_an_object_moves_exactly_its_triangles() {
     let after = load_scene(&after_dir).unwrap();
     assert_eq!(before.objects.len(), after.objects.len());
     for (b, a) in before.objects.iter().zip(&after.objects) {
-        assert_eq!(b.entry, a.entry);
-        assert_eq!(b.model.faces, a.model.faces);
-        assert_eq!(b.model.sh, a.model.sh);
+        assert_eq!(b.entry.name, a.entry.name);
+        assert_eq!(b.model, a.model, "the model itself is never rewritten");
+        let (bw, aw) = (b.world_model().unwrap(), a.world_model().unwrap());
+        assert_eq!(bw.faces, aw.faces);
+        assert_eq!(bw.sh, aw.sh);
         if b.entry.id == Some(3) {
-            for (p, q) in b.model.vertices.iter().zip(&a.model.vertices) {
+            for (p, q) in bw.vertices.iter().zip(&aw.vertices) {
                 let want = [p[0] + 0.5, p[1], p[2] - 1.0];
                 for k in 0..3 {
                     assert!((q[k] - want[k]).abs() < 1e-6, "{q:?} vs {want:?}");
                 }
             }
         } else {
-            assert_eq!(
-                b.model.vertices, a.model.vertices,
-                "{} must not move",
-                b.entry.name
-            );
+            assert_eq!(a.entry, b.entry, "{} must not change", b.entry.name);
+            assert_eq!(bw.vertices, aw.vertices, "{} must not move", b.entry.name);
         }
     }
     // In the merged model, exactly the chair's faces changed position.
@@ -95,10 +100,8 @@ fn rotation_and_scale_act_about_the_centroid() {
     .unwrap();
     let before = load_scene(&before_dir).unwrap();
     let after = load_scene(&after_dir).unwrap();
-    let chair =
-        |s: &objectsplat_scene::Scene| s.objects[s.find_id(3).unwrap()].model.vertices.clone();
-    let cup =
-        |s: &objectsplat_scene::Scene| s.objects[s.find_id(5).unwrap()].model.vertices.clone();
+    let chair = |s: &Scene| world_vertices(s, 3);
+    let cup = |s: &Scene| world_vertices(s, 5);
     let to = |v: &[f32; 3]| DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
     // The chair square is centred at (−0.6, 0, 0): a quarter turn about +Z maps offset (dx, 0, dz) to (0, dx, dz).
     let c = DVec3::new(-0.6, 0.0, 0.0);
@@ -132,7 +135,10 @@ fn duplicate_gets_the_next_id_and_recolor_sets_the_colour() {
     assert_eq!(copy.entry.label.as_deref(), Some("lamp"));
     assert_eq!(copy.entry.source, "obj_4_lamp");
     let original = &after.objects[after.find_id(4).unwrap()];
-    for (p, q) in original.model.vertices.iter().zip(&copy.model.vertices) {
+    for (p, q) in world_vertices(&after, 4)
+        .iter()
+        .zip(&world_vertices(&after, 6))
+    {
         assert!((q[0] - p[0] - 1.0).abs() < 1e-6 && q[1] == p[1] && q[2] == p[2]);
     }
     // The recolor came after the duplicate, so only the original is red.

@@ -1,4 +1,4 @@
-//! `register` adds the five scene nodes, and the registry accepts their specs
+//! `register` adds the seven scene nodes, and the registry accepts their specs
 //! (known types, unique ports, defaults that parse and fit their types).
 
 use objectsplat_runtime::Registry;
@@ -12,7 +12,15 @@ fn all_scene_nodes_register_with_checked_specs() {
         reg.add_type(t, "test type");
     }
     objectsplat_scene::register(&mut reg);
-    for kind in ["compose", "edit_scene", "render", "evaluate", "export_gltf"] {
+    for kind in [
+        "compose",
+        "load_scene",
+        "edit_scene",
+        "render",
+        "evaluate",
+        "export_gltf",
+        "viewer",
+    ] {
         assert!(reg.get(kind).is_some(), "{kind} missing");
     }
 }

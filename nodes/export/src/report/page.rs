@@ -1,5 +1,6 @@
 //! Assembles `index.html`: one self-contained page (inline CSS, inline SVG, PNG data URIs,
-//! no scripts and no external fetches) so it can be mailed or archived as a single file.
+//! no external fetches) so it can be mailed or archived as a single file. The only script
+//! is the embedded 3D viewer's, when the report has one.
 
 use super::data::{MetricValues, ReportData};
 use super::escape::escape;
@@ -7,6 +8,7 @@ use super::images::render_triplet;
 use super::plot::{PlotSpec, Series, line_plot_svg};
 use super::run_summary::run_section;
 use super::training::{finite_points, section_training};
+use crate::viewer::{read_viewer, viewer_fragment, viewer_style};
 use anyhow::{Context, Result, ensure};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
@@ -144,13 +146,31 @@ fn section_runtime(data: &ReportData, html: &mut String) {
     html.push_str("</section>");
 }
 
+/// The interactive 3D view of the scene, when the report was given a viewer folder.
+fn section_scene(data: &ReportData, html: &mut String) -> Result<()> {
+    let Some(dir) = &data.viewer else {
+        return Ok(());
+    };
+    let (glb, scene) = read_viewer(dir)?;
+    html.push_str("<section id=\"scene\"><h2>Scene</h2><p>Click an object to select it; drag it to move it; the panel lists the controls. <em>Export edits</em> gives the list for <code>edit_scene</code>.</p><div class=\"scene-view\">");
+    html.push_str(&viewer_fragment(&glb, &scene)?);
+    html.push_str("</div></section>");
+    Ok(())
+}
+
 /// Builds the page's HTML.
 pub fn report_html(data: &ReportData) -> Result<String> {
     let title = escape(&data.title);
+    let viewer_style = if data.viewer.is_some() {
+        format!(".scene-view{{height:560px}}{}", viewer_style())
+    } else {
+        String::new()
+    };
     let mut html = format!(
-        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\"><title>{title}</title><style>{STYLE}</style></head><body><h1>{title}</h1>"
+        "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\"><title>{title}</title><style>{STYLE}{viewer_style}</style></head><body><h1>{title}</h1>"
     );
     html.push_str(&run_section(&data.run)?);
+    section_scene(data, &mut html)?;
     section_metrics(data, &mut html);
     section_views(data, &mut html)?;
     section_training(&data.training, &mut html);

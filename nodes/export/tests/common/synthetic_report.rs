@@ -157,6 +157,7 @@ pub fn report_data(dir: &Path) -> ReportData {
         }),
         views,
         error_scale: 0.0,
+        viewer: None,
         training: fixture_training(),
         runtime_vs_error: vec![
             RuntimePoint {
