@@ -57,17 +57,41 @@ pub fn mesh_points(mesh: &Mesh, params: &MeshEvalParams) -> Result<Vec<[f64; 3]>
 /// the set of surface samples on faces whose object is `k` (object of a face = the
 /// object of its first vertex). Objects listed in `object_ids` but absent from
 /// `pred_objects` score 0.
+/// Accepts the ground-truth samples to score against.
+pub type GtFilter<'a> = &'a (dyn Fn(&[f64; 3]) -> bool + Sync);
+
+/// `keep_gt`, when given, restricts the ground truth to the samples it accepts
+/// (e.g. the surface a capture actually saw).
 pub fn evaluate_mesh(
     gt: &Mesh,
     pred_scene: &[[f64; 3]],
     pred_objects: &[(u16, Vec<[f64; 3]>)],
     object_ids: &[u16],
     params: &MeshEvalParams,
+    keep_gt: Option<GtFilter<'_>>,
 ) -> Result<MeshFScores> {
-    let samples = sample_surface(gt, params.samples, params.seed)
+    let mut samples = sample_surface(gt, params.samples, params.seed)
         .context("sampling the ground-truth mesh")?;
+    if let Some(keep) = keep_gt {
+        let (points, faces) = samples
+            .points
+            .iter()
+            .zip(&samples.faces)
+            .filter(|(p, _)| keep(p))
+            .map(|(p, f)| (*p, *f))
+            .unzip();
+        samples.points = points;
+        samples.faces = faces;
+    }
     if samples.points.is_empty() {
-        bail!("the ground-truth mesh gave no surface samples; raise the sampling density");
+        bail!(
+            "the ground-truth mesh gave no surface samples{}; raise the sampling density",
+            if keep_gt.is_some() {
+                " that the frames see"
+            } else {
+                ""
+            }
+        );
     }
     let gt_scene = voxel_downsample(&samples.points, params.voxel)?;
     let pred_scene =

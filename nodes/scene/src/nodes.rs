@@ -4,7 +4,7 @@
 //! (`report` is registered by `objectsplat-export`, which owns the report library.)
 
 use crate::edit::{apply_edits, parse_edits};
-use crate::evaluate::{EvaluateSettings, GroundTruth, evaluate_scene};
+use crate::evaluate::{EvaluateSettings, GroundTruth, GtSurface, evaluate_scene};
 use crate::render::{Backdrop, focus_bounds, orbit_cameras, render_view};
 use crate::scene::{
     FILLS_DIR, Scene, SceneEntry, SceneObject, component_of_item, load_scene, save_scene,
@@ -288,7 +288,7 @@ pub struct Evaluate;
 
 impl Node for Evaluate {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("evaluate", "1")
+        NodeSpec::new("evaluate", "2")
             .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id. Writes metrics.json and metrics.csv.")
             .input("images", "Images", "renders of the test frames (<frame stem>.png)")
             .input("frames", "Frames", "the capture; its test split is the ground truth")
@@ -302,6 +302,12 @@ impl Node for Evaluate {
             .param("seed", ParamType::int_range(0, i64::MAX), Some("0"), "seed of the surface sampling")
             .param("ssim", ParamType::enumeration(&["gs3d", "cropped"]), Some("\"gs3d\""), "SSIM border convention: 3DGS zero padding, or scikit-image's 5-pixel crop")
             .param("lpips_weights", ParamType::optional(ParamType::Path), Some("None"), "AlexNet LPIPS weights (safetensors); LPIPS is skipped without it")
+            .param(
+                "gt_surface",
+                ParamType::enumeration(&["observed", "all"]),
+                Some("\"observed\""),
+                "ground truth of the F-scores: the mesh surface at least one frame sees (depth-tested), or the whole mesh",
+            )
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
@@ -343,6 +349,10 @@ impl Node for Evaluate {
             },
             ssim,
             lpips: lpips.as_ref(),
+            gt_surface: match ctx.param::<String>("gt_surface")?.as_str() {
+                "all" => GtSurface::All,
+                _ => GtSurface::Observed,
+            },
         };
         ctx.progress(0, 1, "evaluating");
         let (report, summary) =

@@ -64,11 +64,20 @@ pub struct Schedule {
     pub densify_min_area: f64,
     /// The largest-area faces always split at each densification.
     pub densify_always_largest: usize,
+    /// Faces whose screen inradius (px) stays below this in every training view
+    /// are never split: their children would fall under the renderer's 1 px
+    /// inradius cull, draw nothing and be pruned again.
+    pub densify_min_inradius: f64,
     /// Densification stops adding once the model has this many vertices.
     pub max_vertices: usize,
 
     /// Iteration at whose start the restricted Delaunay connectivity step runs.
     pub connectivity_at: u64,
+
+    /// One epoch after the connectivity step, faces whose max blending weight over
+    /// the training views is ≤ this are removed: most faces of the restricted
+    /// Delaunay mesh lie inside surfaces and never show.
+    pub connectivity_cleanup_threshold: f64,
 
     /// After training, faces whose max blending weight over the training views is ≤ this are removed.
     pub final_prune_threshold: f64,
@@ -124,9 +133,11 @@ impl Schedule {
             densify_growth: 0.23,
             densify_min_area: 7.5e-5,
             densify_always_largest: 100,
+            densify_min_inradius: 2.0,
             max_vertices: 4_000_000,
             // The reference runs it at the start of iteration densify_until + 1000 + 1 (11001).
             connectivity_at: at(11_000) + 1,
+            connectivity_cleanup_threshold: 0.02,
             final_prune_threshold: 0.5,
             eval_every: every(500),
             patience: every(3000),
@@ -178,6 +189,11 @@ impl Schedule {
             ("densify_growth", self.densify_growth),
             ("densify_min_area", self.densify_min_area),
             ("final_prune_threshold", self.final_prune_threshold),
+            ("densify_min_inradius", self.densify_min_inradius),
+            (
+                "connectivity_cleanup_threshold",
+                self.connectivity_cleanup_threshold,
+            ),
         ];
         for (name, v) in non_negative {
             if !v.is_finite() || v < 0.0 {

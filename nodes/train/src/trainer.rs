@@ -121,7 +121,7 @@ pub fn held_out_eval(
     data: &ComponentData,
     settings: &TrainSettings,
 ) -> Result<HeldOut> {
-    HostSteps::new(backend, data, settings.crop).evaluate(
+    HostSteps::new(backend, data, settings.crop)?.evaluate(
         model,
         data,
         &evaluation_views(data),
@@ -139,10 +139,19 @@ pub fn held_out_score(
     Ok(held_out_eval(backend, model, data, settings)?.loss)
 }
 
-/// Per face, the largest screen extent in pixels (centroid-to-corner
-/// distance, faces in front of the camera) over `cameras`: projection only.
-fn max_screen_extent(model: &Model<f32>, cameras: &[&objectsplat_core::Camera]) -> Vec<f64> {
-    let mut extent = vec![0.0f64; model.face_count()];
+/// Per face over a set of cameras (projection only): the largest screen
+/// extent (centroid-to-corner distance, px) and the largest screen inradius
+/// (px), for faces in front of the camera.
+struct ScreenSizes {
+    extent: Vec<f64>,
+    inradius: Vec<f64>,
+}
+
+fn screen_sizes(model: &Model<f32>, cameras: &[&objectsplat_core::Camera]) -> ScreenSizes {
+    let mut sizes = ScreenSizes {
+        extent: vec![0.0; model.face_count()],
+        inradius: vec![0.0; model.face_count()],
+    };
     let mut projected = Vec::with_capacity(model.vertex_count());
     for camera in cameras {
         projected.clear();
@@ -161,10 +170,17 @@ fn max_screen_extent(model: &Model<f32>, cameras: &[&objectsplat_core::Camera]) 
                 .iter()
                 .map(|p| (p.0 - cx).hypot(p.1 - cy))
                 .fold(0.0, f64::max);
-            extent[f] = extent[f].max(e);
+            sizes.extent[f] = sizes.extent[f].max(e);
+            let twice_area = ((b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1)).abs();
+            let perimeter = (b.0 - a.0).hypot(b.1 - a.1)
+                + (c.0 - b.0).hypot(c.1 - b.1)
+                + (a.0 - c.0).hypot(a.1 - c.1);
+            if perimeter > 0.0 {
+                sizes.inradius[f] = sizes.inradius[f].max(twice_area / perimeter);
+            }
         }
     }
-    extent
+    sizes
 }
 
 /// The best model so far on the held-out views.
@@ -236,14 +252,15 @@ pub fn train_component(
     .with_context(|| format!("initializing component {:?}", data.name))?;
     let mut optim = Optim::new(s, model.vertex_count())?;
     // On a wgpu backend the iterations run on the device; everything else stays here.
+    // Training behind frozen occluders renders a composite, which only the host path builds.
     let mut device = match backend
         .as_any()
         .and_then(|b| b.downcast_ref::<WgpuBackend>())
     {
-        Some(gpu) => Some(DeviceSteps::new(gpu, data, &train, &optim)?),
-        None => None,
+        Some(gpu) if data.occluders.is_none() => Some(DeviceSteps::new(gpu, data, &train, &optim)?),
+        _ => None,
     };
-    let mut host = HostSteps::new(backend, data, settings.crop);
+    let mut host = HostSteps::new(backend, data, settings.crop)?;
     let mut rng = Pcg64Mcg::seed_from_u64(settings.seed ^ 0x9e37_79b9_7f4a_7c15);
     let mut order = ViewOrder::new(train.len());
     let mut stats = FaceWeights::new(model.face_count());
@@ -263,6 +280,7 @@ pub fn train_component(
     let (mut steps, mut evals) = (Vec::new(), Vec::new());
     let mut window_loss = 0.0;
     let mut stopped_early = false;
+    let mut cleanup_pending = false;
     let mut it = 0;
     while it < s.iterations {
         let edits_model = (it == s.connectivity_at && model.face_count() > 0)
@@ -283,6 +301,7 @@ pub fn train_component(
                 },
             )?;
             stats.reset(model.face_count());
+            cleanup_pending = true;
             notes.push(format!(
                 "connectivity step at {it}: {} faces",
                 model.face_count()
@@ -304,13 +323,13 @@ pub fn train_component(
             } else {
                 host.face_max_weight(&model, data, &train, &render)?
             };
+            let mut sizes = screen_sizes(&model, &train_cameras);
             if let Some(threshold) = prune {
-                let extent = max_screen_extent(&model, &train_cameras);
                 let keep: Vec<bool> = (0..model.face_count())
                     .map(|f| {
                         model.face_opacity(f) as f64 > threshold
                             && max_weight[f] as f64 > threshold
-                            && extent[f] <= s.prune_max_screen_extent
+                            && sizes.extent[f] <= s.prune_max_screen_extent
                     })
                     .collect();
                 // Never prune the model away entirely; the held-out score decides what survives.
@@ -318,6 +337,11 @@ pub fn train_component(
                     let edit = prune_faces(&mut model, &keep)?;
                     optim.apply_edit(&edit)?;
                     stats.follow(&edit);
+                    sizes.inradius = edit
+                        .face_origin
+                        .iter()
+                        .map(|&f| sizes.inradius[f as usize])
+                        .collect();
                     max_weight = edit
                         .face_origin
                         .iter()
@@ -331,7 +355,18 @@ pub fn train_component(
                     min_area: s.densify_min_area * settings.world_scale * settings.world_scale,
                     always_largest: s.densify_always_largest,
                 };
-                let chosen = select_faces_to_split(&model, &max_weight, policy, &mut rng)?;
+                let splittable: Vec<bool> = sizes
+                    .inradius
+                    .iter()
+                    .map(|&r| r >= s.densify_min_inradius)
+                    .collect();
+                let chosen = select_faces_to_split(
+                    &model,
+                    &max_weight,
+                    Some(&splittable),
+                    policy,
+                    &mut rng,
+                )?;
                 let edit = subdivide_faces(&mut model, &chosen)?;
                 optim.apply_edit(&edit)?;
                 stats.follow(&edit);
@@ -342,6 +377,34 @@ pub fn train_component(
         let (slot, new_epoch) = order.next(&mut rng);
         if new_epoch && it > 0 {
             stats.end_epoch();
+            // The first complete statistics of the connected mesh: drop what never shows.
+            if cleanup_pending && stats.complete() {
+                cleanup_pending = false;
+                if let Some(device) = device.as_mut() {
+                    device.pull(&mut model, &mut optim, data)?;
+                    device.host_edited();
+                }
+                let weights = if device.is_none() {
+                    stats.max_weight()
+                } else {
+                    host.face_max_weight(&model, data, &train, &render_settings(&model, settings))?
+                };
+                let keep: Vec<bool> = weights
+                    .iter()
+                    .map(|&w| w as f64 > s.connectivity_cleanup_threshold)
+                    .collect();
+                let removed = keep.iter().filter(|k| !**k).count();
+                if removed > 0 && removed < keep.len() {
+                    let edit = prune_faces(&mut model, &keep)?;
+                    optim.apply_edit(&edit)?;
+                    stats.follow(&edit);
+                    notes.push(format!(
+                        "cleanup at {it}: {removed} faces never above weight {} removed, {} remain",
+                        s.connectivity_cleanup_threshold,
+                        model.face_count()
+                    ));
+                }
+            }
         }
         let b = if settings.background_randomization {
             [
