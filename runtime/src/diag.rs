@@ -120,6 +120,20 @@ impl fmt::Display for Diagnostics {
 impl std::error::Error for Diagnostics {}
 impl std::error::Error for Diagnostic {}
 
+/// `text` cut to `max` bytes (at a character boundary), saying how much was left
+/// out: for messages that quote what a user, a file or a plugin supplied.
+pub fn bounded(text: &str, max: usize) -> String {
+    if text.len() <= max {
+        return text.to_string();
+    }
+    let cut = text.floor_char_boundary(max);
+    format!(
+        "{}… [{} more bytes not shown]",
+        &text[..cut],
+        text.len() - cut
+    )
+}
+
 /// Candidates within a small edit distance of `word`, closest first.
 pub fn similar<'a>(word: &str, candidates: impl Iterator<Item = &'a str>) -> Vec<&'a str> {
     let mut scored: Vec<(usize, &str)> = candidates

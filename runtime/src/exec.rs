@@ -115,6 +115,9 @@ pub fn run(plan: &Plan, store: &Store, opts: &RunOptions) -> Result<RunReport> {
     ))
 }
 
+/// Longest failure message a node's report carries.
+const MAX_FAILURE_TEXT: usize = 16 << 10;
+
 /// Separates the params from the fingerprint of the files a node reads
 /// ([`crate::Node::reads`]) in a key's params text.
 const READS_SEPARATOR: &str = " + ";
@@ -608,7 +611,10 @@ fn execute(
                 warnings.push(format!("warning: {c}; recomputing"));
                 (Err(JobError::Corrupt(c.to_string())), status)
             } else {
-                (Err(JobError::Failed(format!("{e:#}"))), status)
+                // A node may fail with megabytes of text (a dump, a log); the report
+                // and the terminal get the start of it.
+                let msg = crate::diag::bounded(&format!("{e:#}"), MAX_FAILURE_TEXT);
+                (Err(JobError::Failed(msg)), status)
             }
         }
     };

@@ -77,23 +77,12 @@ pub fn read_line(reader: &mut impl BufRead, max: usize) -> io::Result<Option<Vec
     Ok(Some(line))
 }
 
-/// `text` cut to [`MAX_MESSAGE`] bytes (at a character boundary), saying how much
-/// was left out.
+/// `text` cut to [`MAX_MESSAGE`] bytes, saying how much was left out.
 pub fn bounded(text: &str) -> String {
     bounded_to(text, MAX_MESSAGE)
 }
 
-pub fn bounded_to(text: &str, max: usize) -> String {
-    if text.len() <= max {
-        return text.to_string();
-    }
-    let cut = text.floor_char_boundary(max);
-    format!(
-        "{}… [{} more bytes not shown]",
-        &text[..cut],
-        text.len() - cut
-    )
-}
+pub use crate::diag::bounded as bounded_to;
 
 #[cfg(test)]
 mod tests {
