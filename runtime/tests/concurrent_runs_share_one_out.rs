@@ -16,7 +16,7 @@ const GRAPH: &str = r#"(
   targets: ["src", "twice"],
 )"#;
 
-const ITEMS: i64 = 60;
+const ITEMS: i64 = 30;
 
 /// Not a test: the body of the child processes below (`--ignored --exact`).
 #[test]
@@ -67,13 +67,13 @@ fn count_items(dir: &Path) -> usize {
 #[test]
 fn two_runs_on_one_out_both_succeed_and_leave_every_output() {
     let values: Vec<String> = (0..ITEMS).map(|v| v.to_string()).collect();
-    for attempt in 0..3 {
+    for attempt in 0..2 {
         let ws = Workspace::new();
         let g = ws.graph(&GRAPH.replace("VALUES", &values.join(", ")));
-        // Separate caches: both runs compute and both write every output.
-        let cache_b = ws.dir.path().join("cache_b");
+        // One cache, as with a second terminal: the second run waits for the first
+        // run's keys and reuses them, so both reach the writing of --out together.
         let a = spawn(&g, &ws.cache(), &ws.out());
-        let b = spawn(&g, &cache_b, &ws.out());
+        let b = spawn(&g, &ws.cache(), &ws.out());
         for (name, child) in [("first", a), ("second", b)] {
             let done = child.wait_with_output().unwrap();
             assert!(
