@@ -64,7 +64,9 @@ fn a_backslash_name_climbing_out_fails_its_node_and_touches_nothing_outside() {
     let r = run(&graph, &root.join("cache"), &out);
 
     assert_eq!(
-        std::fs::read_to_string(root.join("victim.txt")).ok().as_deref(),
+        std::fs::read_to_string(root.join("victim.txt"))
+            .ok()
+            .as_deref(),
         Some("precious"),
         "a file outside the staging folder was moved into the cache"
     );
