@@ -135,8 +135,10 @@ impl Frames {
         std::fs::write(&path, text).with_context(|| format!("{}: cannot write", path.display()))
     }
 
+    /// The image file of a frame; a `\` in a hand-written `image` is a separator, as
+    /// the check in [`Frames::read`] treats it.
     pub fn image_path(&self, frame: &Frame) -> PathBuf {
-        self.root.join(&frame.image)
+        self.root.join(frame.image.replace('\\', "/"))
     }
 
     /// Loads a frame's image as RGB and checks it matches the declared size.
