@@ -157,6 +157,17 @@ pub enum Outcome {
 pub trait Node: Send + Sync {
     fn spec(&self) -> NodeSpec;
     fn run(&self, ctx: &mut Context) -> Result<Outcome>;
+
+    /// Files and folders a run will read that are neither inputs nor named by a
+    /// `path` param (those are fingerprinted already): an image folder found beside
+    /// a model, the images a JSON lists, a script named in a command line. Called
+    /// with the normalised params before the cache is consulted; their fingerprints
+    /// ([`crate::store::Store::fingerprint_reads`]) enter the run's cache key, so
+    /// replacing one of them reruns the node. A node that reads files it cannot name
+    /// in advance must say so in its doc.
+    fn reads(&self, _params: &Params) -> Result<Vec<PathBuf>> {
+        Ok(Vec::new())
+    }
 }
 
 /// An input as the node sees it.

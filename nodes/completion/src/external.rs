@@ -11,13 +11,20 @@
 //! that is exactly `{input}` or `{output}` is replaced by the folder's path; nothing
 //! else is substituted, so file names never end up inside a command string. The
 //! program's stdout is discarded, its stderr is captured (the last few KB go into
-//! error messages), and it is killed when it runs past the timeout. Pixels outside
-//! the mask are taken from the input, whatever the program wrote there.
+//! error messages), and it runs in a process group of its own: at the timeout the
+//! whole group is killed (the program and everything it started), and processes it
+//! leaves behind when it exits are killed too. Pixels outside the mask are taken
+//! from the input, whatever the program wrote there.
+//!
+//! Cache key: the argv, the program file and every file or folder an absolute
+//! argument names ([`ExternalCommand::reads`]), so editing the script reruns the
+//! node. Files the program opens on its own (weights it finds by itself, say) cannot
+//! be known in advance and are not part of the key: name them in the argv.
 
 use crate::component_io::{load_rgb8, save_gray8, save_rgb8};
 use anyhow::{Context, Result, bail};
 use std::io::Read;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::Duration;
 use wait_timeout::ChildExt;
@@ -42,6 +49,32 @@ pub struct FillRequest {
 }
 
 impl ExternalCommand {
+    /// The files the command's output depends on besides its inputs: the program
+    /// (found on `PATH` when named without a folder) and every absolute argument that
+    /// names an existing file or folder (a script, a weights file, a model folder).
+    pub fn reads(argv: &[String]) -> Vec<PathBuf> {
+        let mut out = Vec::new();
+        if let Some(program) = argv.first() {
+            let program = Path::new(program);
+            if program.components().count() > 1 || program.is_absolute() {
+                out.push(program.to_path_buf());
+            } else if let Some(found) = std::env::var_os("PATH").and_then(|paths| {
+                std::env::split_paths(&paths)
+                    .map(|d| d.join(program))
+                    .find(|p| p.is_file())
+            }) {
+                out.push(found);
+            }
+        }
+        for arg in argv.iter().skip(1) {
+            let p = Path::new(arg);
+            if p.is_absolute() && p.exists() {
+                out.push(p.to_path_buf());
+            }
+        }
+        out
+    }
+
     /// Runs the program once on all `requests` inside `workdir` and returns the
     /// filled RGB images in request order.
     pub fn run(&self, requests: &[FillRequest], workdir: &Path) -> Result<Vec<Vec<u8>>> {
@@ -87,14 +120,19 @@ impl ExternalCommand {
                 other => std::ffi::OsStr::new(other),
             })
             .collect();
-        let mut child = Command::new(program)
+        let mut command = Command::new(program);
+        command
             .args(&args)
             .current_dir(workdir)
             .stdin(Stdio::null())
             .stdout(Stdio::null())
-            .stderr(Stdio::piped())
+            .stderr(Stdio::piped());
+        #[cfg(unix)]
+        std::os::unix::process::CommandExt::process_group(&mut command, 0);
+        let mut child = command
             .spawn()
             .with_context(|| format!("cannot start inpainting command {program:?}"))?;
+        let group = ProcessGroup(child.id());
         // Drain stderr on a thread so a chatty program cannot block on a full pipe.
         let mut stderr_pipe = child
             .stderr
@@ -122,6 +160,7 @@ impl ExternalCommand {
         {
             Some(status) => status,
             None => {
+                group.kill();
                 // Kill errors mean it exited in the meantime; either way, reap it.
                 let _ = child.kill();
                 let _ = child.wait();
@@ -132,6 +171,8 @@ impl ExternalCommand {
                 );
             }
         };
+        // Whatever it started and left running goes with it.
+        group.kill();
         let stderr = collect_stderr();
         if !status.success() {
             bail!("inpainting command {program:?} failed ({status}); stderr:\n{stderr}");
@@ -165,6 +206,21 @@ impl ExternalCommand {
                 Ok(composite(&r.rgb, &filled, &r.mask))
             })
             .collect()
+    }
+}
+
+/// The process group a command runs in (its id is the program's pid).
+struct ProcessGroup(u32);
+
+impl ProcessGroup {
+    /// Kills every process of the group; a group already gone is fine.
+    fn kill(&self) {
+        #[cfg(unix)]
+        if let Ok(pgid) = libc::pid_t::try_from(self.0) {
+            // SAFETY: kill(2) with a negative pid signals that process group only; it
+            // touches no memory. The group was created for this command by spawn.
+            unsafe { libc::kill(-pgid, libc::SIGKILL) };
+        }
     }
 }
 

@@ -9,7 +9,7 @@ use crate::scene::{self, Resolution};
 use crate::{colmap, colmap_scene, nerfstudio};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::SplitPolicy;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params, Registry};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -60,6 +60,16 @@ impl Node for ColmapScene {
                     "image folder; default: the first of <path>/images, <path>/../images, <path>/../../images",
                 ),
         )
+    }
+
+    /// The default image folder is found beside the model, outside the `path` param.
+    fn reads(&self, params: &Params) -> Result<Vec<PathBuf>> {
+        if params.get::<Option<String>>("images")?.is_some() {
+            return Ok(Vec::new());
+        }
+        Ok(vec![default_images_dir(Path::new(
+            &params.get::<String>("path")?,
+        ))?])
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
@@ -117,6 +127,16 @@ impl Node for NerfstudioScene {
                 .output("frames", "Frames", "posed images, split and downscaled; mask_path becomes valid/<stem>.png")
                 .param("path", ParamType::Path, None, "the transforms.json file"),
         )
+    }
+
+    /// The images and masks the JSON lists (the `path` param covers the JSON only).
+    fn reads(&self, params: &Params) -> Result<Vec<PathBuf>> {
+        let path = PathBuf::from(params.get::<String>("path")?);
+        let t = nerfstudio::read(&path, &nerfstudio::Roots::default())?;
+        Ok(t.frames
+            .into_iter()
+            .flat_map(|f| std::iter::once(f.image).chain(f.mask))
+            .collect())
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {

@@ -8,14 +8,22 @@ use objectsplat_core::Mesh;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// Indoor-scene protocol defaults: τ = 5 cm, 2 cm voxels, about one sample per cm².
+/// Indoor-scene protocol defaults: τ = 5 cm, 2 cm voxels, about one sample per cm²,
+/// at most [`DEFAULT_MAX_SAMPLES`] samples per surface.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeshEvalParams {
     pub tau: f64,
     pub voxel: f64,
     pub samples: SampleCount,
     pub seed: u64,
+    /// Cap on the samples drawn on one surface (see [`sample_surface`]).
+    pub max_samples: usize,
 }
+
+/// Ten million samples (about 280 MB with their face ids): a 1,000 m² surface at
+/// the default density of one sample per cm², ten times the surface of a furnished
+/// room. Beyond that a predicted surface has almost surely diverged.
+pub const DEFAULT_MAX_SAMPLES: usize = 10_000_000;
 
 impl Default for MeshEvalParams {
     fn default() -> Self {
@@ -24,6 +32,7 @@ impl Default for MeshEvalParams {
             voxel: 0.02,
             samples: SampleCount::PerArea(10_000.0),
             seed: 0,
+            max_samples: DEFAULT_MAX_SAMPLES,
         }
     }
 }
@@ -45,7 +54,7 @@ pub struct MeshFScores {
 
 /// Samples a mesh surface by area and voxel-down-samples the samples.
 pub fn mesh_points(mesh: &Mesh, params: &MeshEvalParams) -> Result<Vec<[f64; 3]>> {
-    let samples = sample_surface(mesh, params.samples, params.seed)?;
+    let samples = sample_surface(mesh, params.samples, params.seed, params.max_samples)?;
     voxel_downsample(&samples.points, params.voxel)
 }
 
@@ -70,7 +79,7 @@ pub fn evaluate_mesh(
     params: &MeshEvalParams,
     keep_gt: Option<GtFilter<'_>>,
 ) -> Result<MeshFScores> {
-    let mut samples = sample_surface(gt, params.samples, params.seed)
+    let mut samples = sample_surface(gt, params.samples, params.seed, params.max_samples)
         .context("sampling the ground-truth mesh")?;
     if let Some(keep) = keep_gt {
         let (points, faces) = samples

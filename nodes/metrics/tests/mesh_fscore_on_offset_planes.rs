@@ -24,6 +24,7 @@ fn params() -> MeshEvalParams {
         voxel: 0.02,
         samples: SampleCount::PerArea(20_000.0),
         seed: 1,
+        ..MeshEvalParams::default()
     }
 }
 

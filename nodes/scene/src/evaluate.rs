@@ -113,7 +113,7 @@ fn surface_points(mesh: &Mesh, params: &MeshEvalParams) -> Result<Vec<[f64; 3]>>
     if mesh.faces.is_empty() {
         return Ok(Vec::new());
     }
-    Ok(sample_surface(mesh, params.samples, params.seed)?.points)
+    Ok(sample_surface(mesh, params.samples, params.seed, params.max_samples)?.points)
 }
 
 /// Runs the whole evaluation. Renders are `<renders>/<frame stem>.png` for every

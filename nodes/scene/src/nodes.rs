@@ -300,6 +300,7 @@ impl Node for Evaluate {
             .param("voxel", ParamType::float_range(1e-6, 10.0), Some("0.02"), "voxel size for down-sampling both point sets (m)")
             .param("samples", ParamType::float_range(1.0, 1e8), Some("10000.0"), "surface samples per square metre")
             .param("seed", ParamType::int_range(0, i64::MAX), Some("0"), "seed of the surface sampling")
+            .param("max_samples", ParamType::int_range(1, i64::MAX), Some("10000000"), "cap on the samples drawn on one surface (ground truth, scene, each object); a surface that needs more (area × samples) fails the node naming its area, as a diverged model's does, instead of exhausting memory")
             .param("ssim", ParamType::enumeration(&["gs3d", "cropped"]), Some("\"gs3d\""), "SSIM border convention: 3DGS zero padding, or scikit-image's 5-pixel crop")
             .param("lpips_weights", ParamType::optional(ParamType::Path), Some("None"), "AlexNet LPIPS weights (safetensors); LPIPS is skipped without it")
             .param(
@@ -315,6 +316,7 @@ impl Node for Evaluate {
         let voxel: f64 = ctx.param("voxel")?;
         let samples: f64 = ctx.param("samples")?;
         let seed: i64 = ctx.param("seed")?;
+        let max_samples: i64 = ctx.param("max_samples")?;
         let ssim: String = ctx.param("ssim")?;
         let lpips_path: Option<String> = ctx.param("lpips_weights")?;
         let ssim = if ssim == "cropped" {
@@ -346,6 +348,8 @@ impl Node for Evaluate {
                 samples: SampleCount::PerArea(samples),
                 // Non-negative: the param range starts at 0.
                 seed: seed as u64,
+                // The param range is 1..; a cap beyond usize (32-bit) saturates.
+                max_samples: usize::try_from(max_samples).unwrap_or(usize::MAX),
             },
             ssim,
             lpips: lpips.as_ref(),
