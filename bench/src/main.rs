@@ -9,6 +9,7 @@
 //! Everything goes through the ordinary engine and cache: a rerun only
 //! computes what is missing.
 
+mod quality;
 mod train_speed;
 
 use anyhow::{Context, Result, bail};
@@ -39,6 +40,8 @@ enum Command {
     Paper(PaperArgs),
     /// Training iterations per second per component kind, optionally against an older binary.
     TrainSpeed(train_speed::TrainSpeedArgs),
+    /// Composed-scene quality of trainer variants (an ablation), over seeds.
+    Quality(quality::QualityArgs),
 }
 
 #[derive(clap::Args)]
@@ -150,6 +153,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Paper(args) => paper(&args),
         Command::TrainSpeed(args) => train_speed::train_speed(&args),
+        Command::Quality(args) => quality::quality(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

@@ -3,7 +3,7 @@
 
 use crate::init::ComponentMasks;
 use crate::schedule::Schedule;
-use crate::trainer::{Checkpoint, ComponentData, TrainSettings, train_component};
+use crate::trainer::{Checkpoint, ComponentData, SelectOn, TrainSettings, train_component};
 use anyhow::Context as _;
 use anyhow::{Result, bail};
 use objectsplat_core::ComponentKind;
@@ -121,6 +121,14 @@ impl Node for TrainNode {
                  last: the model at the end of the full budget",
             )
             .param(
+                "select_on",
+                ParamType::enumeration(&["validation", "training", "test"]),
+                Some("\"validation\""),
+                "views that choose the best checkpoint: validation = 1 in 8 training views held out \
+                 of training (the training views when there are fewer than 8); test = the test views \
+                 the evaluation scores too (the paper's protocol)",
+            )
+            .param(
                 "components",
                 ParamType::enumeration(&["all", "objects", "background"]),
                 Some("\"all\""),
@@ -177,6 +185,11 @@ impl Node for TrainNode {
             "last" => Checkpoint::Last,
             _ => Checkpoint::Best,
         };
+        let select_on = match ctx.param::<String>("select_on")?.as_str() {
+            "training" => SelectOn::Training,
+            "test" => SelectOn::Test,
+            _ => SelectOn::Validation,
+        };
         let overrides: BTreeMap<String, f64> = ctx.param("schedule")?;
         let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
         let (backend, why) = objectsplat_wgpu::backend_for(&backend_name, ctx.threads())?;
@@ -219,6 +232,7 @@ impl Node for TrainNode {
             background_randomization: randomize,
             world_scale,
             checkpoint,
+            select_on,
             ..TrainSettings::new(schedule)
         };
         let report = {

@@ -2,7 +2,13 @@
 //! iteration budget) scaled linearly to the actual budget.
 //!
 //! Iteration counts (starts, ends, periods) scale with `iterations / 30000`
-//! (periods never below 1); rates, thresholds and fractions do not scale.
+//! (periods never below 1); thresholds and fractions do not scale. The vertex
+//! learning rates do, between two measured points: the reference's
+//! 1.5e-3 → 1.5e-5 at 30k iterations, and 4e-3 → 4e-4 at 3k iterations and
+//! below (log-interpolated in the budget between them). At short budgets the
+//! reference rates leave triangles too little travel to tile the surfaces: on
+//! the synthetic room (160×120, dense split) they gave 14.9 dB held-out PSNR
+//! at 3000 iterations against 27.5 dB with 4e-3 → 4e-4 (docs/benchmarks.md).
 //! Any field can be overridden by name (`Schedule::new(iterations, overrides)`).
 
 use anyhow::{Context, Result, bail};
@@ -76,7 +82,7 @@ pub struct Schedule {
 
     /// One epoch after the connectivity step, faces whose max blending weight over
     /// the training views is ≤ this are removed: most faces of the restricted
-    /// Delaunay mesh lie inside surfaces and never show.
+    /// Delaunay mesh lie inside surfaces and never show. 0 turns the cleanup off.
     pub connectivity_cleanup_threshold: f64,
 
     /// After training, faces whose max blending weight over the training views is ≤ this are removed.
@@ -87,6 +93,23 @@ pub struct Schedule {
     /// Early stop when the held-out score has not improved for this many iterations
     /// (counted only after the connectivity step).
     pub patience: u64,
+}
+
+/// The budget at and below which the short-budget vertex learning rates apply.
+pub const SHORT_BUDGET: u64 = 3_000;
+
+/// `(short, reference)` log-interpolated in the budget between
+/// [`SHORT_BUDGET`] and [`REFERENCE_ITERATIONS`] (clamped outside).
+fn by_budget(iterations: u64, short: f64, reference: f64) -> f64 {
+    let (lo, hi) = ((SHORT_BUDGET as f64).ln(), (REFERENCE_ITERATIONS as f64).ln());
+    let t = (((iterations.max(1)) as f64).ln() - lo) / (hi - lo);
+    if t <= 0.0 {
+        short
+    } else if t >= 1.0 {
+        reference
+    } else {
+        (short.ln() * (1.0 - t) + reference.ln() * t).exp()
+    }
 }
 
 /// A reference iteration count scaled to the budget.
@@ -106,8 +129,8 @@ impl Schedule {
         let every = |r| scale_every(r, iterations);
         Schedule {
             iterations,
-            lr_vertices_start: 1.5e-3,
-            lr_vertices_end: 1.5e-5,
+            lr_vertices_start: by_budget(iterations, 4e-3, 1.5e-3),
+            lr_vertices_end: by_budget(iterations, 4e-4, 1.5e-5),
             lr_sh_dc: 1.6e-3,
             sh_rest_lr_divisor: 20.0,
             lr_opacity: 0.03,

@@ -51,6 +51,29 @@ pub enum Checkpoint {
     Last,
 }
 
+/// Which views choose the `best` checkpoint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SelectOn {
+    /// One in eight training views, held out of training (with fewer than eight
+    /// training views, the training views themselves).
+    #[default]
+    Validation,
+    /// The training views (nothing held out).
+    Training,
+    /// The test views, which the evaluation then scores too: the paper's protocol.
+    Test,
+}
+
+impl SelectOn {
+    pub fn name(self) -> &'static str {
+        match self {
+            SelectOn::Validation => "validation",
+            SelectOn::Training => "training",
+            SelectOn::Test => "test",
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 pub struct TrainSettings {
     pub schedule: Schedule,
@@ -64,6 +87,8 @@ pub struct TrainSettings {
     pub checkpoint: Checkpoint,
     /// Render and score only each view's footprint (exact; off renders whole frames).
     pub crop: bool,
+    /// Which views choose the `best` checkpoint.
+    pub select_on: SelectOn,
 }
 
 impl TrainSettings {
@@ -78,6 +103,7 @@ impl TrainSettings {
             world_scale: 1.0,
             checkpoint: Checkpoint::Best,
             crop: true,
+            select_on: SelectOn::Validation,
         }
     }
 }
@@ -98,19 +124,62 @@ fn render_settings(model: &Model<f32>, settings: &TrainSettings) -> RenderSettin
     RenderSettings::for_model(model).with_world_scale(settings.world_scale)
 }
 
-/// The held-out views of a component (its training views when none is held out).
-fn evaluation_views(data: &ComponentData) -> Vec<usize> {
+/// Which views a run trains on and which it scores models on.
+struct ViewRoles {
+    train: Vec<usize>,
+    scored: Vec<usize>,
+    /// What `scored` is, for the log.
+    scored_on: &'static str,
+}
+
+/// Splits a component's views: with the `best` checkpoint the scored views are
+/// those `select_on` names (validation views leave training); with `last`
+/// nothing is selected, every training view trains and the test views (else the
+/// training views) only report.
+fn view_roles(data: &ComponentData, checkpoint: Checkpoint, select_on: SelectOn) -> ViewRoles {
     let of = |split: Split| -> Vec<usize> {
         (0..data.views.len())
             .filter(|&i| data.views[i].split == split)
             .collect()
     };
-    let test = of(Split::Test);
-    if test.is_empty() {
-        of(Split::Train)
-    } else {
-        test
+    let (train, test) = (of(Split::Train), of(Split::Test));
+    let test_or_train = |train: Vec<usize>| {
+        if test.is_empty() {
+            ViewRoles {
+                scored: train.clone(),
+                train,
+                scored_on: "training",
+            }
+        } else {
+            ViewRoles {
+                train,
+                scored: test.clone(),
+                scored_on: "test",
+            }
+        }
+    };
+    match (checkpoint, select_on) {
+        (Checkpoint::Last, _) | (Checkpoint::Best, SelectOn::Test) => test_or_train(train),
+        (Checkpoint::Best, SelectOn::Validation) if train.len() >= 8 => {
+            let (validation, train): (Vec<(usize, usize)>, Vec<(usize, usize)>) =
+                train.into_iter().enumerate().partition(|(k, _)| k % 8 == 7);
+            ViewRoles {
+                train: train.into_iter().map(|(_, v)| v).collect(),
+                scored: validation.into_iter().map(|(_, v)| v).collect(),
+                scored_on: "validation",
+            }
+        }
+        (Checkpoint::Best, _) => ViewRoles {
+            scored: train.clone(),
+            train,
+            scored_on: "training",
+        },
     }
+}
+
+/// The held-out views of a component (its training views when none is held out).
+fn evaluation_views(data: &ComponentData) -> Vec<usize> {
+    view_roles(data, Checkpoint::Last, SelectOn::Test).scored
 }
 
 /// Scores `model` on the held-out views over a black background, so stray
@@ -235,13 +304,14 @@ pub fn train_component(
             settings.world_scale
         );
     }
-    let train: Vec<usize> = (0..data.views.len())
-        .filter(|&i| data.views[i].split == Split::Train)
-        .collect();
+    let ViewRoles {
+        train,
+        scored: held_out,
+        scored_on,
+    } = view_roles(data, settings.checkpoint, settings.select_on);
     if train.is_empty() {
         bail!("component {:?} has no training views", data.name);
     }
-    let held_out = evaluation_views(data);
     let mut model = init_model(
         points,
         &InitSettings {
@@ -378,7 +448,7 @@ pub fn train_component(
         if new_epoch && it > 0 {
             stats.end_epoch();
             // The first complete statistics of the connected mesh: drop what never shows.
-            if cleanup_pending && stats.complete() {
+            if cleanup_pending && stats.complete() && s.connectivity_cleanup_threshold > 0.0 {
                 cleanup_pending = false;
                 if let Some(device) = device.as_mut() {
                     device.pull(&mut model, &mut optim, data)?;
@@ -552,6 +622,7 @@ pub fn train_component(
         final_psnr: final_score.psnr,
         final_faces: model.face_count(),
         rendered_fraction: host.rendered_fraction(),
+        scored_on: Some(scored_on.to_string()),
         steps,
         evals,
         notes: notes.clone(),

@@ -30,6 +30,7 @@ fn absurd_run(backend: &dyn RenderBackend<f32>) -> String {
         world_scale: 1.0,
         checkpoint: Default::default(),
         crop: true,
+        select_on: Default::default(),
     };
     let err = train_component(backend, &data, &points, &settings, |_, _| true)
         .err()

@@ -144,5 +144,6 @@ pub fn short_run_settings(
         world_scale: 1.0,
         checkpoint: Default::default(),
         crop: true,
+        select_on: Default::default(),
     }
 }
