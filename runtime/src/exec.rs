@@ -676,6 +676,7 @@ fn execute_inner(
             warnings: vec![],
             threads,
             scratch,
+            resume: store.resume_dir(&job.key),
             progress: opts.observer.as_ref(),
             cancel,
         };
@@ -757,6 +758,11 @@ fn execute_inner(
             notes: ctx.notes,
         };
         store.put_action(&rec)?;
+        // The action is stored: progress saved for a resume is no longer needed.
+        let resume = store.resume_dir(&job.key);
+        if resume.exists() {
+            let _ = std::fs::remove_dir_all(&resume);
+        }
         Ok((rec, false))
     })();
     let _ = std::fs::remove_dir_all(&stage);

@@ -560,6 +560,13 @@ impl Store {
         self.read_heads(graph).remove(node)
     }
 
+    /// A folder that outlives a run of action `key` until that action
+    /// succeeds: a long node keeps its progress there, so a killed run resumes
+    /// where it stopped. Only the holder of the key's lock uses it.
+    pub fn resume_dir(&self, key: &str) -> PathBuf {
+        self.root.join("resume").join(hex2(key))
+    }
+
     /// An exclusive cross-process lock on a key while it is computed.
     pub fn lock_key(&self, key: &str) -> Result<fs::File> {
         let f = fs::OpenOptions::new()

@@ -29,6 +29,41 @@ impl FaceWeights {
         }
     }
 
+    /// Statistics saved earlier (see [`FaceWeights::parts`]).
+    pub fn from_parts(current: Vec<f32>, previous: Vec<f32>, epochs: u32) -> anyhow::Result<Self> {
+        if current.len() != previous.len() {
+            anyhow::bail!(
+                "face statistics of {} and {} faces",
+                current.len(),
+                previous.len()
+            );
+        }
+        Ok(FaceWeights {
+            current,
+            previous,
+            epochs,
+        })
+    }
+
+    /// The current and previous epoch's maxima.
+    pub fn parts(&self) -> (&[f32], &[f32]) {
+        (&self.current, &self.previous)
+    }
+
+    /// Epochs finished since the last reset.
+    pub fn epochs(&self) -> u32 {
+        self.epochs
+    }
+
+    /// Number of faces.
+    pub fn len(&self) -> usize {
+        self.current.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.current.is_empty()
+    }
+
     /// Folds one training render's per-face maximum blending weights in.
     pub fn record(&mut self, face_max_weight: &[f32]) {
         for (m, &w) in self.current.iter_mut().zip(face_max_weight) {

@@ -19,6 +19,7 @@
 //! run on the device (`device_steps.rs`); the model comes back to the host
 //! for evaluation and for the schedule's structural edits.
 
+use crate::checkpoint::{Progress, TrainerState};
 use crate::connectivity::{ConnectivityOptions, restricted_delaunay};
 use crate::densify::{DensifyPolicy, prune_faces, select_faces_to_split, subdivide_faces};
 use crate::device_steps::DeviceSteps;
@@ -89,6 +90,12 @@ pub struct TrainSettings {
     pub crop: bool,
     /// Which views choose the `best` checkpoint.
     pub select_on: SelectOn,
+    /// A folder to save the run's state in (every `save_seconds`) and to resume
+    /// from: a run killed half-way continues from its last save and ends with
+    /// the same model as an uninterrupted one.
+    pub resume_dir: Option<std::path::PathBuf>,
+    /// Wall seconds between saves of the state (0: at every loss-log point).
+    pub save_seconds: f64,
 }
 
 impl TrainSettings {
@@ -104,6 +111,8 @@ impl TrainSettings {
             checkpoint: Checkpoint::Best,
             crop: true,
             select_on: SelectOn::Validation,
+            resume_dir: None,
+            save_seconds: 60.0,
         }
     }
 }
@@ -334,6 +343,18 @@ pub fn train_component(
     let mut rng = Pcg64Mcg::seed_from_u64(settings.seed ^ 0x9e37_79b9_7f4a_7c15);
     let mut order = ViewOrder::new(train.len());
     let mut stats = FaceWeights::new(model.face_count());
+    // What a saved state must belong to for this run to continue from it.
+    let identity = format!(
+        "{}|{:?}|{}|{}|{:?}|{:?}|{}|{}",
+        data.name,
+        data.kind,
+        settings.seed,
+        serde_json::to_string(s)?,
+        settings.checkpoint,
+        settings.select_on,
+        settings.background_randomization,
+        data.views.len()
+    );
     let train_cameras: Vec<&objectsplat_core::Camera> =
         train.iter().map(|&i| &data.views[i].camera).collect();
     let mut best: Option<Snapshot> = None;
@@ -352,6 +373,38 @@ pub fn train_component(
     let mut stopped_early = false;
     let mut cleanup_pending = false;
     let mut it = 0;
+    let mut elapsed_before = 0.0;
+    if let Some(dir) = &settings.resume_dir
+        && let Some(state) = TrainerState::load(dir, &identity, &optim.adam)
+            .with_context(|| format!("reading the saved training state in {}", dir.display()))?
+    {
+        let p = state.progress;
+        model = state.model;
+        optim.adam = state.adam;
+        stats = state.stats;
+        rng = p.rng;
+        order = ViewOrder {
+            order: p.order,
+            next: p.order_next,
+        };
+        best = match (p.best, state.best) {
+            (Some((score, iteration, _)), Some((model, face_weights))) => Some(Snapshot {
+                score,
+                iteration,
+                model,
+                face_weights,
+            }),
+            _ => None,
+        };
+        (steps, evals, notes) = (p.steps, p.evals, p.notes);
+        cleanup_pending = p.cleanup_pending;
+        elapsed_before = p.elapsed;
+        host.set_rendered(p.rendered);
+        it = p.iteration;
+        notes.push(format!("resumed at iteration {it} from a saved state"));
+    }
+    let clock = |started: &Instant| elapsed_before + started.elapsed().as_secs_f64();
+    let mut last_save = Instant::now();
     while it < s.iterations {
         let edits_model = (it == s.connectivity_at && model.face_count() > 0)
             || s.floor_update(it).is_some()
@@ -512,7 +565,7 @@ pub fn train_component(
             let window = (it - 1) % log_every + 1;
             steps.push(StepRecord {
                 iteration: it,
-                wall_seconds: started.elapsed().as_secs_f64(),
+                wall_seconds: clock(&started),
                 loss: window_loss / window as f64,
                 faces: model.face_count(),
             });
@@ -535,7 +588,7 @@ pub fn train_component(
                 host.evaluate(&model, data, &held_out, &render_settings(&model, settings))?;
             evals.push(EvalRecord {
                 iteration: it,
-                wall_seconds: started.elapsed().as_secs_f64(),
+                wall_seconds: clock(&started),
                 loss: score.loss,
                 psnr: score.psnr,
                 faces: model.face_count(),
@@ -563,6 +616,50 @@ pub fn train_component(
                 stopped_early = true;
                 break;
             }
+        }
+        // Save at loss-log points, where no loss is pending anywhere.
+        if let Some(dir) = &settings.resume_dir
+            && it % log_every == 0
+            && it < s.iterations
+            && last_save.elapsed().as_secs_f64() >= settings.save_seconds
+        {
+            if let Some(device) = device.as_mut() {
+                device.pull(&mut model, &mut optim, data)?;
+            }
+            TrainerState {
+                progress: Progress {
+                    identity: identity.clone(),
+                    iteration: it,
+                    rng: rng.clone(),
+                    order: order.order.clone(),
+                    order_next: order.next,
+                    stats_epochs: stats.epochs(),
+                    best: best
+                        .as_ref()
+                        .map(|b| (b.score, b.iteration, b.face_weights.is_some())),
+                    steps: steps.clone(),
+                    evals: evals.clone(),
+                    notes: notes.clone(),
+                    cleanup_pending,
+                    elapsed: clock(&started),
+                    adam: optim
+                        .adam
+                        .groups
+                        .iter()
+                        .map(|g| (g.lr, g.lr_rest, g.split, g.steps))
+                        .collect(),
+                    rendered: host.rendered(),
+                },
+                model: model.clone(),
+                adam: optim.adam.clone(),
+                stats: stats.clone(),
+                best: best
+                    .as_ref()
+                    .map(|b| (b.model.clone(), b.face_weights.clone())),
+            }
+            .save(dir)
+            .with_context(|| format!("saving the training state in {}", dir.display()))?;
+            last_save = Instant::now();
         }
     }
     if let Some(device) = device.as_mut() {
@@ -618,7 +715,7 @@ pub fn train_component(
         }
         .into(),
         stopped_early,
-        wall_seconds: started.elapsed().as_secs_f64(),
+        wall_seconds: clock(&started),
         final_psnr: final_score.psnr,
         final_faces: model.face_count(),
         rendered_fraction: host.rendered_fraction(),
