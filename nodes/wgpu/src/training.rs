@@ -22,7 +22,7 @@
 //! readback, and the running per-face weight maxima
 //! ([`DeviceTrainer::face_weights`]) come back only when asked for.
 
-use crate::device::{map_and_copy, read_buffers, read_values};
+use crate::device::{Readback, read_values};
 use crate::kernels::{Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage};
 use crate::raster::{BackgroundSource, GradPool, ModelBuffers, RasterPool, WgpuBackend};
 use anyhow::{Context, Result, bail};
@@ -269,7 +269,7 @@ pub struct DeviceTrainer {
     partials: wgpu::Buffer,
     results: wgpu::Buffer,
     status: wgpu::Buffer,
-    results_staging: wgpu::Buffer,
+    readback: Readback,
     pending: usize,
     collected: Vec<StepResult>,
     /// View and region of the last step (for [`DeviceTrainer::last_image_gradient`]).
@@ -483,17 +483,12 @@ impl DeviceTrainer {
             ),
             results,
             status,
-            results_staging: ctx.device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some("step results readback"),
-                size: bytes(5 * SLOTS),
-                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-                mapped_at_creation: false,
-            }),
+            readback: Readback::default(),
             pending: 0,
             collected: Vec::new(),
             last_step: None,
             syncs: 0,
-            created: created + 7,
+            created: created + 6,
         };
         Ok(trainer)
     }
@@ -504,6 +499,7 @@ impl DeviceTrainer {
         self.created
             + self.pools.created
             + self.uniforms.created
+            + self.readback.created
             + self.raster.created()
             + self.grads.created()
     }
@@ -829,18 +825,20 @@ impl DeviceTrainer {
         }
         let ctx = self.backend.context().clone();
         let n = self.pending as u64;
+        let [results, status]: [Vec<u8>; 2] = self
+            .readback
+            .read(&ctx, &[(&self.results, 16 * n), (&self.status, 4 * n)])?
+            .try_into()
+            .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
         let mut enc = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        enc.copy_buffer_to_buffer(&self.results, 0, &self.results_staging, 0, 16 * n);
-        enc.copy_buffer_to_buffer(&self.status, 0, &self.results_staging, 16 * n, 4 * n);
         enc.clear_buffer(&self.status, 0, Some(4 * n));
         ctx.queue.submit([enc.finish()]);
-        let words: Vec<u32> =
-            bytemuck::pod_collect_to_vec(&map_and_copy(&ctx, &self.results_staging, 20 * n)?);
+        let results: Vec<u32> = bytemuck::pod_collect_to_vec(&results);
+        let status: Vec<u32> = bytemuck::pod_collect_to_vec(&status);
         self.syncs += 1;
-        let (results, status) = words.split_at(4 * self.pending);
-        for (result, &bits) in results.chunks_exact(4).zip(status) {
+        for (result, &bits) in results.chunks_exact(4).zip(&status) {
             let non_finite = STATUS_BITS
                 .iter()
                 .filter(|(bit, _)| bits & bit != 0)
@@ -917,13 +915,15 @@ impl DeviceTrainer {
         ];
         sources.extend((0..3).map(|t| (&resident.first[t], bytes[t])));
         sources.extend((0..3).map(|t| (&resident.second[t], bytes[t])));
-        let mut values = read_buffers(self.backend.context(), &sources)?
+        let mut values = self
+            .readback
+            .read(self.backend.context(), &sources)?
             .into_iter()
             .map(|b| bytemuck::pod_collect_to_vec::<u8, f32>(&b));
         let mut next = || {
             values
                 .next()
-                .expect("read_buffers returns one result per buffer, and nine were asked for")
+                .expect("a readback returns one result per buffer, and nine were asked for")
         };
         let (positions, sh) = (next(), next());
         model.opacity_logits = next();
@@ -1022,15 +1022,17 @@ impl DeviceTrainer {
                 rec.submit();
             }
             self.uniforms = uniforms;
-            let [results, status]: [Vec<u8>; 2] = read_buffers(
-                &ctx,
-                &[
-                    (self.pools.eval_results.buffer(), (16 * n) as u64),
-                    (self.pools.eval_status.buffer(), (4 * n) as u64),
-                ],
-            )?
-            .try_into()
-            .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
+            let [results, status]: [Vec<u8>; 2] = self
+                .readback
+                .read(
+                    &ctx,
+                    &[
+                        (self.pools.eval_results.buffer(), (16 * n) as u64),
+                        (self.pools.eval_status.buffer(), (4 * n) as u64),
+                    ],
+                )?
+                .try_into()
+                .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
             self.syncs += 1;
             ctx.check_errors("a device evaluation")?;
             let results: Vec<u32> = bytemuck::pod_collect_to_vec(&results);
@@ -1078,15 +1080,17 @@ impl DeviceTrainer {
             bail!("no model on the device for face statistics");
         }
         let bytes = (self.face_weight_faces * 4) as u64;
-        let [current, previous]: [Vec<u8>; 2] = read_buffers(
-            self.backend.context(),
-            &[
-                (self.pools.face_weights[0].buffer(), bytes),
-                (self.pools.face_weights[1].buffer(), bytes),
-            ],
-        )?
-        .try_into()
-        .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
+        let [current, previous]: [Vec<u8>; 2] = self
+            .readback
+            .read(
+                self.backend.context(),
+                &[
+                    (self.pools.face_weights[0].buffer(), bytes),
+                    (self.pools.face_weights[1].buffer(), bytes),
+                ],
+            )?
+            .try_into()
+            .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
         self.syncs += 1;
         Ok((
             bytemuck::pod_collect_to_vec(&current),
