@@ -504,6 +504,18 @@ impl DeviceTrainer {
             + self.grads.created()
     }
 
+    /// Pixels of view `view`'s frame (0 for a view that does not exist).
+    pub fn view_pixels(&self, view: usize) -> usize {
+        self.views
+            .get(view)
+            .map_or(0, |v| v.camera.width as usize * v.camera.height as usize)
+    }
+
+    /// The region the last step rendered (None before any step).
+    pub fn last_region(&self) -> Option<PixelRect> {
+        self.last_step.map(|(_, region)| region)
+    }
+
     /// Times the host has waited for the device (readbacks) so far.
     pub fn host_syncs(&self) -> u64 {
         self.syncs + self.raster.syncs
