@@ -240,7 +240,14 @@ pub fn train_component(
         .as_any()
         .and_then(|b| b.downcast_ref::<WgpuBackend>())
     {
-        Some(gpu) => Some(DeviceSteps::new(gpu, data, &train, &optim)?),
+        Some(gpu) => Some(DeviceSteps::new(
+            gpu,
+            data,
+            &train,
+            &held_out,
+            &optim,
+            settings.crop,
+        )?),
         None => None,
     };
     let mut host = HostSteps::new(backend, data, settings.crop);
