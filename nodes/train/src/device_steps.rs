@@ -22,8 +22,8 @@ use objectsplat_raster::loss::{CROP_MARGIN, DEFAULT_LAMBDA_DSSIM};
 use objectsplat_raster::{Model, RenderSettings};
 use objectsplat_wgpu::WgpuBackend;
 use objectsplat_wgpu::training::{
-    AdamSettings, DeviceTrainer, LearningRates, Moments, OptimizerState, Step, TrainingView,
-    ViewScore,
+    AdamSettings, DeviceTrainer, FaceWeightArrays, LearningRates, Moments, OptimizerState, Step,
+    TrainingView, ViewScore,
 };
 use std::collections::VecDeque;
 
@@ -49,7 +49,10 @@ pub(crate) struct DeviceSteps {
     device_view: Vec<Option<usize>>,
     crop: bool,
     /// Face statistics the host set for its model, uploaded with it.
-    host_face_weights: Option<(Vec<f32>, Vec<f32>)>,
+    host_face_weights: Option<FaceWeightArrays>,
+    /// The device's face statistics as the last pull read them (valid while
+    /// both sides hold the same model).
+    pulled_face_weights: Option<FaceWeightArrays>,
     /// Training steps taken and the share of their frames they rendered, summed.
     steps: u64,
     rendered: f64,
@@ -164,6 +167,7 @@ impl DeviceSteps {
             device_view,
             crop,
             host_face_weights: None,
+            pulled_face_weights: None,
             steps: 0,
             rendered: 0.0,
             uploads: 0,
@@ -185,8 +189,9 @@ impl DeviceSteps {
         }
     }
 
-    /// Makes the host's model and optimizer state the newest, fetching them if
-    /// needed; an error if a step since the last call diverged.
+    /// Makes the host's model and optimizer state the newest, fetching them
+    /// (and the face statistics, in the same readback) if needed; an error if
+    /// a step since the last call diverged.
     pub fn pull(
         &mut self,
         model: &mut Model<f32>,
@@ -195,7 +200,8 @@ impl DeviceSteps {
     ) -> Result<()> {
         self.fetch(data)?;
         if self.newest == Newest::Device {
-            let state = self.trainer.store(model)?;
+            let (state, faces) = self.trainer.store_with_face_weights(model)?;
+            self.pulled_face_weights = Some(faces);
             optim.set_device_state(state)?;
             self.downloads += 1;
             self.newest = Newest::Both;
@@ -207,6 +213,7 @@ impl DeviceSteps {
     pub fn host_edited(&mut self) {
         self.newest = Newest::Host;
         self.host_face_weights = None;
+        self.pulled_face_weights = None;
     }
 
     /// Puts the host's model on the device when the host holds the newest one.
@@ -227,15 +234,22 @@ impl DeviceSteps {
         format!(
             "iterations ran on the device (render, loss, backward and Adam on the GPU; {}); \
              {} held-out evaluations on the device; the model went to the device {} times \
-             and came back {} times (densification, pruning, connectivity, checkpoints)",
+             and came back {} times (densification, pruning, connectivity, checkpoints); \
+             {} host waits for the device in all",
             match self.rendered_fraction() {
                 Some(f) => format!("{:.0} % of the frame rendered on average", 100.0 * f),
                 None => "no steps".into(),
             },
             self.evaluations,
             self.uploads,
-            self.downloads
+            self.downloads,
+            self.host_syncs()
         )
+    }
+
+    /// Times the host has waited for the device so far (readbacks).
+    pub fn host_syncs(&self) -> u64 {
+        self.trainer.host_syncs()
     }
 
     /// Mean share of the frame the training steps rendered (None before any step).
@@ -265,6 +279,7 @@ impl DeviceSteps {
             lambda_dssim: DEFAULT_LAMBDA_DSSIM,
         })?;
         self.newest = Newest::Device;
+        self.pulled_face_weights = None;
         self.in_flight.push_back((iteration, slot));
         if let Some(region) = self.trainer.last_region() {
             self.steps += 1;
@@ -273,9 +288,9 @@ impl DeviceSteps {
         Ok(())
     }
 
-    /// The model's loss and PSNR on `views` (indices into `data.views`, all
-    /// uploaded at construction) over a black background, scored on the
-    /// device with one readback (`HostSteps::evaluate`'s definitions).
+    /// The training model's loss and PSNR on `views` (indices into
+    /// `data.views`, all uploaded at construction) over a black background,
+    /// scored on the device with one readback (`HostSteps::evaluate`'s definitions).
     pub fn evaluate(
         &mut self,
         model: &Model<f32>,
@@ -285,6 +300,39 @@ impl DeviceSteps {
         render: RenderSettings,
     ) -> Result<HeldOut> {
         self.upload_if_newer(model, optim)?;
+        self.score(data, views, render)
+    }
+
+    /// As [`DeviceSteps::evaluate`] for a model the host holds that is not
+    /// the training model (a checkpoint, the finally pruned model): it goes
+    /// up without Adam state, and the next step uploads the training model
+    /// again. The host must hold the newest training model ([`DeviceSteps::pull`]).
+    pub fn evaluate_model(
+        &mut self,
+        model: &Model<f32>,
+        data: &ComponentData,
+        views: &[usize],
+        render: RenderSettings,
+    ) -> Result<HeldOut> {
+        if self.newest == Newest::Device {
+            bail!("evaluating another model would overwrite steps the host has not pulled");
+        }
+        self.trainer
+            .load(model, &OptimizerState::zeros(model.vertex_count()))?;
+        self.uploads += 1;
+        self.newest = Newest::Host;
+        self.host_face_weights = None;
+        self.pulled_face_weights = None;
+        self.score(data, views, render)
+    }
+
+    /// Scores the device's model on `views` (indices into `data.views`).
+    fn score(
+        &mut self,
+        data: &ComponentData,
+        views: &[usize],
+        render: RenderSettings,
+    ) -> Result<HeldOut> {
         let slots = views
             .iter()
             .map(|&v| match self.device_view.get(v).copied().flatten() {
@@ -314,18 +362,24 @@ impl DeviceSteps {
     }
 
     /// The device's running per-face maxima of the blending weight (current
-    /// and previous epoch), read back, when the device holds the newest model;
-    /// None when the host does (its own statistics are the newest then).
-    pub fn face_weights(&mut self) -> Result<Option<(Vec<f32>, Vec<f32>)>> {
-        if self.newest == Newest::Host {
-            return Ok(None);
+    /// and previous epoch) when the device holds the newest model: those the
+    /// last [`DeviceSteps::pull`] brought along, else read back. None when the
+    /// host holds the newest model (its own statistics are the newest then).
+    pub fn face_weights(&mut self) -> Result<Option<FaceWeightArrays>> {
+        match self.newest {
+            Newest::Host => Ok(None),
+            Newest::Both => match self.pulled_face_weights.take() {
+                Some(faces) => Ok(Some(faces)),
+                None => self.trainer.face_weights().map(Some),
+            },
+            Newest::Device => self.trainer.face_weights().map(Some),
         }
-        self.trainer.face_weights().map(Some)
     }
 
     /// The host's face statistics for its model (after remapping them through
     /// an edit): they go to the device with the model.
     pub fn set_face_weights(&mut self, current: Vec<f32>, previous: Vec<f32>) -> Result<()> {
+        self.pulled_face_weights = None;
         if self.newest == Newest::Host {
             self.host_face_weights = Some((current, previous));
             Ok(())
@@ -338,6 +392,7 @@ impl DeviceSteps {
     /// `FaceWeights::end_epoch`): the device's statistics follow while it holds
     /// the newest model; the host's own copy is the host's to roll.
     pub fn end_epoch(&mut self) {
+        self.pulled_face_weights = None;
         if self.newest != Newest::Host {
             self.trainer.end_epoch();
         }
@@ -599,8 +654,11 @@ mod tests {
         let h = &host_optim.adam.groups[host_optim.sh];
         assert_eq!(g.steps, h.steps);
 
-        // Face statistics: the same running maxima as the host step's records.
+        // Face statistics: the same running maxima as the host step's records,
+        // brought back by the pull (no further readback).
+        let syncs = device.host_syncs();
         let (current, previous) = device.face_weights().unwrap().unwrap();
+        assert_eq!(device.host_syncs(), syncs);
         let want = host_stats.max_weight();
         for (f, (a, b)) in current.iter().zip(&want).enumerate() {
             assert!((a - b).abs() <= 1e-4, "face {f}: {a} vs {b}");

@@ -149,6 +149,10 @@ pub struct StepResult {
     pub non_finite: Vec<&'static str>,
 }
 
+/// Per face, the running maximum of the blending weight over the training
+/// renders of the current epoch and of the previous one.
+pub type FaceWeightArrays = (Vec<f32>, Vec<f32>);
+
 /// A view's score in an evaluation (over a black background, no gradient).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct ViewScore {
@@ -905,6 +909,15 @@ impl DeviceTrainer {
     /// Writes the device's parameters into `model` (which must have the loaded
     /// model's shape) and returns Adam's state.
     pub fn store(&mut self, model: &mut Model<f32>) -> Result<OptimizerState> {
+        Ok(self.store_with_face_weights(model)?.0)
+    }
+
+    /// As [`DeviceTrainer::store`], with the running per-face maxima of
+    /// [`DeviceTrainer::face_weights`] in the same readback.
+    pub fn store_with_face_weights(
+        &mut self,
+        model: &mut Model<f32>,
+    ) -> Result<(OptimizerState, FaceWeightArrays)> {
         let Some(resident) = &self.resident else {
             bail!("no model on the device to store");
         };
@@ -917,7 +930,8 @@ impl DeviceTrainer {
                 model.face_count()
             );
         }
-        // One submission for all nine tensors: parameters, then first and second moments.
+        // One readback for all eleven arrays: parameters, first and second
+        // moments, then the face statistics.
         let bytes = [nv * 3, nv * SH_VALUES, nv].map(|n| (n * 4) as u64);
         let params = &resident.params;
         let mut sources = vec![
@@ -927,6 +941,13 @@ impl DeviceTrainer {
         ];
         sources.extend((0..3).map(|t| (&resident.first[t], bytes[t])));
         sources.extend((0..3).map(|t| (&resident.second[t], bytes[t])));
+        let face_bytes = (self.face_weight_faces * 4) as u64;
+        sources.extend(
+            self.pools
+                .face_weights
+                .iter()
+                .map(|w| (w.buffer(), face_bytes)),
+        );
         let mut values = self
             .readback
             .read(self.backend.context(), &sources)?
@@ -935,7 +956,7 @@ impl DeviceTrainer {
         let mut next = || {
             values
                 .next()
-                .expect("a readback returns one result per buffer, and nine were asked for")
+                .expect("a readback returns one result per buffer, and eleven were asked for")
         };
         let (positions, sh) = (next(), next());
         model.opacity_logits = next();
@@ -959,8 +980,9 @@ impl DeviceTrainer {
             sh: moments(f1, s1, 1),
             opacity_logits: moments(f2, s2, 2),
         };
+        let faces = (next(), next());
         self.syncs += 1;
-        Ok(state)
+        Ok((state, faces))
     }
 
     /// Scores the loaded model on `views` over a black background, no
@@ -1087,7 +1109,7 @@ impl DeviceTrainer {
 
     /// The running per-face maxima of the blending weight over this epoch's
     /// and the previous epoch's training renders (one readback).
-    pub fn face_weights(&mut self) -> Result<(Vec<f32>, Vec<f32>)> {
+    pub fn face_weights(&mut self) -> Result<FaceWeightArrays> {
         if self.resident.is_none() {
             bail!("no model on the device for face statistics");
         }
