@@ -15,9 +15,10 @@
 //! the result can be selected (after the connectivity step, with the `best`
 //! checkpoint) and once at the end.
 //!
-//! On a wgpu backend the iterations themselves (render, loss, backward, Adam)
-//! run on the device (`device_steps.rs`); the model comes back to the host
-//! for evaluation and for the schedule's structural edits.
+//! On a wgpu backend the iterations themselves (render, loss, backward, Adam,
+//! cropped like the host's), the held-out evaluations and the per-face weight
+//! statistics run on the device (`device_steps.rs`); the model comes back to
+//! the host for the schedule's structural edits and for a new best checkpoint.
 
 use crate::connectivity::{ConnectivityOptions, restricted_delaunay};
 use crate::densify::{DensifyPolicy, prune_faces, select_faces_to_split, subdivide_faces};
@@ -278,6 +279,9 @@ pub fn train_component(
             || (s.densify_at(it) && model.vertex_count() < s.max_vertices);
         if let Some(device) = device.as_mut().filter(|_| edits_model) {
             device.pull(&mut model, &mut optim, data)?;
+            if let Some((current, previous)) = device.face_weights()? {
+                stats.set_arrays(current, previous);
+            }
             device.host_edited();
         }
         if it == s.connectivity_at && model.face_count() > 0 {
@@ -306,7 +310,7 @@ pub fn train_component(
         let densify = s.densify_at(it) && model.vertex_count() < s.max_vertices;
         if prune.is_some() || densify {
             let render = render_settings(&model, settings);
-            let mut max_weight = if stats.complete() && device.is_none() {
+            let mut max_weight = if stats.complete() {
                 stats.max_weight()
             } else {
                 host.face_max_weight(&model, data, &train, &render)?
@@ -349,6 +353,9 @@ pub fn train_component(
         let (slot, new_epoch) = order.next(&mut rng);
         if new_epoch && it > 0 {
             stats.end_epoch();
+            if let Some(device) = device.as_mut() {
+                device.end_epoch();
+            }
         }
         let b = if settings.background_randomization {
             [
@@ -361,7 +368,13 @@ pub fn train_component(
         };
         let render = render_settings(&model, settings);
         match device.as_mut() {
-            Some(device) => device.step(&model, &optim, it + 1, slot, b, render)?,
+            Some(device) => {
+                if edits_model {
+                    let (current, previous) = stats.arrays();
+                    device.set_face_weights(current.to_vec(), previous.to_vec())?;
+                }
+                device.step(&model, &optim, it + 1, slot, b, render)?
+            }
             None => {
                 let view = train[slot];
                 let loss = host
@@ -402,11 +415,11 @@ pub fn train_component(
         let selectable =
             settings.checkpoint == Checkpoint::Best && it > eval_from && it % s.eval_every == 0;
         if selectable || it == s.iterations {
-            if let Some(device) = device.as_mut() {
-                device.pull(&mut model, &mut optim, data)?;
-            }
-            let score =
-                host.evaluate(&model, data, &held_out, &render_settings(&model, settings))?;
+            let render = render_settings(&model, settings);
+            let score = match device.as_mut() {
+                Some(device) => device.evaluate(&model, &optim, data, &held_out, render)?,
+                None => host.evaluate(&model, data, &held_out, &render)?,
+            };
             evals.push(EvalRecord {
                 iteration: it,
                 wall_seconds: started.elapsed().as_secs_f64(),
@@ -415,12 +428,17 @@ pub fn train_component(
                 faces: model.face_count(),
             });
             if best.as_ref().is_none_or(|b| score.loss < b.score) {
+                if let Some(device) = device.as_mut() {
+                    device.pull(&mut model, &mut optim, data)?;
+                    if let Some((current, previous)) = device.face_weights()? {
+                        stats.set_arrays(current, previous);
+                    }
+                }
                 best = Some(Snapshot {
                     score: score.loss,
                     iteration: it,
                     model: model.clone(),
-                    face_weights: (stats.complete() && device.is_none())
-                        .then(|| stats.max_weight()),
+                    face_weights: stats.complete().then(|| stats.max_weight()),
                 });
             }
             if let Some(Snapshot {
@@ -441,9 +459,11 @@ pub fn train_component(
     }
     if let Some(device) = device.as_mut() {
         device.pull(&mut model, &mut optim, data)?;
-        notes.push(device.summary());
+        if let Some((current, previous)) = device.face_weights()? {
+            stats.set_arrays(current, previous);
+        }
     }
-    let current_weights = (stats.complete() && device.is_none()).then(|| stats.max_weight());
+    let current_weights = stats.complete().then(|| stats.max_weight());
     let (best_iteration, mut model, weights) = match (best, settings.checkpoint) {
         (Some(b), Checkpoint::Best) => (b.iteration, b.model, b.face_weights),
         (Some(b), Checkpoint::Last) => (b.iteration, model, current_weights),
@@ -472,7 +492,15 @@ pub fn train_component(
             model.face_count()
         ));
     }
-    let final_score = host.evaluate(&model, data, &held_out, &render_settings(&model, settings))?;
+    let render = render_settings(&model, settings);
+    let final_score = match device.as_mut() {
+        Some(device) => {
+            let score = device.evaluate_model(&model, data, &held_out, render)?;
+            notes.push(device.summary());
+            score
+        }
+        None => host.evaluate(&model, data, &held_out, &render)?,
+    };
     let log = TrainingLog {
         component: data.name.clone(),
         kind: match data.kind {
@@ -495,7 +523,10 @@ pub fn train_component(
         wall_seconds: started.elapsed().as_secs_f64(),
         final_psnr: final_score.psnr,
         final_faces: model.face_count(),
-        rendered_fraction: host.rendered_fraction(),
+        rendered_fraction: match &device {
+            Some(device) => device.rendered_fraction(),
+            None => host.rendered_fraction(),
+        },
         steps,
         evals,
         notes: notes.clone(),
