@@ -86,22 +86,28 @@ fn is_finite(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
 }
 
-fn region_width() -> u32 {
-    return frame[FRAME_X1] - frame[FRAME_X0];
+// The frame record's region, read once per invocation.
+struct Region {
+    x0: u32,
+    y0: u32,
+    width: u32,
+    height: u32,
+    pixels: u32,
 }
 
-fn region_height() -> u32 {
-    return frame[FRAME_Y1] - frame[FRAME_Y0];
+fn region() -> Region {
+    var r: Region;
+    r.x0 = frame[FRAME_X0];
+    r.y0 = frame[FRAME_Y0];
+    r.width = frame[FRAME_X1] - r.x0;
+    r.height = frame[FRAME_Y1] - r.y0;
+    r.pixels = r.width * r.height;
+    return r;
 }
 
-fn region_pixels() -> u32 {
-    return region_width() * region_height();
-}
-
-// The view's pixel index of region pixel p.
-fn view_pixel(p: u32) -> u32 {
-    let w = region_width();
-    return (frame[FRAME_Y0] + p / w) * params.width + frame[FRAME_X0] + p % w;
+// The view's pixel index of the region's pixel (x, y) (region coordinates).
+fn view_pixel(r: Region, x: u32, y: u32) -> u32 {
+    return (r.y0 + y) * params.width + r.x0 + x;
 }
 
 fn target_color(q: u32) -> vec3<f32> {
@@ -111,10 +117,10 @@ fn target_color(q: u32) -> vec3<f32> {
     return targets[q].xyz;
 }
 
-// Scratch maps are stored plane by plane (value k of pixel p at k·pixels + p),
-// so neighbouring threads read neighbouring words.
-fn plane(k: u32, p: u32) -> u32 {
-    return k * region_pixels() + p;
+// Scratch maps are stored plane by plane (value k of region pixel p at
+// k·pixels + p), so neighbouring threads read neighbouring words.
+fn plane(k: u32, p: u32, pixels: u32) -> u32 {
+    return k * pixels + p;
 }
 
 fn rendered(p: u32, c: u32) -> f32 {
@@ -125,12 +131,14 @@ fn rendered(p: u32, c: u32) -> f32 {
 @compute @workgroup_size(256)
 fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let p = thread_index(wid, groups, lid);
-    if (p >= region_pixels()) {
+    let r = region();
+    if (p >= r.pixels) {
         return;
     }
-    let w = i32(region_width());
-    let x = i32(p % region_width());
+    let w = i32(r.width);
+    let x = i32(p % r.width);
     let row = p - u32(x);
+    let view_row = view_pixel(r, 0u, p / r.width);
     let lo = max(x - HALF, 0);
     let hi = min(x + HALF, w - 1);
     for (var c = 0u; c < 3u; c++) {
@@ -139,7 +147,7 @@ fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
             let t = tap(xx + HALF - x);
             let q = row + u32(xx);
             let vx = rendered(q, c);
-            let vy = target_color(view_pixel(q))[c];
+            let vy = target_color(view_row + u32(xx))[c];
             acc[0] += t * vx;
             acc[1] += t * vy;
             acc[2] += t * (vx * vx);
@@ -147,7 +155,7 @@ fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
             acc[4] += t * (vx * vy);
         }
         for (var k = 0u; k < 5u; k++) {
-            rows[plane(5u * c + k, p)] = acc[k];
+            rows[plane(5u * c + k, p, r.pixels)] = acc[k];
         }
     }
 }
@@ -157,10 +165,11 @@ fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
 @compute @workgroup_size(256)
 fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let p = thread_index(wid, groups, lid);
+    let r = region();
     var contribution = vec4<f32>(0.0);
-    if (p < region_pixels()) {
-        let h = i32(region_height());
-        let rw = region_width();
+    if (p < r.pixels) {
+        let h = i32(r.height);
+        let rw = r.width;
         let x = p % rw;
         let y = i32(p / rw);
         let lo = max(y - HALF, 0);
@@ -172,7 +181,7 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
         if (!finite) {
             atomicOr(&status[params.slot], STATUS_RENDER);
         }
-        let q = view_pixel(p);
+        let q = view_pixel(r, x, u32(y));
         let weight = targets[q].w;
         let u = weight * params.norm;
         let goal = target_color(q);
@@ -180,9 +189,9 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
             var m = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
             for (var yy = lo; yy <= hi; yy++) {
                 let t = tap(yy + HALF - y);
-                let r = u32(yy) * rw + x;
+                let above = u32(yy) * rw + x;
                 for (var k = 0u; k < 5u; k++) {
-                    m[k] += t * rows[plane(5u * c + k, r)];
+                    m[k] += t * rows[plane(5u * c + k, above, r.pixels)];
                 }
             }
             let mux = m[0];
@@ -200,9 +209,9 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
                 let ds_dvx = -s / b2;
                 let ds_dcxy = 2.0 * a1 / (b1 * b2);
                 // μx also enters σx² = E[x²] − μx² and σxy = E[xy] − μx·μy.
-                maps[plane(3u * c, p)] = u * (ds_dmux - 2.0 * mux * ds_dvx - muy * ds_dcxy);
-                maps[plane(3u * c + 1u, p)] = u * ds_dvx;
-                maps[plane(3u * c + 2u, p)] = u * ds_dcxy;
+                maps[plane(3u * c, p, r.pixels)] = u * (ds_dmux - 2.0 * mux * ds_dvx - muy * ds_dcxy);
+                maps[plane(3u * c + 1u, p, r.pixels)] = u * ds_dvx;
+                maps[plane(3u * c + 2u, p, r.pixels)] = u * ds_dcxy;
             }
             let d = rendered(p, c) - goal[c];
             var squared = 0.0;
@@ -229,11 +238,12 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
 @compute @workgroup_size(256)
 fn ssim_grad_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let p = thread_index(wid, groups, lid);
-    if (p >= region_pixels()) {
+    let r = region();
+    if (p >= r.pixels) {
         return;
     }
-    let w = i32(region_width());
-    let x = i32(p % region_width());
+    let w = i32(r.width);
+    let x = i32(p % r.width);
     let row = p - u32(x);
     let lo = max(x - HALF, 0);
     let hi = min(x + HALF, w - 1);
@@ -242,11 +252,11 @@ fn ssim_grad_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
         let t = tap(xx + HALF - x);
         let q = row + u32(xx);
         for (var k = 0u; k < MAP_COUNT; k++) {
-            acc[k] += t * maps[plane(k, q)];
+            acc[k] += t * maps[plane(k, q, r.pixels)];
         }
     }
     for (var k = 0u; k < MAP_COUNT; k++) {
-        rows[plane(k, p)] = acc[k];
+        rows[plane(k, p, r.pixels)] = acc[k];
     }
 }
 
@@ -254,11 +264,12 @@ fn ssim_grad_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
 @compute @workgroup_size(256)
 fn loss_grad(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let p = thread_index(wid, groups, lid);
-    if (p >= region_pixels()) {
+    let r = region();
+    if (p >= r.pixels) {
         return;
     }
-    let h = i32(region_height());
-    let rw = region_width();
+    let h = i32(r.height);
+    let rw = r.width;
     let x = p % rw;
     let y = i32(p / rw);
     let lo = max(y - HALF, 0);
@@ -266,12 +277,12 @@ fn loss_grad(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
     var b = array<f32, 9>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     for (var yy = lo; yy <= hi; yy++) {
         let t = tap(yy + HALF - y);
-        let r = u32(yy) * rw + x;
+        let above = u32(yy) * rw + x;
         for (var k = 0u; k < MAP_COUNT; k++) {
-            b[k] += t * rows[plane(k, r)];
+            b[k] += t * rows[plane(k, above, r.pixels)];
         }
     }
-    let q = view_pixel(p);
+    let q = view_pixel(r, x, u32(y));
     let u = targets[q].w * params.norm;
     let goal = target_color(q);
     for (var c = 0u; c < 3u; c++) {
