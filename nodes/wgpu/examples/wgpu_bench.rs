@@ -257,9 +257,9 @@ fn device_view_rate(
     Ok(r)
 }
 
-/// A small object: `count` faces in a cube of side 1.1 at the origin (about
-/// 90 px across at 320×240, a tenth of the frame), and its view: its own
-/// pixels (the central 90×90 box) keep a target, every other pixel is
+/// A small object: `count` faces in a cube of side 0.8 at the origin (about
+/// 80 px across at 320×240, a tenth of the frame), and its view: its own
+/// pixels (the central 80×80 box) keep a target, every other pixel is
 /// supervised toward the background colour.
 fn small_object(count: usize, w: u32, h: u32) -> (Model<f32>, TrainingView) {
     let mut state = 0x0bad_5eed_1234_5678u64;
@@ -272,7 +272,7 @@ fn small_object(count: usize, w: u32, h: u32) -> (Model<f32>, TrainingView) {
     let mut m = Model::<f32>::empty();
     m.sh_degree = 3;
     for _ in 0..count {
-        let c = [0, 1, 2].map(|_| uniform() * 1.1 - 0.55);
+        let c = [0, 1, 2].map(|_| uniform() * 0.8 - 0.4);
         let base = m.vertices.len() as u32;
         for _ in 0..3 {
             m.vertices
@@ -286,7 +286,7 @@ fn small_object(count: usize, w: u32, h: u32) -> (Model<f32>, TrainingView) {
         }
         m.faces.push([base, base + 1, base + 2]);
     }
-    let own = |x: u32, y: u32| x.abs_diff(w / 2) < 45 && y.abs_diff(h / 2) < 45;
+    let own = |x: u32, y: u32| x.abs_diff(w / 2) < 40 && y.abs_diff(h / 2) < 40;
     let pixels = (w * h) as usize;
     let mut view = TrainingView {
         camera: bench_camera(w, h),
