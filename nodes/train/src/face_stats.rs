@@ -92,6 +92,18 @@ impl FaceWeights {
             .collect()
     }
 
+    /// The per-face maxima of the current and the previous epoch, for a
+    /// trainer that keeps them elsewhere (on a device) between edits.
+    pub fn arrays(&self) -> (&[f32], &[f32]) {
+        (&self.current, &self.previous)
+    }
+
+    /// Replaces the two arrays by values kept elsewhere; the epoch count stays.
+    pub fn set_arrays(&mut self, current: Vec<f32>, previous: Vec<f32>) {
+        self.current = current;
+        self.previous = previous;
+    }
+
     /// Follows a pruning or densification: kept faces keep their values, and
     /// the children of a split face inherit their parent's.
     pub fn follow(&mut self, edit: &VertexEdit) {
