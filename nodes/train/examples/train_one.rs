@@ -1,4 +1,5 @@
 //! Trains one component folder and prints where the time went: for profiling.
+//! ($MODEL and $RENDERS, below, keep the model and test renders.)
 //! Usage: cargo run --release -p objectsplat-train --example train_one -- COMPONENT_DIR POINTS_PLY ITERATIONS [last|best] [threads]
 
 use anyhow::{Context, Result};
@@ -51,6 +52,11 @@ fn main() -> Result<()> {
     );
     for n in &report.notes {
         println!("  {n}");
+    }
+    // $MODEL=folder: the trained model, for inspection with other tools.
+    if let Ok(out) = std::env::var("MODEL") {
+        std::fs::create_dir_all(&out)?;
+        objectsplat_raster::save_model(&report.model, &PathBuf::from(out))?;
     }
     // $RENDERS=folder: each test view of the trained model over grey, beside its image.
     if let Ok(out) = std::env::var("RENDERS") {
