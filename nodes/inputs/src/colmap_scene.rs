@@ -6,7 +6,8 @@ use anyhow::{Context, Result};
 use objectsplat_core::{Camera, Points};
 use std::path::Path;
 
-/// One view per registered image; distorted cameras are refused (see `ColmapCamera::pinhole`).
+/// One view per registered image; distorted cameras carry their distortion, which
+/// `scene::write_frames` removes (see `ColmapCamera::lens` for the models).
 pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> {
     let mut out = Vec::with_capacity(model.images.len());
     for img in model.images.values() {
@@ -19,16 +20,16 @@ pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> 
                 img.camera_id
             )
         })?;
-        let (fx, fy, cx, cy) = cam
-            .pinhole()
+        let (lens, distortion) = cam
+            .lens()
             .map_err(|e| anyhow::anyhow!("{}: {e}", model.dir.display()))?;
         let camera = Camera {
-            width: cam.width,
-            height: cam.height,
-            fx,
-            fy,
-            cx,
-            cy,
+            width: lens.width,
+            height: lens.height,
+            fx: lens.fx,
+            fy: lens.fy,
+            cx: lens.cx,
+            cy: lens.cy,
             world_to_camera: img.pose.matrix(),
         };
         out.push(SourceView {
@@ -36,6 +37,8 @@ pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> 
             image: images_dir.join(&img.name),
             camera,
             valid_mask: None,
+            distortion: distortion.filter(|d| !d.is_identity()),
+            listed: None,
         });
     }
     Ok(out)

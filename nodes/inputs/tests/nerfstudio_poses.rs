@@ -1,5 +1,5 @@
 //! transforms.json poses (OpenGL camera-to-world) become OpenCV world-to-camera poses that
-//! project like the cameras they were made from; distorted cameras are refused.
+//! project like the cameras they were made from; inconsistent lens keys are refused.
 
 use glam::DVec3;
 use objectsplat_core::Camera;
@@ -96,16 +96,31 @@ fn distortion_and_bad_matrices_are_errors_naming_the_frame() {
     let dir = tempfile::tempdir().unwrap();
     let cams = cameras();
     let path = dir.path().join("t.json");
-    let doc = json!({"fl_x": 14.0, "w": 16, "h": 12, "camera_model": "OPENCV_FISHEYE", "k1": 0.1,
-        "frames": [{"file_path": "a.png", "transform_matrix": c2w_gl(&cams[0])}]});
-    std::fs::write(&path, doc.to_string()).unwrap();
-    let e = nerfstudio::read(&path, &Roots::default())
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("(a.png): camera model OPENCV_FISHEYE has distortion k1 = 0.1; undistort"),
-        "{e}"
-    );
+    for (model, key, want) in [
+        (
+            "PINHOLE",
+            "k1",
+            "(a.png): camera model PINHOLE has distortion k1 = 0.1; a pinhole camera has none",
+        ),
+        (
+            "OPENCV",
+            "k4",
+            "(a.png): camera model OPENCV has k4 = 0.1, which its radial–tangential model",
+        ),
+        (
+            "OPENCV_FISHEYE",
+            "p2",
+            "(a.png): camera model OPENCV_FISHEYE has p2 = 0.1, which its fisheye model",
+        ),
+    ] {
+        let doc = json!({"fl_x": 14.0, "w": 16, "h": 12, "camera_model": model, key: 0.1,
+            "frames": [{"file_path": "a.png", "transform_matrix": c2w_gl(&cams[0])}]});
+        std::fs::write(&path, doc.to_string()).unwrap();
+        let e = nerfstudio::read(&path, &Roots::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("t.json: frame 0") && e.contains(want), "{e}");
+    }
     let mut scaled = c2w_gl(&cams[0]);
     for row in scaled.iter_mut().take(3) {
         row[0] *= 2.0;
