@@ -17,7 +17,10 @@ pub mod testing;
 pub mod value;
 
 pub use diag::{Diagnostic, Diagnostics};
-pub use node::{Context, InputValue, Node, NodeSpec, Outcome, PortSpec, ProgressSink, TypeRef};
+pub use node::{
+    Context, DeclaredPorts, InputValue, Node, NodeSpec, Outcome, ParamError, PortSpec,
+    ProgressSink, TypeRef,
+};
 pub use params::{ParamSpec, ParamType, Params};
 pub use registry::{Origin, Registry};
 pub use value::Value;

@@ -152,11 +152,34 @@ pub enum Outcome {
     Skipped(String),
 }
 
+/// Ports a node's params declare (for kinds whose ports the graph gives, like `command`).
+#[derive(Debug, Clone)]
+pub struct DeclaredPorts {
+    pub inputs: Vec<PortSpec>,
+    pub outputs: Vec<PortSpec>,
+    /// The params that declare the inputs and the outputs: errors about a port point there.
+    pub inputs_param: String,
+    pub outputs_param: String,
+}
+
+/// A param value the node cannot use, found before anything runs.
+#[derive(Debug, Clone)]
+pub struct ParamError {
+    pub param: String,
+    pub message: String,
+}
+
 /// A node kind. Implementations must be deterministic: the same inputs and params
 /// must give byte-identical outputs (that is what makes early cutoff work).
 pub trait Node: Send + Sync {
     fn spec(&self) -> NodeSpec;
     fn run(&self, ctx: &mut Context) -> Result<Outcome>;
+
+    /// The ports of one node of this kind given its checked params, when its params
+    /// declare them; `None` (the default) keeps the ports of `spec()`.
+    fn declared_ports(&self, _params: &Params) -> Result<Option<DeclaredPorts>, ParamError> {
+        Ok(None)
+    }
 }
 
 /// An input as the node sees it.

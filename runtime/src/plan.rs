@@ -186,11 +186,18 @@ fn check(
             nodes.push(None);
             continue;
         };
-        match check_params(src, n, reg, overrides) {
-            Ok((params, input_paths)) => nodes.push(Some(PlanNode {
+        let checked = check_params(src, n, reg, overrides).and_then(|(params, paths)| {
+            Ok((
+                declared_ports(src, n, reg, registry, &params)?,
+                params,
+                paths,
+            ))
+        });
+        match checked {
+            Ok((reg, params, input_paths)) => nodes.push(Some(PlanNode {
                 id: n.id.clone(),
                 kind: n.kind.clone(),
-                reg: reg.clone(),
+                reg,
                 params,
                 input_paths,
                 inputs: vec![],
@@ -439,6 +446,62 @@ fn list_or_none(names: &[&str]) -> String {
 }
 
 type CheckedParams = (Params, Vec<(String, PathBuf)>);
+
+/// The node's registration with the ports its params declare, for kinds that declare
+/// ports in the graph (`Node::declared_ports`); other kinds keep their spec.
+fn declared_ports(
+    src: &GraphSource,
+    n: &NodeDecl,
+    reg: &Registered,
+    registry: &Registry,
+    params: &Params,
+) -> Result<Registered, Vec<Diagnostic>> {
+    let at = |param: &str| {
+        n.params
+            .iter()
+            .find(|p| p.name == param)
+            .map_or(n.span, |p| p.value.span)
+    };
+    let ports = match reg.node.declared_ports(params) {
+        Ok(None) => return Ok(reg.clone()),
+        Ok(Some(ports)) => ports,
+        Err(e) => {
+            return Err(vec![src.diag(
+                at(&e.param),
+                format!(
+                    "node {:?} ({}) param `{}`: {}",
+                    n.id, n.kind, e.param, e.message
+                ),
+            )]);
+        }
+    };
+    let mut diags = Vec::new();
+    for (list, param) in [
+        (&ports.inputs, &ports.inputs_param),
+        (&ports.outputs, &ports.outputs_param),
+    ] {
+        for p in list {
+            let t = p.ty.element();
+            if !registry.has_type(t) {
+                let hint = did_you_mean(&similar(t, registry.types().map(|t| t.name.as_str())));
+                diags.push(src.diag(
+                    at(param),
+                    format!(
+                        "node {:?} ({}) declares port `{}` of unknown type `{t}`{hint}",
+                        n.id, n.kind, p.name
+                    ),
+                ));
+            }
+        }
+    }
+    if !diags.is_empty() {
+        return Err(diags);
+    }
+    let mut reg = reg.clone();
+    reg.spec.inputs = ports.inputs;
+    reg.spec.outputs = ports.outputs;
+    Ok(reg)
+}
 
 fn check_params(
     src: &GraphSource,

@@ -9,7 +9,10 @@ use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::{self, Override};
 use objectsplat_runtime::report::{RunReport, Status};
 use objectsplat_runtime::store::Store;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{
+    Context, DeclaredPorts, Node, NodeSpec, Outcome, ParamError, ParamType, Params, PortSpec,
+    Registry, TypeRef,
+};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -182,6 +185,49 @@ impl Node for Flaky {
     }
 }
 
+/// The sum of the inputs its `terms` param declares (one `Num` input port per name):
+/// the ports come from the graph, not from the kind.
+struct SumOf;
+impl Node for SumOf {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("sum_of", "1")
+            .param("terms", ParamType::list(ParamType::Str), None, "")
+            .param("term_type", ParamType::Str, Some("\"Num\""), "")
+    }
+    fn declared_ports(&self, params: &Params) -> Result<Option<DeclaredPorts>, ParamError> {
+        let bad = |m: String| ParamError {
+            param: "terms".into(),
+            message: m,
+        };
+        let terms: Vec<String> = params.get("terms").map_err(|e| bad(e.to_string()))?;
+        let ty: String = params.get("term_type").map_err(|e| bad(e.to_string()))?;
+        if terms.is_empty() {
+            return Err(bad("declare at least one term".into()));
+        }
+        let port = |name: &str, ty: &str| PortSpec {
+            name: name.into(),
+            ty: TypeRef::One(ty.into()),
+            optional: false,
+            doc: String::new(),
+        };
+        Ok(Some(DeclaredPorts {
+            inputs: terms.iter().map(|t| port(t, &ty)).collect(),
+            outputs: vec![port("out", "Num")],
+            inputs_param: "term_type".into(),
+            outputs_param: "terms".into(),
+        }))
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let terms: Vec<String> = ctx.param("terms")?;
+        let mut total = 0;
+        for t in &terms {
+            total += read_num(ctx.input(t)?)?;
+        }
+        write_num(&ctx.output("out")?, total)?;
+        Ok(Outcome::Done)
+    }
+}
+
 pub fn registry() -> Registry {
     let mut reg = Registry::new();
     reg.add_type("Num", "a folder with value.txt");
@@ -193,6 +239,7 @@ pub fn registry() -> Registry {
         Arc::new(Double),
         Arc::new(Sum),
         Arc::new(Flaky),
+        Arc::new(SumOf),
     ] {
         reg.add_node(n).unwrap();
     }
