@@ -351,8 +351,18 @@ impl Node for ImportMasks {
         NodeSpec::new("import_masks", "1")
             .doc("Imports DAVIS indexed PNGs, per-object PNG folders, SAM COCO-RLE JSON or Grounded-SAM-2 output as mutually exclusive id maps.")
             .input("frames", "Frames", "the frames the masks belong to (names and sizes)")
+            .optional_input(
+                "source",
+                "File",
+                "the mask files made by another node (e.g. a `command` mask source), instead of `path`",
+            )
             .output("masks", "Masks", "one 16-bit id map per frame + objects.json")
-            .param("path", ParamType::Path, None, "the folder holding the masks")
+            .param(
+                "path",
+                ParamType::optional(ParamType::Path),
+                Some("None"),
+                "the folder holding the masks (or wire the `source` input instead)",
+            )
             .param("format", ParamType::enumeration(&MaskFormat::NAMES), None, "how the masks are stored")
             .param(
                 "overlap",
@@ -363,7 +373,19 @@ impl Node for ImportMasks {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let source = PathBuf::from(ctx.param::<String>("path")?);
+        let source = match (
+            ctx.input_opt("source"),
+            ctx.param::<Option<String>>("path")?,
+        ) {
+            (Some(dir), None) => dir.to_path_buf(),
+            (None, Some(path)) => PathBuf::from(path),
+            (Some(_), Some(path)) => bail!(
+                "both the `source` input and `path` ({path}) give the masks; keep one of them"
+            ),
+            (None, None) => bail!(
+                "no masks: set `path` to the folder holding them, or wire the `source` input to a node that writes them"
+            ),
+        };
         let format = MaskFormat::parse(&ctx.param::<String>("format")?)?;
         let policy = OverlapPolicy::parse(&ctx.param::<String>("overlap")?)?;
         let frames = ctx.input("frames")?.to_path_buf();
