@@ -142,3 +142,47 @@ fn distortion_and_bad_matrices_are_errors_naming_the_frame() {
     );
     assert!(e.contains("neither fl_x nor camera_angle_x"), "{e}");
 }
+
+#[test]
+fn nerfstudio_filename_lists_give_the_split_and_their_absence_is_named() {
+    use objectsplat_core::{Frames, Image, Split};
+    use objectsplat_inputs::nodes::NerfstudioScene;
+    use objectsplat_runtime::testing::run_node;
+    let dir = tempfile::tempdir().unwrap();
+    let cams = cameras();
+    std::fs::create_dir_all(dir.path().join("images")).unwrap();
+    let mut frames = Vec::new();
+    for i in 0..3 {
+        Image::new(16, 12, 3)
+            .save_png8(&dir.path().join(format!("images/f{i}.png")))
+            .unwrap();
+        frames.push(json!({"file_path": format!("./images/f{i}.png"), "transform_matrix": c2w_gl(&cams[i % 2])}));
+    }
+    let path = dir.path().join("transforms.json");
+    let mut doc = json!({"fl_x": 14.0, "w": 16, "h": 12, "frames": frames,
+        "train_filenames": ["images/f0.png", "images/f2.png"], "test_filenames": ["images/f1.png"]});
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let params = format!("(path: {:?}, split: \"lists\")", path.display().to_string());
+    let out = tempfile::tempdir().unwrap();
+    let run = run_node(&NerfstudioScene, &[], &params, out.path(), None).unwrap();
+    let got: Vec<Split> = Frames::read(&run.outputs["frames"])
+        .unwrap()
+        .frames
+        .iter()
+        .map(|f| f.split)
+        .collect();
+    assert_eq!(got, [Split::Train, Split::Test, Split::Train]);
+    doc.as_object_mut().unwrap().remove("train_filenames");
+    doc.as_object_mut().unwrap().remove("test_filenames");
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let e = format!(
+        "{:#}",
+        run_node(&NerfstudioScene, &[], &params, out.path(), None)
+            .err()
+            .unwrap()
+    );
+    assert!(
+        e.contains("transforms.json: split \"lists\" needs the JSON's own split"),
+        "{e}"
+    );
+}
