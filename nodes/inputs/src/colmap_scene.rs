@@ -2,6 +2,7 @@
 
 use crate::colmap::ColmapModel;
 use crate::scene::SourceView;
+use crate::undistort;
 use anyhow::{Context, Result};
 use objectsplat_core::{Camera, Points};
 use std::path::Path;
@@ -10,6 +11,8 @@ use std::path::Path;
 /// `scene::write_frames` removes (see `ColmapCamera::lens` for the models).
 pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> {
     let mut out = Vec::with_capacity(model.images.len());
+    // Cameras whose distortion was checked to be invertible (an error names the camera).
+    let mut checked = std::collections::HashSet::new();
     for img in model.images.values() {
         // `ColmapModel::check` guarantees every image's camera exists; stay defensive anyway.
         let cam = model.cameras.get(&img.camera_id).with_context(|| {
@@ -23,6 +26,14 @@ pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> 
         let (lens, distortion) = cam
             .lens()
             .map_err(|e| anyhow::anyhow!("{}: {e}", model.dir.display()))?;
+        let distortion = distortion.filter(|d| !d.is_identity());
+        if let Some(d) = &distortion
+            && checked.insert(cam.id)
+        {
+            undistort::undistorted_camera(&lens, d).with_context(|| {
+                format!("{}: camera {} ({})", model.dir.display(), cam.id, cam.model)
+            })?;
+        }
         let camera = Camera {
             width: lens.width,
             height: lens.height,
@@ -37,7 +48,7 @@ pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> 
             image: images_dir.join(&img.name),
             camera,
             valid_mask: None,
-            distortion: distortion.filter(|d| !d.is_identity()),
+            distortion,
             listed: None,
         });
     }

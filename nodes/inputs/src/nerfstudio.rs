@@ -18,7 +18,7 @@
 //! the poses were made and are not applied again.
 
 use crate::scene::SourceView;
-use crate::undistort::Distortion;
+use crate::undistort::{self, Distortion, Intrinsics};
 use anyhow::{Context, Result, bail};
 use glam::{DMat3, DMat4, DVec3, DVec4};
 use objectsplat_core::{Camera, Split};
@@ -345,6 +345,7 @@ impl Transforms {
     /// (identity for plain nerfstudio data; the ScanNet++ frame change for its JSON).
     pub fn views(&self, world_change: DMat4) -> Result<Vec<SourceView>> {
         let mut out = Vec::with_capacity(self.frames.len());
+        let mut checked: Vec<(Intrinsics, Distortion)> = Vec::new();
         for f in &self.frames {
             let at = || format!("{} ({})", self.path.display(), f.file_path);
             let (width, height) = match (f.width, f.height) {
@@ -369,6 +370,21 @@ impl Transforms {
             camera
                 .validate()
                 .map_err(|e| anyhow::anyhow!("{}: {e}", at()))?;
+            if let Some(d) = &f.distortion {
+                let lens = Intrinsics {
+                    width,
+                    height,
+                    fx: camera.fx,
+                    fy: camera.fy,
+                    cx: camera.cx,
+                    cy: camera.cy,
+                };
+                // Frames usually share one camera: check each distinct one once.
+                if checked.last() != Some(&(lens, *d)) {
+                    undistort::undistorted_camera(&lens, d).with_context(at)?;
+                    checked.push((lens, *d));
+                }
+            }
             out.push(SourceView {
                 name: f.file_path.clone(),
                 image: f.image.clone(),

@@ -99,24 +99,34 @@ impl Distortion {
         }
     }
 
-    /// Newton's method on `distort(x) − target`, with a central-difference Jacobian.
+    /// The Jacobian of `distort` at `(u, v)` by central differences: `[[∂u'/∂u, ∂u'/∂v], [∂v'/∂u, ∂v'/∂v]]`.
+    fn jacobian(&self, u: f64, v: f64) -> Option<[[f64; 2]; 2]> {
+        let h = 1e-7 * (1.0 + u.abs().max(v.abs()));
+        let (a1, a2) = self.distort(u + h, v)?;
+        let (b1, b2) = self.distort(u - h, v)?;
+        let (c1, c2) = self.distort(u, v + h)?;
+        let (d1, d2) = self.distort(u, v - h)?;
+        Some([
+            [(a1 - b1) / (2.0 * h), (c1 - d1) / (2.0 * h)],
+            [(a2 - b2) / (2.0 * h), (c2 - d2) / (2.0 * h)],
+        ])
+    }
+
+    /// Newton's method on `distort(x) − target`. Only a solution where the lens is
+    /// locally one-to-one and orientation-preserving (positive Jacobian) and that lies on
+    /// the distorted point's side of the centre counts: past the fold of a strongly
+    /// distorting lens a mirrored solution exists, and a pixel there is no view of the scene.
     fn undistort_brown(&self, ud: f64, vd: f64) -> Option<(f64, f64)> {
         let (mut u, mut v) = (ud, vd);
         let tolerance = 1e-14 * (1.0 + ud.abs().max(vd.abs()));
         for _ in 0..MAX_ITERATIONS {
             let (fu, fv) = self.distort(u, v)?;
             let (ru, rv) = (fu - ud, fv - vd);
-            if ru.abs().max(rv.abs()) <= tolerance {
-                return Some((u, v));
-            }
-            let h = 1e-7 * (1.0 + u.abs().max(v.abs()));
-            let (a1, a2) = self.distort(u + h, v)?;
-            let (b1, b2) = self.distort(u - h, v)?;
-            let (c1, c2) = self.distort(u, v + h)?;
-            let (d1, d2) = self.distort(u, v - h)?;
-            let (j11, j21) = ((a1 - b1) / (2.0 * h), (a2 - b2) / (2.0 * h));
-            let (j12, j22) = ((c1 - d1) / (2.0 * h), (c2 - d2) / (2.0 * h));
+            let [[j11, j12], [j21, j22]] = self.jacobian(u, v)?;
             let det = j11 * j22 - j12 * j21;
+            if ru.abs().max(rv.abs()) <= tolerance {
+                return (det > 0.0 && u * ud + v * vd >= 0.0).then_some((u, v));
+            }
             if !det.is_finite() || det.abs() < 1e-12 {
                 return None;
             }
@@ -127,7 +137,10 @@ impl Distortion {
             }
         }
         let (fu, fv) = self.distort(u, v)?;
-        ((fu - ud).abs().max((fv - vd).abs()) <= 1e-9 * (1.0 + ud.abs().max(vd.abs())))
+        let [[j11, j12], [j21, j22]] = self.jacobian(u, v)?;
+        ((fu - ud).abs().max((fv - vd).abs()) <= 1e-9 * (1.0 + ud.abs().max(vd.abs()))
+            && j11 * j22 - j12 * j21 > 0.0
+            && u * ud + v * vd >= 0.0)
             .then_some((u, v))
     }
 }
@@ -218,7 +231,9 @@ pub fn undistorted_camera(camera: &Intrinsics, distortion: &Distortion) -> Resul
     let (cx, cy) = (camera.cx, camera.cy);
     let max_scale_x = (cx / (cx - extent.left.max)).max((w - 0.5 - cx) / (extent.right.min - cx));
     let max_scale_y = (cy / (cy - extent.top.max)).max((h - 0.5 - cy) / (extent.bottom.min - cy));
-    if !(max_scale_x.is_finite() && max_scale_y.is_finite()) {
+    let sides = [extent.left, extent.right, extent.top, extent.bottom];
+    let usable = |scale: f64| scale.is_finite() && scale > 0.0;
+    if sides.iter().any(|r| r.min > r.max) || !usable(max_scale_x) || !usable(max_scale_y) {
         bail!(
             "the distortion {distortion:?} cannot be inverted along the image border of a {}×{} camera \
              (fx {}, fy {}, cx {}, cy {}); its coefficients do not describe a usable lens",

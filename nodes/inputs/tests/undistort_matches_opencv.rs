@@ -133,3 +133,37 @@ fn downscaling_follows_undistortion() {
     assert!((f.fx - want["fx"].as_f64().unwrap() / 3.0).abs() < 1e-9);
     assert!((f.cx - want["cx"].as_f64().unwrap() * 45.0 / 135.0).abs() < 1e-9);
 }
+
+#[test]
+fn an_unusable_lens_is_an_error_naming_the_camera() {
+    // k1 = -2 folds the image back on itself before its border: no inverse there.
+    let dir = tempfile::tempdir().unwrap();
+    std::fs::write(
+        dir.path().join("cameras.txt"),
+        "1 SIMPLE_RADIAL 96 72 40 48 36 -2.0\n",
+    )
+    .unwrap();
+    std::fs::write(
+        dir.path().join("images.txt"),
+        "1 1 0 0 0 0 0 0 1 view.png\n\n",
+    )
+    .unwrap();
+    std::fs::write(dir.path().join("points3D.txt"), "").unwrap();
+    let params = format!(
+        "(path: {:?}, images: Some({:?}))",
+        dir.path().display().to_string(),
+        fixture("images").display().to_string()
+    );
+    let out = tempfile::tempdir().unwrap();
+    let e = format!(
+        "{:#}",
+        run_node(&ColmapScene, &[], &params, out.path(), None)
+            .err()
+            .unwrap()
+    );
+    assert!(
+        e.contains("camera 1 (SIMPLE_RADIAL)")
+            && e.contains("cannot be inverted along the image border"),
+        "{e}"
+    );
+}
