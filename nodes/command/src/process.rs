@@ -2,7 +2,8 @@
 //! in a working folder, with stdin closed and stdout discarded. Its stderr is drained on
 //! a thread (a chatty program cannot block on a full pipe) and the last few KB are
 //! returned, or quoted in the error when the program fails. Past the timeout, or when
-//! the run is interrupted, the program is killed.
+//! the run is interrupted, the program is killed with every process it started (it runs
+//! in its own process group on Unix).
 
 use anyhow::{Context, Result, bail};
 use std::ffi::OsString;
@@ -39,12 +40,18 @@ impl Program<'_> {
             bail!("the {} is empty", self.what);
         };
         let name = program.to_string_lossy().into_owned();
-        let mut child = Command::new(program)
+        let mut command = Command::new(program);
+        command
             .args(args)
             .current_dir(self.workdir)
             .stdin(Stdio::null())
             .stdout(Stdio::null())
-            .stderr(Stdio::piped())
+            .stderr(Stdio::piped());
+        // Its own process group, so a kill reaches the processes it starts too (a shell's
+        // children, a Python script's workers).
+        #[cfg(unix)]
+        std::os::unix::process::CommandExt::process_group(&mut command, 0);
+        let mut child = command
             .spawn()
             .with_context(|| format!("cannot start {} {name:?}", self.what))?;
         let mut stderr_pipe = child
@@ -78,9 +85,7 @@ impl Program<'_> {
             }
             let timed_out = started.elapsed() >= self.timeout;
             if timed_out || (self.cancelled)() {
-                // Kill errors mean it exited in the meantime; either way, reap it.
-                let _ = child.kill();
-                let _ = child.wait();
+                kill_group(&mut child);
                 let stderr = collect_stderr();
                 if timed_out {
                     bail!(
@@ -104,6 +109,21 @@ impl Program<'_> {
         }
         Ok(stderr)
     }
+}
+
+/// Kills the program and every process of its group, then reaps it. Errors mean it
+/// exited in the meantime.
+fn kill_group(child: &mut std::process::Child) {
+    #[cfg(unix)]
+    if let Ok(pid) = i32::try_from(child.id()) {
+        // SAFETY: kill(2) with a negative pid signals the process group the child leads
+        // (it was started with process_group(0)); it touches no memory of ours.
+        unsafe {
+            libc::kill(-pid, libc::SIGKILL);
+        }
+    }
+    let _ = child.kill();
+    let _ = child.wait();
 }
 
 /// The last [`STDERR_TAIL`] characters of `bytes` as text ("(empty)" for none).

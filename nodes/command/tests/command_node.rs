@@ -1,4 +1,4 @@
-//! The `command` node with real programs (python3 -c ...): declared ports, placeholders,
+//! The `command` node with real programs (python3 -c ..., sh -c ...): declared ports, placeholders,
 //! inputs as private copies, outputs collected from folders; a failure, a timeout and a
 //! missing or empty output each fail with a message naming the cause and quoting stderr;
 //! a bad declaration is refused before anything runs, naming the param.
@@ -106,13 +106,10 @@ fn a_failing_program_fails_the_node_with_its_stderr() {
 #[test]
 fn a_program_past_its_timeout_is_killed() {
     let dir = tempfile::tempdir().unwrap();
+    // sh starts in milliseconds even on a loaded machine, so the message is out before the timeout.
     let params = format!(
-        "(argv: {}, produces: {{\"out\": \"File\"}}, timeout_s: 0.5)",
-        argv(&[
-            "python3",
-            "-c",
-            "import sys, time; print('loading weights', file=sys.stderr, flush=True); time.sleep(30)"
-        ])
+        "(argv: {}, produces: {{\"out\": \"File\"}}, timeout_s: 1.0)",
+        argv(&["sh", "-c", "echo loading weights >&2; sleep 30"])
     );
     let t0 = Instant::now();
     let e = run_node(&CommandNode, &[], &params, dir.path(), None)
@@ -121,7 +118,8 @@ fn a_program_past_its_timeout_is_killed() {
     let e = format!("{e:#}");
     assert!(t0.elapsed().as_secs_f64() < 10.0);
     assert!(
-        e.contains("did not finish within 0.5 s and was killed") && e.contains("loading weights"),
+        e.contains("command \"sh\" did not finish within 1.0 s and was killed")
+            && e.contains("loading weights"),
         "{e}"
     );
 }

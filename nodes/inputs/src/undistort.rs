@@ -15,7 +15,9 @@
 //! `image_undistorter` does with its default options (`blank_pixels 0`, `min_scale 0.2`,
 //! `max_scale 2`): focal lengths and principal point are kept; every pixel centre on
 //! the image border is undistorted, and the output size is scaled per axis so that the
-//! undistorted image shows no blank pixels, its principal point scaled with it. Images
+//! undistorted image shows no blank pixels, its principal point scaled with it. (A
+//! radial–tangential camera whose coefficients are all zero is kept as it is; COLMAP
+//! would run the same rule and shrink the image by about a pixel.) Images
 //! are resampled bilinearly at each output pixel's centre (pixel centres at +0.5, the
 //! COLMAP convention of our cameras); source pixels outside the image count as black,
 //! as in OpenCV's `remap` with a constant border.
