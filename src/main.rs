@@ -106,7 +106,10 @@ enum Command {
 }
 
 fn main() -> ExitCode {
-    // SAFETY: the first statement of main; no other thread exists yet.
+    // Started as a plugin's child process this serves one call and exits; otherwise
+    // plugins loaded below run in children started from this executable.
+    objectsplat_runtime::plugin::child::serve_if_requested();
+    // SAFETY: no other thread exists yet (serving a plugin child never returns here).
     unsafe { objectsplat_wgpu::device::quiet_headless_vulkan() };
     let cli = Cli::parse();
     match dispatch(cli) {
@@ -192,7 +195,13 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                     .with_context(|| format!("{}: cannot write report", path.display()))?;
             }
             if report.out.is_some() {
-                fill_report_pages(&plan, &report, &out, edges);
+                // Another run may be writing the same --out: take its turn.
+                match objectsplat_runtime::outdir::lock(&out) {
+                    Ok(_lock) => fill_report_pages(&plan, &report, &out, edges),
+                    Err(e) => {
+                        eprintln!("warning: the run summary was not added to the reports: {e:#}")
+                    }
+                }
             }
             if report.ok {
                 eprintln!("outputs in {}", out.display());

@@ -232,6 +232,8 @@ fn colorkey_plugin_is_listed_with_its_interface_and_runs_through_the_host() {
         "{entry}"
     );
 
+    // This test binary cannot host plugin processes; the objectsplat binary can.
+    objectsplat_runtime::plugin::set_host_program(PathBuf::from(env!("CARGO_BIN_EXE_objectsplat")));
     let mut reg = objectsplat_nodes::builtin_registry();
     objectsplat_runtime::plugin::load(&mut reg, &lib).unwrap();
     // Loading the same library again is a no-op, not a collision.
@@ -376,6 +378,93 @@ fn a_failing_or_panicking_plugin_node_fails_alone_and_the_run_exits_non_zero() {
         &dir,
     );
     assert!(out.status.success(), "mode pass works: {}", stderr(&out));
+}
+
+#[test]
+fn a_plugin_that_crashes_exits_or_hangs_fails_only_its_node() {
+    let dir = fresh_dir("crashes");
+    std::fs::copy(median_fixture("input.png"), dir.join("input.png")).unwrap();
+    let lib = dir.join("fault_injection.so");
+    build_plugin("fault_injection", &[], &[], &lib);
+    std::fs::write(
+        dir.join("graph.ron"),
+        r#"(
+  plugins: ["fault_injection.so"],
+  nodes: {
+    "photo":      (kind: "load_image", params: (path: "input.png")),
+    "bad":        (kind: "faulty_stage", inputs: (image: "photo.image"), params: (plugin_timeout_s: 2)),
+    "save_bad":   (kind: "save_image", inputs: (image: "bad.image"), params: (path: "bad.png")),
+    "small":      (kind: "resize_image", inputs: (image: "photo.image"), params: (factor: 2)),
+    "save_small": (kind: "save_image", inputs: (image: "small.image"), params: (path: "small.png")),
+  },
+  targets: ["save_bad", "save_small"],
+)"#,
+    )
+    .unwrap();
+    for (mode, message) in [
+        ("abort", "killed by signal 6 (SIGABRT"),
+        ("segfault", "killed by signal 11 (SIGSEGV"),
+        ("stack_overflow", "has overflowed its stack"),
+        ("exit", "exited (status 0) without answering"),
+        ("hang", "did not finish within 2 s and was killed"),
+        ("no_output", "without writing its output `image`"),
+        ("huge_error", "more bytes not shown"),
+    ] {
+        let set = format!("bad.mode=\"{mode}\"");
+        let args = [
+            "run",
+            "graph.ron",
+            "--cache",
+            "cache",
+            "--out",
+            "out",
+            "--json",
+            "report.json",
+            "--set",
+            &set,
+        ];
+        let out = objectsplat(&args, &[], &dir);
+        let err = stderr(&out);
+        assert_eq!(
+            out.status.code(),
+            Some(1),
+            "mode {mode}: a failed node exits 1, never by a signal: {err}"
+        );
+        assert!(
+            err.lines()
+                .any(|l| l.starts_with("error:") && l.contains("plugin `fault_injection`")),
+            "mode {mode}: {err}"
+        );
+        assert!(
+            err.contains(message),
+            "mode {mode}: {message:?} not in {err}"
+        );
+        assert!(
+            err.len() < 64 << 10,
+            "mode {mode}: {} bytes of stderr",
+            err.len()
+        );
+        let r = report(&dir.join("report.json"));
+        assert_eq!(status(&r, "bad"), "failed", "mode {mode}");
+        assert_ne!(status(&r, "save_bad"), "ran", "mode {mode}");
+        assert!(
+            dir.join("out/save_small/file/small.png").is_file(),
+            "mode {mode}: the other branch wrote its output"
+        );
+        let reason = r["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|n| n["id"] == "bad")
+            .and_then(|n| n["reason"].as_str())
+            .unwrap()
+            .to_string();
+        assert!(
+            reason.len() < 16 << 10,
+            "mode {mode}: {} bytes of reason",
+            reason.len()
+        );
+    }
 }
 
 #[test]

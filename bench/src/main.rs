@@ -9,6 +9,7 @@
 //! Everything goes through the ordinary engine and cache: a rerun only
 //! computes what is missing.
 
+mod quality;
 mod train_speed;
 
 use anyhow::{Context, Result, bail};
@@ -39,6 +40,8 @@ enum Command {
     Paper(PaperArgs),
     /// Training iterations per second per component kind, optionally against an older binary.
     TrainSpeed(train_speed::TrainSpeedArgs),
+    /// Composed-scene quality of trainer variants (an ablation), over seeds.
+    Quality(quality::QualityArgs),
 }
 
 #[derive(clap::Args)]
@@ -150,6 +153,7 @@ fn main() -> std::process::ExitCode {
     let result = match cli.command {
         Command::Paper(args) => paper(&args),
         Command::TrainSpeed(args) => train_speed::train_speed(&args),
+        Command::Quality(args) => quality::quality(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -192,15 +196,23 @@ fn paper(args: &PaperArgs) -> Result<()> {
                             pipeline.name
                         );
                         eprintln!("[bench] {name}");
-                        let sets = [
+                        let source = GraphSource::read(&args.graphs.join(pipeline.graph))?;
+                        let mut sets = vec![
                             format!("scene.seed={scene}"),
                             format!("scene.split=\"{split}\""),
-                            format!("train.seed={seed}"),
-                            format!("train.iterations={}", args.iterations),
-                            format!("train.checkpoint=\"{checkpoint}\""),
                         ];
+                        // Graphs that train the objects first have a second train node.
+                        let train_nodes: &[&str] = if source.text.contains("\"objects\":") {
+                            &["objects", "train"]
+                        } else {
+                            &["train"]
+                        };
+                        for node in train_nodes {
+                            sets.push(format!("{node}.seed={seed}"));
+                            sets.push(format!("{node}.iterations={}", args.iterations));
+                            sets.push(format!("{node}.checkpoint=\"{checkpoint}\""));
+                        }
                         let out = args.out.join("runs").join(&name);
-                        let source = GraphSource::read(&args.graphs.join(pipeline.graph))?;
                         let overrides = sets
                             .iter()
                             .map(|s| Override::parse(s))

@@ -27,20 +27,17 @@ pub struct Diagnostic {
 impl Diagnostic {
     pub fn at(path: &Path, src: &str, span: Span, message: impl Into<String>) -> Diagnostic {
         let (line, column) = line_col(src, span.start);
-        let text = src.lines().nth(line - 1).unwrap_or("");
         let start = src.floor_char_boundary(span.start.min(src.len()));
         let end = src.floor_char_boundary(span.end.min(src.len())).max(start);
+        let line_start = src[..start].rfind('\n').map_or(0, |i| i + 1);
+        let line_end = src[start..].find('\n').map_or(src.len(), |i| start + i);
+        let text = &src[line_start..line_end];
         let width = src[start..end]
             .lines()
             .next()
             .map_or(1, |l| l.chars().count())
             .max(1);
-        let room = text.chars().count().saturating_sub(column - 1).max(1);
-        let snippet = format!(
-            "{line:>5} | {text}\n      | {}{}",
-            " ".repeat(column - 1),
-            "^".repeat(width.min(room))
-        );
+        let snippet = snippet(line, text, column - 1, width);
         Diagnostic {
             location: Location::File {
                 path: path.to_path_buf(),
@@ -81,6 +78,29 @@ impl fmt::Display for Diagnostic {
     }
 }
 
+/// Characters of a source line shown on each side of the column (a generated graph
+/// may hold megabytes on one line; the snippet shows the neighbourhood, marked `…`).
+const SNIPPET_CONTEXT: usize = 60;
+
+/// `line | text` with a caret line under `column` (0-based, in characters), the
+/// text cut to [`SNIPPET_CONTEXT`] characters either side.
+fn snippet(line: usize, text: &str, column: usize, width: usize) -> String {
+    let chars = text.chars().count();
+    let from = column.saturating_sub(SNIPPET_CONTEXT);
+    let to = chars.min(column + width.min(SNIPPET_CONTEXT) + SNIPPET_CONTEXT);
+    let shown: String = text.chars().skip(from).take(to - from).collect();
+    let (lead, tail) = (
+        if from > 0 { "…" } else { "" },
+        if to < chars { "…" } else { "" },
+    );
+    let room = to.saturating_sub(column).max(1);
+    format!(
+        "{line:>5} | {lead}{shown}{tail}\n      | {}{}",
+        " ".repeat(column - from + lead.chars().count()),
+        "^".repeat(width.min(room).min(SNIPPET_CONTEXT))
+    )
+}
+
 /// One or more diagnostics; validation reports every independent problem it finds.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Diagnostics(pub Vec<Diagnostic>);
@@ -99,6 +119,20 @@ impl fmt::Display for Diagnostics {
 
 impl std::error::Error for Diagnostics {}
 impl std::error::Error for Diagnostic {}
+
+/// `text` cut to `max` bytes (at a character boundary), saying how much was left
+/// out: for messages that quote what a user, a file or a plugin supplied.
+pub fn bounded(text: &str, max: usize) -> String {
+    if text.len() <= max {
+        return text.to_string();
+    }
+    let cut = text.floor_char_boundary(max);
+    format!(
+        "{}… [{} more bytes not shown]",
+        &text[..cut],
+        text.len() - cut
+    )
+}
 
 /// Candidates within a small edit distance of `word`, closest first.
 pub fn similar<'a>(word: &str, candidates: impl Iterator<Item = &'a str>) -> Vec<&'a str> {

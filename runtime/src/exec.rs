@@ -115,6 +115,13 @@ pub fn run(plan: &Plan, store: &Store, opts: &RunOptions) -> Result<RunReport> {
     ))
 }
 
+/// Longest failure message a node's report carries.
+const MAX_FAILURE_TEXT: usize = 16 << 10;
+
+/// Separates the params from the fingerprint of the files a node reads
+/// ([`crate::Node::reads`]) in a key's params text.
+const READS_SEPARATOR: &str = " + ";
+
 fn params_key(plan: &Plan, i: usize) -> Result<String> {
     let n = &plan.nodes[i];
     let mut params = n.params.clone();
@@ -123,7 +130,17 @@ fn params_key(plan: &Plan, i: usize) -> Result<String> {
             Store::fingerprint(path).with_context(|| format!("node `{}` param `{name}`", n.id))?;
         params.values.insert(name.clone(), crate::Value::Str(fp));
     }
-    Ok(params.canonical())
+    let reads = n
+        .reg
+        .node
+        .reads(&n.params)
+        .with_context(|| format!("node `{}`: listing the files it reads", n.id))?;
+    if reads.is_empty() {
+        return Ok(params.canonical());
+    }
+    let fp = Store::fingerprint_reads(&reads)
+        .with_context(|| format!("node `{}`: fingerprinting the files it reads", n.id))?;
+    Ok(format!("{}{READS_SEPARATOR}{fp}", params.canonical()))
 }
 
 fn compute_key(
@@ -594,7 +611,10 @@ fn execute(
                 warnings.push(format!("warning: {c}; recomputing"));
                 (Err(JobError::Corrupt(c.to_string())), status)
             } else {
-                (Err(JobError::Failed(format!("{e:#}"))), status)
+                // A node may fail with megabytes of text (a dump, a log); the report
+                // and the terminal get the start of it.
+                let msg = crate::diag::bounded(&format!("{e:#}"), MAX_FAILURE_TEXT);
+                (Err(JobError::Failed(msg)), status)
             }
         }
     };
@@ -656,6 +676,7 @@ fn execute_inner(
             warnings: vec![],
             threads,
             scratch,
+            resume: store.resume_dir(&job.key),
             progress: opts.observer.as_ref(),
             cancel,
         };
@@ -698,7 +719,12 @@ fn execute_inner(
                                 e.file_name()
                             );
                         }
-                        names.push(e.file_name().to_string_lossy().into_owned());
+                        let name = e.file_name().into_string().map_err(|n| {
+                            anyhow!("output `{}`: item name {n:?} is not UTF-8", o.name)
+                        })?;
+                        crate::paths::check_component(&name)
+                            .map_err(|why| anyhow!("output `{}`: item {why}", o.name))?;
+                        names.push(name);
                     }
                     names.sort();
                     let mut items = Vec::new();
@@ -732,6 +758,11 @@ fn execute_inner(
             notes: ctx.notes,
         };
         store.put_action(&rec)?;
+        // The action is stored: progress saved for a resume is no longer needed.
+        let resume = store.resume_dir(&job.key);
+        if resume.exists() {
+            let _ = std::fs::remove_dir_all(&resume);
+        }
         Ok((rec, false))
     })();
     let _ = std::fs::remove_dir_all(&stage);
@@ -739,23 +770,19 @@ fn execute_inner(
 }
 
 fn materialize_targets(plan: &Plan, store: &Store, report: &RunReport, out: &Path) -> Result<()> {
+    let mut targets = Vec::new();
     for &t in &plan.targets {
         let id = &plan.nodes[t].id;
         let Some(n) = report.node(id) else { continue };
         for (port, digest) in &n.outputs {
-            let dest = out.join(id).join(port);
-            if dest.exists() {
-                std::fs::remove_dir_all(&dest)
-                    .with_context(|| format!("{}: cannot replace", dest.display()))?;
-            }
-            store.materialize(digest, &dest, true).inspect_err(|e| {
-                if e.downcast_ref::<Corrupt>().is_some() {
-                    store.forget_artifact(digest);
-                }
-            })?;
+            targets.push(crate::outdir::TargetOutput {
+                node: id,
+                port,
+                digest,
+            });
         }
     }
-    Ok(())
+    crate::outdir::write_targets(store, out, &targets)
 }
 
 /// Why each needed node would (re)run, without running anything.
@@ -881,11 +908,20 @@ fn diff_reason(
             prev.version, spec.version
         ));
     }
-    if prev.params != params {
+    let split = |p: &'_ str| -> (String, String) {
+        match p.split_once(READS_SEPARATOR) {
+            Some((a, b)) => (a.to_string(), b.to_string()),
+            None => (p.to_string(), String::new()),
+        }
+    };
+    let ((prev_params, prev_reads), (now_params, now_reads)) = (split(&prev.params), split(params));
+    if prev_params != now_params {
         why.push(format!(
-            "params changed (was {}, now {})",
-            prev.params, params
+            "params changed (was {prev_params}, now {now_params})"
         ));
+    }
+    if prev_reads != now_reads {
+        why.push("a file it reads changed (an image, a script, a folder beside its inputs)".into());
     }
     for (port, d) in inputs {
         match prev.inputs.get(port) {

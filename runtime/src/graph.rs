@@ -23,11 +23,31 @@ pub struct GraphSource {
 
 impl GraphSource {
     pub fn read(path: &Path) -> Result<GraphSource, Diagnostics> {
-        let text = std::fs::read_to_string(path).map_err(|e| {
+        let bytes = std::fs::read(path).map_err(|e| {
             Diagnostics(vec![Diagnostic::argument(
                 &path.display().to_string(),
                 format!("cannot read graph file: {e}"),
             )])
+        })?;
+        let text = String::from_utf8(bytes).map_err(|e| {
+            let bytes = e.as_bytes();
+            let at = e.utf8_error().valid_up_to();
+            // The valid prefix locates the bad byte; its line is shown up to that byte.
+            let valid = std::str::from_utf8(&bytes[..at]).expect("valid_up_to is valid UTF-8");
+            let mut d = Diagnostic::at(
+                path,
+                valid,
+                crate::syntax::Span {
+                    start: at,
+                    end: at,
+                },
+                format!(
+                    "the graph file is not UTF-8 text (byte 0x{:02x} at offset {at}); save it as UTF-8",
+                    bytes[at]
+                ),
+            );
+            d.snippet = None;
+            Diagnostics(vec![d])
         })?;
         Ok(GraphSource {
             path: path.to_path_buf(),
@@ -133,10 +153,11 @@ pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
                 saw_nodes = true;
                 match &value.kind {
                     SKind::Map(entries) => {
+                        let mut seen = std::collections::HashSet::new();
                         for (k, v) in entries {
                             match parse_node(src, k, v) {
                                 Ok(n) => {
-                                    if graph.nodes.iter().any(|o| o.id == n.id) {
+                                    if !seen.insert(n.id.clone()) {
                                         diags.push(src.diag(
                                             k.span,
                                             format!("node id {:?} is defined twice", n.id),

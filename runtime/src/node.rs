@@ -180,6 +180,17 @@ pub trait Node: Send + Sync {
     fn declared_ports(&self, _params: &Params) -> Result<Option<DeclaredPorts>, ParamError> {
         Ok(None)
     }
+
+    /// Files and folders a run will read that are neither inputs nor named by a
+    /// `path` param (those are fingerprinted already): an image folder found beside
+    /// a model, the images a JSON lists, a script named in a command line. Called
+    /// with the normalised params before the cache is consulted; their fingerprints
+    /// ([`crate::store::Store::fingerprint_reads`]) enter the run's cache key, so
+    /// replacing one of them reruns the node. A node that reads files it cannot name
+    /// in advance must say so in its doc.
+    fn reads(&self, _params: &Params) -> Result<Vec<PathBuf>> {
+        Ok(Vec::new())
+    }
 }
 
 /// An input as the node sees it.
@@ -217,6 +228,7 @@ pub struct Context<'a> {
     pub(crate) warnings: Vec<String>,
     pub(crate) threads: usize,
     pub(crate) scratch: PathBuf,
+    pub(crate) resume: PathBuf,
     pub(crate) progress: &'a dyn ProgressSink,
     pub(crate) cancel: &'a AtomicBool,
 }
@@ -294,6 +306,15 @@ impl<'a> Context<'a> {
     /// A private scratch folder, deleted after the run.
     pub fn scratch(&self) -> &Path {
         &self.scratch
+    }
+
+    /// A folder kept across runs of this very action (same cache key) until one
+    /// of them succeeds, then deleted: a long node saves its progress here so
+    /// that a run killed half-way resumes where it stopped. Created on demand
+    /// by the node; whatever it holds must let the node finish with the same
+    /// outputs an uninterrupted run gives.
+    pub fn resume(&self) -> &Path {
+        &self.resume
     }
 
     /// A fact for the run report (e.g. `backend` = `cpu (no GPU adapter)`).

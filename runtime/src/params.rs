@@ -24,7 +24,8 @@ pub enum ParamType {
     Enum(Vec<String>),
     /// An input file or folder, relative to the graph file; its content enters the cache key.
     Path,
-    /// A path relative to the node's output folder (never absolute, never `..`).
+    /// A path relative to the node's output folder (never absolute, never `..`), `/`-separated
+    /// once checked (see [`crate::paths::normalise_relative`]).
     RelPath,
     List(Box<ParamType>),
     Optional(Box<ParamType>),
@@ -113,20 +114,9 @@ impl ParamType {
                     Ok(v.clone())
                 }
             }
-            (ParamType::RelPath, Value::Str(s)) => {
-                let p = std::path::Path::new(s);
-                if s.is_empty()
-                    || p.is_absolute()
-                    || p.components()
-                        .any(|c| !matches!(c, std::path::Component::Normal(_)))
-                {
-                    Err(format!(
-                        "{s:?} must be a relative path inside the output folder (no `..`, not absolute)"
-                    ))
-                } else {
-                    Ok(v.clone())
-                }
-            }
+            (ParamType::RelPath, Value::Str(s)) => crate::paths::normalise_relative(s)
+                .map(Value::Str)
+                .map_err(|e| format!("{e}: expected a relative path inside the output folder")),
             (ParamType::List(inner), Value::List(items)) => items
                 .iter()
                 .enumerate()

@@ -498,8 +498,9 @@ fn declared_ports(
         return Err(diags);
     }
     let mut reg = reg.clone();
-    reg.spec.inputs = ports.inputs;
-    reg.spec.outputs = ports.outputs;
+    let spec = std::sync::Arc::make_mut(&mut reg.spec);
+    spec.inputs = ports.inputs;
+    spec.outputs = ports.outputs;
     Ok(reg)
 }
 

@@ -1,32 +1,62 @@
-//! Loading node kinds from shared libraries (ABI v1; docs/plugins.md).
+//! Node kinds from shared libraries (ABI v1; docs/plugins.md), run in child processes.
 //!
 //! A plugin library exports `objectsplat_plugin_entry_v1`, returning a `#[repr(C)]`
-//! table (see [`abi`]). Loading checks the table's ABI version and size, asks the
-//! plugin to `describe` itself (JSON), turns each described node kind into a
-//! [`PluginNode`](node::PluginNode) and registers it with
-//! `Origin::Plugin`; from then on the engine validates, caches, schedules and
-//! reports plugin nodes exactly like built-in ones. A node's code version is the
-//! plugin's declared version plus a digest of the library file ([`spec::node_version`]).
+//! table (see [`abi`]). The engine never loads it: a child process ([`child`],
+//! started by [`host`] from the engine's own executable) opens the library, checks
+//! the table's ABI version and size, and asks it to `describe` itself (JSON); each
+//! described node kind becomes a [`PluginNode`](node::PluginNode) registered with
+//! `Origin::Plugin`. Every run is another child making one `run` call, so a library
+//! that crashes, aborts, exits or hangs fails its node and nothing else. From then
+//! on the engine validates, caches, schedules and reports plugin nodes exactly like
+//! built-in ones. A node's code version is the plugin's declared version plus a
+//! digest of the library file ([`spec::node_version`]); the child refuses to run a
+//! library whose digest changed since it was described.
 
 pub mod abi;
+pub mod child;
+pub mod host;
 pub mod library;
 pub mod node;
 pub mod protocol;
 pub mod spec;
+pub mod wire;
+
+pub use host::set_host_program;
 
 use crate::registry::{Origin, Registry};
 use node::PluginNode;
-use std::path::Path;
-use std::sync::Arc;
+use protocol::Description;
+use std::path::{Path, PathBuf};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+
+/// A plugin library as the engine knows it: what its child process reported.
+pub struct PluginLibrary {
+    /// Canonical path.
+    pub path: PathBuf,
+    /// `"<plugin crate> <version> (<sdk>, <rustc>)"`.
+    pub build: String,
+    /// blake3 of the library file, hex.
+    pub digest: String,
+    pub description: Description,
+}
+
+/// Libraries described by this process, by canonical path and digest, so loading
+/// the same file twice starts one child.
+static DESCRIBED: Mutex<Vec<Arc<PluginLibrary>>> = Mutex::new(Vec::new());
+
+/// How long a library may take to load and describe itself.
+const DESCRIBE_TIMEOUT: Duration = Duration::from_secs(60);
 
 /// Loads a plugin library and registers its node kinds, all or none.
 ///
 /// Errors say what is wrong with the library (not a shared library, no entry symbol,
-/// ABI mismatch, malformed description, unknown type, kind collision...) without
-/// repeating its path; callers prefix it (the CLI prints `plugin PATH: ...`).
-/// Loading the same library into the same registry again changes nothing.
+/// ABI mismatch, malformed description, unknown type, kind collision, a crash while
+/// loading...) without repeating its path; callers prefix it (the CLI prints
+/// `plugin PATH: ...`). Loading the same library into the same registry again
+/// changes nothing.
 pub fn load(reg: &mut Registry, path: &Path) -> Result<(), String> {
-    let library = library::open(path)?;
+    let library = describe(path)?;
     let specs = spec::node_specs(&library.description, &library.digest)?;
     let origin = Origin::Plugin {
         path: library.path.display().to_string(),
@@ -51,6 +81,61 @@ pub fn load(reg: &mut Registry, path: &Path) -> Result<(), String> {
     }
     *reg = trial;
     Ok(())
+}
+
+/// Describes `path` in a child process (or returns what this process learnt before).
+fn describe(path: &Path) -> Result<Arc<PluginLibrary>, String> {
+    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read the file: {e}"))?;
+    if meta.is_dir() {
+        return Err("is a folder, not a shared library".into());
+    }
+    let canonical = path
+        .canonicalize()
+        .map_err(|e| format!("cannot resolve the path: {e}"))?;
+    let bytes = std::fs::read(&canonical).map_err(|e| format!("cannot read the file: {e}"))?;
+    let digest = blake3::hash(&bytes).to_hex().to_string();
+    // A poisoned lock only means another thread panicked while holding it; the list
+    // itself is always consistent (entries are pushed whole).
+    let known = DESCRIBED
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .iter()
+        .find(|l| l.path == canonical && l.digest == digest)
+        .cloned();
+    if let Some(lib) = known {
+        return Ok(lib);
+    }
+    let reply = host::call(
+        &wire::Call::Describe {
+            library: canonical.clone(),
+        },
+        DESCRIBE_TIMEOUT,
+        &mut |_, _, _| {},
+        &|| false,
+    )
+    .map_err(|e| format!("loading it failed: its process {e}"))?;
+    let (digest, build, text) = match reply {
+        wire::Reply::Described {
+            digest,
+            build,
+            description,
+        } => (digest, build, description),
+        wire::Reply::Refused { message } => return Err(message),
+        other => return Err(format!("its process answered describe with {other:?}")),
+    };
+    let description: Description =
+        serde_json::from_str(&text).map_err(|e| format!("its describe text is malformed: {e}"))?;
+    let lib = Arc::new(PluginLibrary {
+        path: canonical,
+        build,
+        digest,
+        description,
+    });
+    DESCRIBED
+        .lock()
+        .unwrap_or_else(|p| p.into_inner())
+        .push(lib.clone());
+    Ok(lib)
 }
 
 #[cfg(test)]
@@ -120,12 +205,14 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let text = dir.path().join("notes.so");
         std::fs::write(&text, "just text").unwrap();
-        let mut reg = crate::Registry::new();
-        let e = super::load(&mut reg, &text).unwrap_err();
+        // The child's loader, called in this process.
+        let e = super::library::open(&text).err().unwrap();
         assert!(
             e.starts_with("not a shared library this system can load"),
             "{e}"
         );
+        // Checked by the engine before any child is started.
+        let mut reg = crate::Registry::new();
         let e = super::load(&mut reg, &dir.path().join("missing.so")).unwrap_err();
         assert!(e.starts_with("cannot read the file"), "{e}");
         let e = super::load(&mut reg, dir.path()).unwrap_err();

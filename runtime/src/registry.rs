@@ -20,7 +20,8 @@ pub enum Origin {
 
 #[derive(Clone)]
 pub struct Registered {
-    pub spec: NodeSpec,
+    /// Shared: every plan node of this kind points at it (a graph may hold 100k nodes).
+    pub spec: Arc<NodeSpec>,
     pub node: Arc<dyn Node>,
     pub origin: Origin,
 }
@@ -73,8 +74,14 @@ impl Registry {
             ));
         }
         self.check_spec(&spec)?;
-        self.nodes
-            .insert(spec.kind.clone(), Registered { spec, node, origin });
+        self.nodes.insert(
+            spec.kind.clone(),
+            Registered {
+                spec: Arc::new(spec),
+                node,
+                origin,
+            },
+        );
         Ok(())
     }
 
@@ -86,6 +93,20 @@ impl Registry {
             ));
         }
         let mut seen = std::collections::HashSet::new();
+        let names = spec
+            .inputs
+            .iter()
+            .chain(&spec.outputs)
+            .map(|p| p.name.as_str())
+            .chain(spec.params.iter().map(|p| p.name.as_str()));
+        for name in names {
+            // Port names become folder names (staging, OUT/<node>/<port>).
+            if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
+                return Err(format!(
+                    "node `{k}`: port or param name {name:?} must be made of letters, digits and `_`"
+                ));
+            }
+        }
         for p in spec.inputs.iter().chain(&spec.outputs) {
             if !self.types.contains_key(p.ty.element()) {
                 return Err(format!(

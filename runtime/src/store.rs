@@ -27,6 +27,30 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 pub type Digest = String;
 
+/// Marks a folder as an objectsplat cache (the CACHEDIR.TAG convention, which also
+/// tells backup tools to skip it).
+const CACHE_TAG: &str = "CACHEDIR.TAG";
+const CACHE_TAG_TEXT: &str = "Signature: 8a477f597d28d172789f06886806bc55\n# objectsplat cache (content-addressed; safe to delete)\n";
+
+/// A cache deletes what it finds stale inside itself, so it must never adopt a
+/// folder that holds something else: only a new or empty folder, one it tagged, or
+/// one laid out as a cache by an older objectsplat (`blobs/` and `actions/`).
+fn refuse_foreign_folder(root: &Path) -> Result<()> {
+    let Ok(mut entries) = fs::read_dir(root) else {
+        return Ok(());
+    };
+    if entries.next().is_none()
+        || root.join(CACHE_TAG).is_file()
+        || (root.join("blobs").is_dir() && root.join("actions").is_dir())
+    {
+        return Ok(());
+    }
+    bail!(
+        "{}: not an objectsplat cache (the folder holds other files); give --cache a new or empty folder",
+        root.display()
+    )
+}
+
 /// A stored artifact: one folder, or a collection of named items.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(tag = "kind", rename_all = "lowercase")]
@@ -101,6 +125,16 @@ fn hash_bytes(bytes: &[u8]) -> String {
 
 impl Store {
     pub fn open(root: &Path) -> Result<Store> {
+        refuse_foreign_folder(root)?;
+        fs::create_dir_all(root)
+            .with_context(|| format!("{}: cannot create cache folder", root.display()))?;
+        // The tag is the first thing in a new cache, so a concurrent `open` never sees
+        // a non-empty folder without it.
+        let tag = root.join(CACHE_TAG);
+        if !tag.exists() {
+            fs::write(&tag, CACHE_TAG_TEXT)
+                .with_context(|| format!("{}: cannot write", tag.display()))?;
+        }
         for d in ["blobs", "trees", "actions", "heads", "locks", "tmp"] {
             fs::create_dir_all(root.join(d)).with_context(|| {
                 format!("{}: cannot create cache folder", root.join(d).display())
@@ -126,18 +160,34 @@ impl Store {
         })
     }
 
-    /// Removes staging folders whose process is gone (their lock is free).
+    /// Removes staging folders whose process is gone (their lock is free). Only names
+    /// this store creates (`<pid>-<nanos>` and its `.lock`) are touched, so a cache
+    /// pointed at a folder that holds other things never loses them.
     fn clean_stale_staging(tmp_root: &Path) {
         let Ok(entries) = fs::read_dir(tmp_root) else {
             return;
         };
         for e in entries.flatten() {
             let p = e.path();
-            if p.extension().is_some_and(|x| x == "lock")
-                && let Ok(f) = fs::File::open(&p)
+            let Some(stem) = e
+                .file_name()
+                .to_str()
+                .and_then(|n| n.strip_suffix(".lock"))
+                .map(str::to_string)
+            else {
+                continue;
+            };
+            if !is_staging_name(&stem) || !e.file_type().is_ok_and(|t| t.is_file()) {
+                continue;
+            }
+            let dir = tmp_root.join(&stem);
+            let is_real_dir = fs::symlink_metadata(&dir).is_ok_and(|m| m.is_dir());
+            if let Ok(f) = fs::File::open(&p)
                 && f.try_lock().is_ok()
             {
-                let _ = fs::remove_dir_all(p.with_extension(""));
+                if is_real_dir {
+                    let _ = fs::remove_dir_all(&dir);
+                }
                 let _ = fs::remove_file(&p);
             }
         }
@@ -216,7 +266,7 @@ impl Store {
     /// Moves the files of a finished output folder into the CAS and records a folder manifest.
     pub fn ingest_folder(&self, ty: &str, dir: &Path) -> Result<Digest> {
         let mut files = Vec::new();
-        collect_files(dir, dir, &mut files)?;
+        output_files(dir, dir, &mut files)?;
         files.sort();
         let mut entries = Vec::with_capacity(files.len());
         for rel in files {
@@ -225,11 +275,14 @@ impl Store {
                 .with_context(|| format!("{}: cannot read output", path.display()))?;
             let hash = hash_bytes(&bytes);
             let dest = self.blob_path(&hash);
-            if !dest.exists() {
+            // A blob that is already there but fails verification is replaced, so one
+            // rerun repairs every corrupt blob it produces.
+            if !self.blob_is_sound(&hash) {
                 self.ensure_parent(&dest)?;
                 // Same filesystem: an atomic move. A concurrent writer of the same hash
                 // writes the same bytes, so whichever rename lands last is fine.
                 fs::rename(&path, &dest).or_else(|_| self.write_atomic(&dest, &bytes))?;
+                self.mark_verified(&hash);
             }
             entries.push(FileEntry {
                 path: rel,
@@ -241,6 +294,33 @@ impl Store {
             ty: ty.to_string(),
             files: entries,
         })
+    }
+
+    /// True when the blob exists as a plain file with the right contents.
+    fn blob_is_sound(&self, hash: &str) -> bool {
+        if self.is_verified(hash) {
+            return true;
+        }
+        let path = self.blob_path(hash);
+        let plain = fs::symlink_metadata(&path).is_ok_and(|m| m.is_file());
+        if plain && fs::read(&path).is_ok_and(|b| hash_bytes(&b) == hash) {
+            self.mark_verified(hash);
+            return true;
+        }
+        false
+    }
+
+    fn is_verified(&self, hash: &str) -> bool {
+        self.verified
+            .lock()
+            .map(|v| v.contains(hash))
+            .unwrap_or(false)
+    }
+
+    fn mark_verified(&self, hash: &str) {
+        if let Ok(mut v) = self.verified.lock() {
+            v.insert(hash.to_string());
+        }
     }
 
     pub fn put_manifest(&self, m: &Manifest) -> Result<Digest> {
@@ -288,52 +368,101 @@ impl Store {
     }
 
     fn verify_blob(&self, hash: &str) -> Result<(), Corrupt> {
-        if self
-            .verified
-            .lock()
-            .map(|v| v.contains(hash))
-            .unwrap_or(false)
-        {
+        if self.is_verified(hash) {
             return Ok(());
         }
         let path = self.blob_path(hash);
-        let bytes = fs::read(&path).map_err(|e| Corrupt {
+        let bad = |detail: String| Corrupt {
             what: format!("blob {}", short(hash)),
-            detail: e.to_string(),
-        })?;
+            detail,
+        };
+        if fs::symlink_metadata(&path).is_ok_and(|m| !m.is_file()) {
+            let _ = fs::remove_file(&path);
+            return Err(bad("not a plain file".into()));
+        }
+        let bytes = fs::read(&path).map_err(|e| bad(e.to_string()))?;
         if hash_bytes(&bytes) != hash {
             let _ = fs::remove_file(&path);
-            return Err(Corrupt {
-                what: format!("blob {}", short(hash)),
-                detail: "checksum mismatch (file changed on disk)".into(),
-            });
+            return Err(bad("checksum mismatch (file changed on disk)".into()));
         }
-        if let Ok(mut v) = self.verified.lock() {
-            v.insert(hash.to_string());
-        }
+        self.mark_verified(hash);
         Ok(())
+    }
+
+    /// Verifies every blob an artifact refers to, deleting each corrupt one, and
+    /// reports them all at once: one pass finds all the damage an artifact has, so
+    /// the next pass can recompute all of it.
+    fn verify_artifact(&self, digest: &str) -> Result<Manifest, Corrupt> {
+        let m = self.manifest(digest)?.ok_or_else(|| Corrupt {
+            what: format!("artifact {}", short(digest)),
+            detail: "missing".into(),
+        })?;
+        let mut bad = Vec::new();
+        match &m {
+            Manifest::Folder { files, .. } => {
+                for f in files {
+                    if let Err(c) = check_manifest_path(&f.path, digest) {
+                        // A manifest naming a path outside its folder is never laid out.
+                        self.forget_artifact(digest);
+                        return Err(c);
+                    }
+                    if let Err(c) = self.verify_blob(&f.blob) {
+                        bad.push(c.to_string());
+                    }
+                }
+            }
+            Manifest::Collection { items, .. } => {
+                for (name, d) in items {
+                    if crate::paths::check_component(name).is_err() {
+                        self.forget_artifact(digest);
+                        return Err(Corrupt {
+                            what: format!("artifact {}", short(digest)),
+                            detail: format!("item name {name:?} is not a plain folder name"),
+                        });
+                    }
+                    if let Err(c) = self.verify_artifact(d) {
+                        bad.push(c.to_string());
+                    }
+                }
+            }
+        }
+        match bad.len() {
+            0 => Ok(m),
+            1 => Err(Corrupt {
+                what: format!("artifact {}", short(digest)),
+                detail: bad.remove(0),
+            }),
+            n => Err(Corrupt {
+                what: format!("artifact {}", short(digest)),
+                detail: format!("{n} entries are damaged (first: {})", bad[0]),
+            }),
+        }
     }
 
     /// Lays out an artifact as a folder at `dest` (hard links to verified blobs;
     /// copies when `copy` is set, for folders users may edit). Collections become one
-    /// sub-folder per item. Returns the items for a collection.
+    /// sub-folder per item. Returns the items for a collection. Every blob is
+    /// verified before anything is written; a corrupt artifact is reported whole.
     pub fn materialize(
         &self,
         digest: &str,
         dest: &Path,
         copy: bool,
     ) -> Result<Option<Vec<(String, PathBuf)>>> {
-        let m = self.manifest(digest)?.ok_or_else(|| {
-            anyhow!(Corrupt {
-                what: format!("artifact {}", short(digest)),
-                detail: "missing".into()
-            })
-        })?;
-        fs::create_dir_all(dest)?;
+        let m = self.verify_artifact(digest)?;
+        self.lay_out(m, dest, copy)
+    }
+
+    fn lay_out(
+        &self,
+        m: Manifest,
+        dest: &Path,
+        copy: bool,
+    ) -> Result<Option<Vec<(String, PathBuf)>>> {
+        fs::create_dir_all(dest).with_context(|| format!("{}: cannot create", dest.display()))?;
         match m {
             Manifest::Folder { files, .. } => {
                 for f in files {
-                    self.verify_blob(&f.blob)?;
                     let target = dest.join(&f.path);
                     if let Some(parent) = target.parent() {
                         fs::create_dir_all(parent)?;
@@ -351,7 +480,13 @@ impl Store {
                 let mut out = Vec::new();
                 for (name, d) in items {
                     let sub = dest.join(&name);
-                    self.materialize(&d, &sub, copy)?;
+                    let m = self.manifest(&d)?.ok_or_else(|| {
+                        anyhow!(Corrupt {
+                            what: format!("artifact {}", short(&d)),
+                            detail: "missing".into()
+                        })
+                    })?;
+                    self.lay_out(m, &sub, copy)?;
                     out.push((name, sub));
                 }
                 Ok(Some(out))
@@ -425,6 +560,13 @@ impl Store {
         self.read_heads(graph).remove(node)
     }
 
+    /// A folder that outlives a run of action `key` until that action
+    /// succeeds: a long node keeps its progress there, so a killed run resumes
+    /// where it stopped. Only the holder of the key's lock uses it.
+    pub fn resume_dir(&self, key: &str) -> PathBuf {
+        self.root.join("resume").join(hex2(key))
+    }
+
     /// An exclusive cross-process lock on a key while it is computed.
     pub fn lock_key(&self, key: &str) -> Result<fs::File> {
         let f = fs::OpenOptions::new()
@@ -438,30 +580,102 @@ impl Store {
 
     /// Content fingerprint of an input file or folder named by a path param.
     /// Files are hashed by content; folders by the (path, size, mtime) of every file,
-    /// so a multi-gigabyte dataset folder is not read on every run.
+    /// so a multi-gigabyte dataset folder is not read on every run. Links inside an
+    /// input folder are followed (datasets are often assembled from links); names
+    /// are hashed as the bytes the system stores, whatever they contain.
     pub fn fingerprint(path: &Path) -> Result<String> {
         let meta = fs::metadata(path)
             .with_context(|| format!("{}: no such file or folder", path.display()))?;
         if meta.is_file() {
             let mut h = blake3::Hasher::new();
-            h.update_reader(fs::File::open(path)?)
+            let file =
+                fs::File::open(path).with_context(|| format!("{}: cannot read", path.display()))?;
+            h.update_reader(file)
                 .with_context(|| format!("{}: cannot read", path.display()))?;
             return Ok(format!("file:{}", h.finalize().to_hex()));
         }
         let mut files = Vec::new();
-        collect_files(path, path, &mut files)?;
+        let mut seen = HashSet::new();
+        input_files(path, &mut Vec::new(), &mut files, &mut seen)?;
         files.sort();
         let mut h = blake3::Hasher::new();
-        for rel in files {
-            let m = fs::metadata(path.join(&rel))?;
-            let mtime = m
-                .modified()
-                .ok()
-                .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
-                .map_or(0, |d| d.as_nanos());
-            h.update(format!("{rel}\0{}\0{mtime}\n", m.len()).as_bytes());
+        for (rel, size, mtime) in files {
+            h.update(&rel);
+            h.update(format!("\0{size}\0{mtime}\n").as_bytes());
         }
         Ok(format!("dir:{}", h.finalize().to_hex()))
+    }
+
+    /// Fingerprint of files and folders a node reads that no path param names
+    /// ([`crate::Node::reads`]): each by [`Store::fingerprint`]'s folder rule (size and
+    /// modification time, never the contents), in the node's order, so a dataset's
+    /// images are not read on every run but replacing one changes the key.
+    pub fn fingerprint_reads(paths: &[PathBuf]) -> Result<String> {
+        let mut h = blake3::Hasher::new();
+        for path in paths {
+            let meta = fs::metadata(path)
+                .with_context(|| format!("{}: no such file or folder", path.display()))?;
+            if meta.is_dir() {
+                h.update(Store::fingerprint(path)?.as_bytes());
+            } else {
+                h.update(format!("file:{}:{}", meta.len(), mtime_nanos(&meta)).as_bytes());
+            }
+            h.update(b"\n");
+        }
+        Ok(format!("reads:{}", h.finalize().to_hex()))
+    }
+}
+
+fn mtime_nanos(m: &fs::Metadata) -> u128 {
+    m.modified()
+        .ok()
+        .and_then(|t| t.duration_since(std::time::UNIX_EPOCH).ok())
+        .map_or(0, |d| d.as_nanos())
+}
+
+/// Every file below an input folder as (relative name bytes, size, mtime). Links are
+/// followed; a folder reached twice (a link cycle) is walked once.
+fn input_files(
+    dir: &Path,
+    prefix: &mut Vec<u8>,
+    out: &mut Vec<(Vec<u8>, u64, u128)>,
+    seen: &mut HashSet<PathBuf>,
+) -> Result<()> {
+    let canonical = dir
+        .canonicalize()
+        .with_context(|| format!("{}: cannot resolve", dir.display()))?;
+    if !seen.insert(canonical) {
+        return Ok(());
+    }
+    for e in fs::read_dir(dir).with_context(|| format!("{}: cannot list", dir.display()))? {
+        let e = e.with_context(|| format!("{}: cannot list", dir.display()))?;
+        let p = e.path();
+        // Follows links; a dangling one is reported by name.
+        let meta = fs::metadata(&p)
+            .with_context(|| format!("{}: cannot read (a link to nothing?)", p.display()))?;
+        let len = prefix.len();
+        if len > 0 {
+            prefix.push(b'/');
+        }
+        prefix.extend_from_slice(e.file_name().as_encoded_bytes());
+        if meta.is_dir() {
+            input_files(&p, prefix, out, seen)?;
+        } else {
+            out.push((prefix.clone(), meta.len(), mtime_nanos(&meta)));
+        }
+        prefix.truncate(len);
+    }
+    Ok(())
+}
+
+/// A manifest's file path must already be in the checked, normalised form.
+fn check_manifest_path(path: &str, digest: &str) -> Result<(), Corrupt> {
+    match crate::paths::normalise_relative(path) {
+        Ok(n) if n == path => Ok(()),
+        _ => Err(Corrupt {
+            what: format!("artifact {}", short(digest)),
+            detail: format!("file path {path:?} is not a plain relative path"),
+        }),
     }
 }
 
@@ -470,6 +684,16 @@ impl Drop for Store {
         let _ = fs::remove_dir_all(&self.tmp);
         let _ = fs::remove_file(self.tmp.with_extension("lock"));
     }
+}
+
+/// `<pid>-<nanos>`: the staging folder names [`Store::open`] makes.
+fn is_staging_name(name: &str) -> bool {
+    name.split_once('-').is_some_and(|(pid, n)| {
+        !pid.is_empty()
+            && !n.is_empty()
+            && pid.bytes().all(|b| b.is_ascii_digit())
+            && n.bytes().all(|b| b.is_ascii_digit())
+    })
 }
 
 fn unique_suffix() -> u64 {
@@ -482,21 +706,37 @@ pub fn short(h: &str) -> &str {
     &h[..12.min(h.len())]
 }
 
-fn collect_files(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
+/// The files of an output folder as `/`-separated relative names. Every component
+/// passes [`crate::paths::check_component`] (so no name means something else on
+/// another platform); links and special files are refused, never followed.
+fn output_files(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
     for e in fs::read_dir(dir).with_context(|| format!("{}: cannot list", dir.display()))? {
         let e = e?;
         let p = e.path();
+        let name = e.file_name();
+        let name = name
+            .to_str()
+            .ok_or_else(|| anyhow!("{}: file name is not UTF-8", p.display()))?;
+        crate::paths::check_component(name)
+            .map_err(|why| anyhow!("{}: output {why}", dir.display()))?;
         let ft = e.file_type()?;
         if ft.is_dir() {
-            collect_files(root, &p, out)?;
+            output_files(root, &p, out)?;
         } else if ft.is_file() {
             let rel = p.strip_prefix(root).expect("walked below root");
-            let rel = rel
-                .to_str()
-                .ok_or_else(|| anyhow!("{}: file name is not UTF-8", p.display()))?;
-            out.push(rel.replace('\\', "/"));
+            let parts: Vec<&str> = rel
+                .components()
+                .map(|c| {
+                    c.as_os_str()
+                        .to_str()
+                        .expect("every component checked as UTF-8")
+                })
+                .collect();
+            out.push(parts.join("/"));
         } else if ft.is_symlink() {
             bail!("{}: outputs must be plain files, not links", p.display());
+        } else {
+            bail!("{}: outputs must be plain files", p.display());
         }
     }
     Ok(())

@@ -167,3 +167,55 @@ fn independent_problems_are_all_reported() {
     );
     assert_eq!(e.len(), 2, "{e:#?}");
 }
+
+#[test]
+fn a_graph_that_is_not_utf8_is_refused_at_the_offending_byte() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("latin1.ron");
+    // "é" in Latin-1 (0xe9) inside a string on line 2, column 17.
+    let mut bytes = b"(nodes: {\n  \"a\": (kind: \"caf".to_vec();
+    bytes.push(0xe9);
+    bytes.extend_from_slice(b"\"),\n})");
+    std::fs::write(&path, bytes).unwrap();
+    let e = GraphSource::read(&path).unwrap_err();
+    assert_eq!(e.0.len(), 1);
+    let headline = e.0[0]
+        .headline()
+        .replace(&path.display().to_string(), "latin1.ron");
+    assert_eq!(
+        headline,
+        "latin1.ron:2:19: the graph file is not UTF-8 text (byte 0xe9 at offset 28); save it as UTF-8"
+    );
+}
+
+#[test]
+fn a_huge_offending_line_is_quoted_around_the_error_only() {
+    // A generated graph with every node on one 2 MB line and one mistake near its end.
+    let mut text = String::from("(nodes: {");
+    let mut i = 0;
+    while text.len() < 2_000_000 {
+        text.push_str(&format!(
+            "\"n{i}\": (kind: \"const\", params: (value: {i})), "
+        ));
+        i += 1;
+    }
+    text.push_str("\"bad\": (kind: \"constt\"), \"m\": (kind: \"const\")})");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("wide.ron");
+    std::fs::write(&path, &text).unwrap();
+    let src = GraphSource::read(&path).unwrap();
+    let e = match build_plan(&src, &common::registry(), &[], &[]) {
+        Ok(_) => panic!("the mistake must be reported"),
+        Err(e) => e,
+    };
+    let shown = e.to_string();
+    assert!(shown.len() < 1000, "{} bytes shown", shown.len());
+    assert!(shown.contains("unknown node kind \"constt\""), "{shown}");
+    // The caret sits under the kind, inside the quoted window.
+    let lines: Vec<&str> = shown.lines().collect();
+    let (code, caret) = (lines[1], lines[2]);
+    let at = caret.find('^').expect("a caret line"); // spaces before it: chars = bytes
+    let under: String = code.chars().skip(at).take(8).collect();
+    assert_eq!(under, "\"constt\"", "{code}\n{caret}");
+    assert!(code.contains('…'), "{code}");
+}

@@ -70,7 +70,16 @@ fn path_params_resolve_against_the_graph_folder_and_their_content_is_in_the_key(
 
 #[test]
 fn output_paths_cannot_leave_the_output_folder() {
-    for bad in ["../escape.txt", "/tmp/escape.txt", "a/../../b.txt", ""] {
+    for bad in [
+        "../escape.txt",
+        "/tmp/escape.txt",
+        "a/../../b.txt",
+        "",
+        r"a/..\..\..\tmp\victim\x.png",
+        r"..\escape.txt",
+        r"\\server\share\x.txt",
+        r"C:\x.txt",
+    ] {
         let src = GraphSource {
             path: "g.ron".into(),
             text: format!(
@@ -83,4 +92,15 @@ fn output_paths_cannot_leave_the_output_folder() {
             .to_string();
         assert!(err.contains("param `to`"), "{bad}: {err}");
     }
+}
+
+#[test]
+fn output_paths_written_with_backslashes_mean_folders() {
+    let src = GraphSource {
+        path: "g.ron".into(),
+        text: r#"(nodes: { "c": (kind: "copy", params: (from: "x", to: "sub\\x.txt")) })"#.into(),
+    };
+    let plan = build_plan(&src, &registry(), &[], &[]).unwrap_or_else(|d| panic!("{d}"));
+    let to: String = plan.nodes[0].params.get("to").unwrap();
+    assert_eq!(to, "sub/x.txt");
 }

@@ -3,7 +3,8 @@
 //! a thread (a chatty program cannot block on a full pipe) and the last few KB are
 //! returned, or quoted in the error when the program fails. Past the timeout, or when
 //! the run is interrupted, the program is killed with every process it started (it runs
-//! in its own process group on Unix).
+//! in its own process group on Unix); processes it leaves behind when it exits are
+//! killed too.
 
 use anyhow::{Context, Result, bail};
 use std::ffi::OsString;
@@ -100,6 +101,8 @@ impl Program<'_> {
                 );
             }
         };
+        // Whatever it started and left running goes with it.
+        kill_group(&mut child);
         let stderr = collect_stderr();
         if !status.success() {
             bail!(

@@ -12,13 +12,20 @@
 //! else is substituted, so file names never end up inside a command string. The
 //! program runs through `objectsplat_command::process` (the runner the generic
 //! `command` stage uses): stdout discarded, the last few KB of stderr in error
-//! messages, killed past the timeout. Pixels outside the mask are taken from the
+//! messages, and it runs in a process group of its own: at the timeout the whole
+//! group is killed (the program and everything it started), and processes it leaves
+//! behind when it exits are killed too. Pixels outside the mask are taken from the
 //! input, whatever the program wrote there.
+//!
+//! Cache key: the argv, the program file and every file or folder an absolute
+//! argument names ([`ExternalCommand::reads`]), so editing the script reruns the
+//! node. Files the program opens on its own (weights it finds by itself, say) cannot
+//! be known in advance and are not part of the key: name them in the argv.
 
 use crate::component_io::{load_rgb8, save_gray8, save_rgb8};
 use anyhow::{Context, Result, bail};
 use objectsplat_command::process::Program;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 #[derive(Debug, Clone, PartialEq)]
@@ -38,6 +45,32 @@ pub struct FillRequest {
 }
 
 impl ExternalCommand {
+    /// The files the command's output depends on besides its inputs: the program
+    /// (found on `PATH` when named without a folder) and every absolute argument that
+    /// names an existing file or folder (a script, a weights file, a model folder).
+    pub fn reads(argv: &[String]) -> Vec<PathBuf> {
+        let mut out = Vec::new();
+        if let Some(program) = argv.first() {
+            let program = Path::new(program);
+            if program.components().count() > 1 || program.is_absolute() {
+                out.push(program.to_path_buf());
+            } else if let Some(found) = std::env::var_os("PATH").and_then(|paths| {
+                std::env::split_paths(&paths)
+                    .map(|d| d.join(program))
+                    .find(|p| p.is_file())
+            }) {
+                out.push(found);
+            }
+        }
+        for arg in argv.iter().skip(1) {
+            let p = Path::new(arg);
+            if p.is_absolute() && p.exists() {
+                out.push(p.to_path_buf());
+            }
+        }
+        out
+    }
+
     /// Runs the program once on all `requests` inside `workdir` and returns the
     /// filled RGB images in request order.
     pub fn run(&self, requests: &[FillRequest], workdir: &Path) -> Result<Vec<Vec<u8>>> {

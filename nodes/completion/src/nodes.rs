@@ -7,7 +7,7 @@ use crate::inpaint::{Method, Options, Raster, Sample, inpaint};
 use crate::surface::{SurfaceParams, complete_surfaces};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::{Frames, Points};
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params, Registry};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
@@ -251,9 +251,19 @@ impl Node for InpaintBackgroundNode {
             .output("fills", "Images", "<frame stem>.png per background frame")
             .param("method", ParamType::enumeration(&["ns", "telea", "command", "folder"]), Some("\"ns\""), "where fills come from")
             .param("radius", ParamType::float_range(0.0, 100.0), Some("5.0"), "radius for ns/telea")
-            .param("command", ParamType::list(ParamType::Str), Some("[]"), "argv for method command; arguments exactly {input} / {output} become the folders")
+            .param("command", ParamType::list(ParamType::Str), Some("[]"), "argv for method command; arguments exactly {input} / {output} become the folders; the program file and every absolute argument naming a file or folder are part of the cache key (files the program finds by itself are not: name them in the argv)")
             .param("timeout_s", ParamType::float_range(0.001, 1.0e6), Some("600.0"), "seconds before the command is killed")
             .param("path", ParamType::optional(ParamType::Path), Some("None"), "folder of <frame stem>.png fills for method folder")
+    }
+
+    /// For method `command`: the program and the files its arguments name.
+    fn reads(&self, params: &Params) -> Result<Vec<PathBuf>> {
+        if params.get::<String>("method")? != "command" {
+            return Ok(Vec::new());
+        }
+        Ok(ExternalCommand::reads(
+            &params.get::<Vec<String>>("command")?,
+        ))
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {

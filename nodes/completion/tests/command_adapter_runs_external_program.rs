@@ -172,3 +172,36 @@ fn node_writes_one_fill_per_background_frame() {
         }
     }
 }
+
+/// True while `pid` names a live process (a zombie awaiting its reaper is dead).
+fn alive(pid: u32) -> bool {
+    std::fs::read_to_string(format!("/proc/{pid}/stat"))
+        .ok()
+        .and_then(|s| {
+            s.rsplit(')')
+                .next()
+                .map(|r| r.trim_start().starts_with('Z'))
+        })
+        .is_some_and(|zombie| !zombie)
+}
+
+#[test]
+fn the_timeout_kills_every_process_the_program_started() {
+    let work = tempfile::tempdir().unwrap();
+    let err = command("hang_with_helper", &[], 0.5)
+        .run(&[request("f0")], work.path())
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("did not finish within 0.5 s"), "{err}");
+    let pid: u32 = std::fs::read_to_string(work.path().join("helper.pid"))
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap();
+    // The kill is sent before the error returns; allow the kernel a moment to act.
+    let start = Instant::now();
+    while alive(pid) && start.elapsed() < Duration::from_secs(2) {
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    assert!(!alive(pid), "helper process {pid} outlived the timeout");
+}

@@ -135,8 +135,10 @@ impl Frames {
         std::fs::write(&path, text).with_context(|| format!("{}: cannot write", path.display()))
     }
 
+    /// The image file of a frame; a `\` in a hand-written `image` is a separator, as
+    /// the check in [`Frames::read`] treats it.
     pub fn image_path(&self, frame: &Frame) -> PathBuf {
-        self.root.join(&frame.image)
+        self.root.join(frame.image.replace('\\', "/"))
     }
 
     /// Loads a frame's image as RGB and checks it matches the declared size.
@@ -161,24 +163,23 @@ impl Frames {
     }
 }
 
-/// Refuses absolute paths and paths that climb out of their folder.
+/// Refuses absolute paths and paths that climb out of their folder, on every
+/// platform's separators (the engine's one check, [`objectsplat_runtime::paths`]).
 pub fn check_relative(path: &str) -> Result<()> {
-    let p = Path::new(path);
-    if p.is_absolute()
-        || p.components()
-            .any(|c| matches!(c, std::path::Component::ParentDir))
-    {
-        bail!("path {path:?} must be relative and stay inside its folder");
-    }
-    Ok(())
+    objectsplat_runtime::paths::normalise_relative(path)
+        .map(drop)
+        .map_err(|e| anyhow::anyhow!("path {e}: it must be relative and stay inside its folder"))
 }
 
-/// The file stem used to name per-frame files (masks, renders) after a frame.
+/// The file stem used to name per-frame files (masks, renders) after a frame: the
+/// last component of the name (split at `/` or `\`, whoever wrote it) without its
+/// extension, so per-frame files always land in the folder they are written to.
 pub fn frame_stem(name: &str) -> &str {
-    Path::new(name)
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or(name)
+    let last = name.rsplit(['/', '\\']).next().unwrap_or(name);
+    match last.rfind('.') {
+        Some(dot) if dot > 0 && last != ".." => &last[..dot],
+        _ => last,
+    }
 }
 
 #[cfg(test)]
@@ -199,6 +200,18 @@ mod tests {
             };
             assert_eq!(train, expected, "n={n}");
         }
+    }
+
+    #[test]
+    fn frame_stems_are_last_components_on_every_separator() {
+        assert_eq!(frame_stem("images/frame_001.png"), "frame_001");
+        assert_eq!(frame_stem(r"images\frame_001.png"), "frame_001");
+        assert_eq!(frame_stem(r"a/..\..\x.png"), "x");
+        assert_eq!(frame_stem("r_0"), "r_0");
+        assert_eq!(frame_stem(".hidden"), ".hidden");
+        assert_eq!(frame_stem("a.b.jpg"), "a.b");
+        assert!(check_relative(r"..\x.png").is_err());
+        assert!(check_relative(r"images\x.png").is_ok());
     }
 
     #[test]

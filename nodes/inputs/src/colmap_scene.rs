@@ -45,7 +45,7 @@ pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> 
         };
         out.push(SourceView {
             name: img.name.clone(),
-            image: images_dir.join(&img.name),
+            image: images_dir.join(crate::scene::portable(&img.name)),
             camera,
             valid_mask: None,
             distortion,

@@ -246,12 +246,23 @@ pub fn read(path: &Path, roots: &Roots) -> Result<Transforms> {
         let fy = number(&doc, f, "fl_y").unwrap_or(fx);
         let c2w_gl = matrix4(f.get("transform_matrix"))
             .with_context(|| format!("{}: transform_matrix", at()))?;
-        let image = roots.images.as_deref().unwrap_or(base).join(file_path);
+        // Written on Windows, a path may use `\`; it names the same file here.
+        let image = roots
+            .images
+            .as_deref()
+            .unwrap_or(base)
+            .join(crate::scene::portable(file_path));
         let mask = f
             .get("mask_path")
             .and_then(Value::as_str)
             .filter(|_| use_masks)
-            .map(|m| roots.masks.as_deref().unwrap_or(base).join(m));
+            .map(|m| {
+                roots
+                    .masks
+                    .as_deref()
+                    .unwrap_or(base)
+                    .join(crate::scene::portable(m))
+            });
         frames.push(NerfstudioFrame {
             file_path: file_path.to_string(),
             image,

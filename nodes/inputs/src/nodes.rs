@@ -10,7 +10,7 @@ use crate::scene::{self, Resolution, SplitChoice, WrittenFrames};
 use crate::{colmap, colmap_scene, nerfstudio};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::{Split, SplitPolicy};
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params, Registry};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -119,6 +119,16 @@ impl Node for ColmapScene {
         )
     }
 
+    /// The default image folder is found beside the model, outside the `path` param.
+    fn reads(&self, params: &Params) -> Result<Vec<PathBuf>> {
+        if params.get::<Option<String>>("images")?.is_some() {
+            return Ok(Vec::new());
+        }
+        Ok(vec![default_images_dir(Path::new(
+            &params.get::<String>("path")?,
+        ))?])
+    }
+
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let path = PathBuf::from(ctx.param::<String>("path")?);
         let model = colmap::read_model(&path)?;
@@ -167,6 +177,14 @@ fn default_images_dir(model: &Path) -> Result<PathBuf> {
 /// `nerfstudio_scene`: a transforms.json capture.
 pub struct NerfstudioScene;
 
+/// Where a nerfstudio JSON's `file_path`s and `mask_path`s are relative to.
+fn nerfstudio_roots(params: &Params) -> Result<nerfstudio::Roots> {
+    Ok(nerfstudio::Roots {
+        images: params.get::<Option<String>>("images")?.map(PathBuf::from),
+        masks: params.get::<Option<String>>("masks")?.map(PathBuf::from),
+    })
+}
+
 impl Node for NerfstudioScene {
     fn spec(&self) -> NodeSpec {
         with_scene_params(
@@ -197,13 +215,25 @@ impl Node for NerfstudioScene {
         )
     }
 
+    /// The images and masks the JSON lists (the `path` param covers the JSON only).
+    /// The images and masks the JSON lists, where `images` / `masks` say they are.
+    fn reads(&self, params: &Params) -> Result<Vec<PathBuf>> {
+        let path = PathBuf::from(params.get::<String>("path")?);
+        let mut t = nerfstudio::read(&path, &nerfstudio_roots(params)?)?;
+        if !params.get::<bool>("use_masks")? {
+            for f in &mut t.frames {
+                f.mask = None;
+            }
+        }
+        Ok(t.frames
+            .into_iter()
+            .flat_map(|f| std::iter::once(f.image).chain(f.mask))
+            .collect())
+    }
+
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let path = PathBuf::from(ctx.param::<String>("path")?);
-        let roots = nerfstudio::Roots {
-            images: ctx.param::<Option<String>>("images")?.map(PathBuf::from),
-            masks: ctx.param::<Option<String>>("masks")?.map(PathBuf::from),
-        };
-        let mut t = nerfstudio::read(&path, &roots)?;
+        let mut t = nerfstudio::read(&path, &nerfstudio_roots(ctx.params())?)?;
         if !ctx.param::<bool>("use_masks")? {
             for f in &mut t.frames {
                 f.mask = None;

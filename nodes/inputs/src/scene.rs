@@ -20,11 +20,18 @@
 
 use crate::undistort::{self, Distortion, Intrinsics, UndistortMap};
 use anyhow::{Context, Result, bail};
-use objectsplat_core::frames::{check_relative, frame_stem};
+use objectsplat_core::frames::frame_stem;
 use objectsplat_core::{Camera, Frame, Frames, Image, Points, Split, SplitPolicy};
 use std::path::{Path, PathBuf};
 
 pub const VALID_DIR: &str = "valid";
+
+/// A relative path as written in a dataset, with `\` read as the separator it is on
+/// Windows (where it cannot be part of a name). Where it may lead is checked where it
+/// becomes an output file name ([`write_frames`]).
+pub fn portable(path: &str) -> String {
+    path.replace('\\', "/")
+}
 
 /// Output size policy shared by the scene sources.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -154,6 +161,12 @@ pub fn write_frames(
     if views.is_empty() {
         bail!("the scene has no images");
     }
+    // Names become file names below: one check, on every platform's separators.
+    for view in &mut views {
+        view.name = objectsplat_runtime::paths::normalise_relative(&view.name).map_err(|e| {
+            anyhow::anyhow!("frame name {e}: it must be relative and stay inside its folder")
+        })?;
+    }
     views.sort_by(|a, b| a.name.cmp(&b.name));
     if let Some(w) = views.windows(2).find(|w| w[0].name == w[1].name) {
         bail!("two images are both named {:?}", w[0].name);
@@ -164,7 +177,6 @@ pub fn write_frames(
     let mut undistortions: Vec<Undistortion> = Vec::new();
     let mut undistorted_frames = 0;
     for (view, split) in views.iter().zip(splits) {
-        check_relative(&view.name).with_context(|| format!("frame {:?}", view.name))?;
         view.camera
             .validate()
             .map_err(|e| anyhow::anyhow!("frame {:?}: {e}", view.name))?;

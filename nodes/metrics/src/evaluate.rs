@@ -149,6 +149,7 @@ pub fn assemble_report(
         voxel: mesh.and(voxel),
         ssim_convention: mode.describe().to_string(),
         lpips_status,
+        gt_surface: None,
         objects,
         images,
     }

@@ -25,7 +25,9 @@ pub use evaluate::{TestImage, assemble_report, evaluate_image};
 pub use fscore::{FScore, fscore, nearest_distances};
 pub use lpips::{Lpips, LpipsValue};
 pub use mask::Mask;
-pub use mesh_eval::{MeshEvalParams, MeshFScores, ObjectFScore, evaluate_mesh, mesh_points};
+pub use mesh_eval::{
+    DEFAULT_MAX_SAMPLES, MeshEvalParams, MeshFScores, ObjectFScore, evaluate_mesh, mesh_points,
+};
 pub use psnr::psnr;
 pub use report::MetricsReport;
 pub use ssim::{SsimMode, ssim};

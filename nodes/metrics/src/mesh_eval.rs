@@ -8,14 +8,22 @@ use objectsplat_core::Mesh;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 
-/// Indoor-scene protocol defaults: τ = 5 cm, 2 cm voxels, about one sample per cm².
+/// Indoor-scene protocol defaults: τ = 5 cm, 2 cm voxels, about one sample per cm²,
+/// at most [`DEFAULT_MAX_SAMPLES`] samples per surface.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct MeshEvalParams {
     pub tau: f64,
     pub voxel: f64,
     pub samples: SampleCount,
     pub seed: u64,
+    /// Cap on the samples drawn on one surface (see [`sample_surface`]).
+    pub max_samples: usize,
 }
+
+/// Ten million samples (about 280 MB with their face ids): a 1,000 m² surface at
+/// the default density of one sample per cm², ten times the surface of a furnished
+/// room. Beyond that a predicted surface has almost surely diverged.
+pub const DEFAULT_MAX_SAMPLES: usize = 10_000_000;
 
 impl Default for MeshEvalParams {
     fn default() -> Self {
@@ -24,6 +32,7 @@ impl Default for MeshEvalParams {
             voxel: 0.02,
             samples: SampleCount::PerArea(10_000.0),
             seed: 0,
+            max_samples: DEFAULT_MAX_SAMPLES,
         }
     }
 }
@@ -45,7 +54,7 @@ pub struct MeshFScores {
 
 /// Samples a mesh surface by area and voxel-down-samples the samples.
 pub fn mesh_points(mesh: &Mesh, params: &MeshEvalParams) -> Result<Vec<[f64; 3]>> {
-    let samples = sample_surface(mesh, params.samples, params.seed)?;
+    let samples = sample_surface(mesh, params.samples, params.seed, params.max_samples)?;
     voxel_downsample(&samples.points, params.voxel)
 }
 
@@ -57,17 +66,41 @@ pub fn mesh_points(mesh: &Mesh, params: &MeshEvalParams) -> Result<Vec<[f64; 3]>
 /// the set of surface samples on faces whose object is `k` (object of a face = the
 /// object of its first vertex). Objects listed in `object_ids` but absent from
 /// `pred_objects` score 0.
+/// Accepts the ground-truth samples to score against.
+pub type GtFilter<'a> = &'a (dyn Fn(&[f64; 3]) -> bool + Sync);
+
+/// `keep_gt`, when given, restricts the ground truth to the samples it accepts
+/// (e.g. the surface a capture actually saw).
 pub fn evaluate_mesh(
     gt: &Mesh,
     pred_scene: &[[f64; 3]],
     pred_objects: &[(u16, Vec<[f64; 3]>)],
     object_ids: &[u16],
     params: &MeshEvalParams,
+    keep_gt: Option<GtFilter<'_>>,
 ) -> Result<MeshFScores> {
-    let samples = sample_surface(gt, params.samples, params.seed)
+    let mut samples = sample_surface(gt, params.samples, params.seed, params.max_samples)
         .context("sampling the ground-truth mesh")?;
+    if let Some(keep) = keep_gt {
+        let (points, faces) = samples
+            .points
+            .iter()
+            .zip(&samples.faces)
+            .filter(|(p, _)| keep(p))
+            .map(|(p, f)| (*p, *f))
+            .unzip();
+        samples.points = points;
+        samples.faces = faces;
+    }
     if samples.points.is_empty() {
-        bail!("the ground-truth mesh gave no surface samples; raise the sampling density");
+        bail!(
+            "the ground-truth mesh gave no surface samples{}; raise the sampling density",
+            if keep_gt.is_some() {
+                " that the frames see"
+            } else {
+                ""
+            }
+        );
     }
     let gt_scene = voxel_downsample(&samples.points, params.voxel)?;
     let pred_scene =

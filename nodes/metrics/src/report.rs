@@ -6,6 +6,8 @@
 //! - `ssim_convention`: which SSIM border convention was used;
 //! - `fscore`, `precision`, `recall`, `accuracy`, `completeness`, `tau`, `voxel`:
 //!   the whole-scene mesh F-score (null when no mesh was evaluated);
+//! - `gt_surface`: which ground-truth surface the F-scores compare against (the
+//!   whole mesh, or only what the capture's frames see);
 //! - `objects`: one entry per object with `id`, `label` and the same fields —
 //!   `psnr`/`ssim` are masked by the object's pixels and averaged over the images
 //!   that show it, `lpips` is always null (LPIPS has no masked form);
@@ -95,6 +97,8 @@ pub struct MetricsReport {
     pub voxel: Option<f64>,
     pub ssim_convention: String,
     pub lpips_status: String,
+    /// Which ground-truth surface the F-scores use (null without a mesh).
+    pub gt_surface: Option<String>,
     pub objects: Vec<ObjectMetrics>,
     pub images: Vec<ImageMetrics>,
 }

@@ -24,7 +24,16 @@ pub struct SurfaceSamples {
 /// Draws points uniformly over the mesh surface: a face with probability
 /// proportional to its area, then a uniform point in it (`√u` barycentric rule).
 /// The same mesh, count and seed give the same samples on every platform.
-pub fn sample_surface(mesh: &Mesh, count: SampleCount, seed: u64) -> Result<SurfaceSamples> {
+///
+/// At most `max_samples` points are drawn: a count beyond it (an area that exploded
+/// with a diverged model, a density typed with too many zeros) is an error naming
+/// the area, before anything is allocated, never an allocation that aborts the process.
+pub fn sample_surface(
+    mesh: &Mesh,
+    count: SampleCount,
+    seed: u64,
+    max_samples: usize,
+) -> Result<SurfaceSamples> {
     mesh.validate()
         .map_err(|e| anyhow::anyhow!("cannot sample the mesh: {e}"))?;
     let corners = |f: &[u32; 3]| f.map(|v| mesh.positions[v as usize].map(f64::from));
@@ -34,15 +43,29 @@ pub fn sample_surface(mesh: &Mesh, count: SampleCount, seed: u64) -> Result<Surf
         total += triangle_area(&corners(f));
         cumulative.push(total);
     }
-    let n = match count {
-        SampleCount::Total(n) => n,
+    let wanted = match count {
+        SampleCount::Total(n) => n as f64,
         SampleCount::PerArea(density) => {
             if !(density.is_finite() && density > 0.0) {
                 bail!("sampling density must be a positive number, got {density}");
             }
-            (density * total).round() as usize
+            (density * total).round()
         }
     };
+    // NaN (an infinite area times a density) is refused with the over-large counts.
+    if wanted.is_nan() || wanted > max_samples as f64 {
+        let per_area = match count {
+            SampleCount::PerArea(d) => format!(" ({d} per square unit)"),
+            SampleCount::Total(_) => String::new(),
+        };
+        bail!(
+            "sampling {wanted:.3e} points{per_area} on a surface of area {total:.3e} ({} faces) exceeds max_samples = {max_samples}; \
+             a surface this large usually comes from a diverged model (faces blown up), otherwise raise max_samples",
+            mesh.faces.len()
+        );
+    }
+    // Finite and within max_samples (a usize), checked just above.
+    let n = wanted as usize;
     if n == 0 {
         return Ok(SurfaceSamples::default());
     }

@@ -24,6 +24,7 @@ fn params() -> MeshEvalParams {
         voxel: 0.02,
         samples: SampleCount::PerArea(20_000.0),
         seed: 1,
+        ..MeshEvalParams::default()
     }
 }
 
@@ -42,7 +43,7 @@ fn a_copy_offset_less_than_tau_scores_one_and_more_than_tau_scores_zero() {
             },
         )
         .unwrap();
-        let r = evaluate_mesh(&gt, &pred_points, &[], &[], &params()).unwrap();
+        let r = evaluate_mesh(&gt, &pred_points, &[], &[], &params(), None).unwrap();
         assert_eq!(r.scene.precision, expected, "offset {offset}");
         assert_eq!(r.scene.recall, expected, "offset {offset}");
         // Nearest distance is the plane gap plus at most a voxel-scale lateral offset.
@@ -69,7 +70,7 @@ fn per_object_scores_use_the_faces_of_each_object() {
     let pts_1 = mesh_points(&pred_1, &p).unwrap();
     let pts_2 = mesh_points(&pred_2, &p).unwrap();
     let scene: Vec<[f64; 3]> = pts_1.iter().chain(&pts_2).copied().collect();
-    let r = evaluate_mesh(&gt, &scene, &[(1, pts_1), (2, pts_2)], &[1, 2, 3], &p).unwrap();
+    let r = evaluate_mesh(&gt, &scene, &[(1, pts_1), (2, pts_2)], &[1, 2, 3], &p, None).unwrap();
     let o1 = r.objects[0].fscore.unwrap();
     assert_eq!((o1.precision, o1.recall), (1.0, 1.0));
     let o2 = r.objects[1].fscore.unwrap();

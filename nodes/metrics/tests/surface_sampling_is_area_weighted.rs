@@ -2,6 +2,8 @@
 use objectsplat_core::Mesh;
 use objectsplat_metrics::{SampleCount, sample_surface};
 
+const LIMIT: usize = objectsplat_metrics::DEFAULT_MAX_SAMPLES;
+
 /// Two triangles in z = 0 with areas 0.5 and 3.0.
 fn two_triangles() -> Mesh {
     Mesh {
@@ -21,7 +23,7 @@ fn two_triangles() -> Mesh {
 #[test]
 fn faces_are_chosen_in_proportion_to_area() {
     let n = 40_000;
-    let s = sample_surface(&two_triangles(), SampleCount::Total(n), 11).unwrap();
+    let s = sample_surface(&two_triangles(), SampleCount::Total(n), 11, LIMIT).unwrap();
     let first = s.faces.iter().filter(|&&f| f == 0).count() as f64;
     // Binomial(n, 0.5 / 3.5): standard deviation ≈ 70, allow 5σ.
     let p = 0.5 / 3.5;
@@ -33,7 +35,7 @@ fn faces_are_chosen_in_proportion_to_area() {
 
 #[test]
 fn samples_lie_uniformly_inside_their_triangle() {
-    let s = sample_surface(&two_triangles(), SampleCount::Total(20_000), 3).unwrap();
+    let s = sample_surface(&two_triangles(), SampleCount::Total(20_000), 3, LIMIT).unwrap();
     let mut centroid = [0.0; 2];
     let mut count = 0.0;
     for (p, &f) in s.points.iter().zip(&s.faces) {
@@ -57,9 +59,9 @@ fn samples_lie_uniformly_inside_their_triangle() {
 #[test]
 fn same_seed_same_samples_and_density_sets_the_count() {
     let m = two_triangles();
-    let a = sample_surface(&m, SampleCount::PerArea(100.0), 5).unwrap();
-    let b = sample_surface(&m, SampleCount::PerArea(100.0), 5).unwrap();
-    let c = sample_surface(&m, SampleCount::PerArea(100.0), 6).unwrap();
+    let a = sample_surface(&m, SampleCount::PerArea(100.0), 5, LIMIT).unwrap();
+    let b = sample_surface(&m, SampleCount::PerArea(100.0), 5, LIMIT).unwrap();
+    let c = sample_surface(&m, SampleCount::PerArea(100.0), 6, LIMIT).unwrap();
     assert_eq!(a, b);
     assert_ne!(a.points, c.points);
     // Total area 0.5 + 3.0 = 3.5 → 350 points.
@@ -70,11 +72,11 @@ fn same_seed_same_samples_and_density_sets_the_count() {
 fn invalid_meshes_are_rejected() {
     let mut m = two_triangles();
     m.faces.push([0, 1, 9]);
-    assert!(sample_surface(&m, SampleCount::Total(10), 0).is_err());
+    assert!(sample_surface(&m, SampleCount::Total(10), 0, LIMIT).is_err());
     let flat = Mesh {
         positions: vec![[0.0; 3]; 3],
         faces: vec![[0, 1, 2]],
         ..Default::default()
     };
-    assert!(sample_surface(&flat, SampleCount::Total(10), 0).is_err());
+    assert!(sample_surface(&flat, SampleCount::Total(10), 0, LIMIT).is_err());
 }

@@ -31,6 +31,10 @@ pub struct Model<R: Real = f32> {
     pub opacity_floor: f64,
     /// The window sharpness σ the model was last trained with (a schedule value, not learned).
     pub sigma: f64,
+    /// Per-face σ overriding the render settings' (empty: every face uses the
+    /// settings' σ). Set when models trained to different σ are rendered
+    /// together ([`Model::union`]); not saved.
+    pub face_sigma: Vec<f64>,
     /// Free-form metadata carried through model.json.
     pub metadata: Map<String, Value>,
 }
@@ -63,6 +67,7 @@ impl<R: Real> Model<R> {
             sh_degree: 0,
             opacity_floor: 0.0,
             sigma: 1.0,
+            face_sigma: Vec::new(),
             metadata: Map::new(),
         }
     }
@@ -152,6 +157,25 @@ impl<R: Real> Model<R> {
                 bail!("vertex {v} opacity logit {x} is not finite");
             }
         }
+        if !self.face_sigma.is_empty() {
+            if self.face_sigma.len() != self.faces.len() {
+                bail!(
+                    "model has {} faces but {} per-face σ values",
+                    self.faces.len(),
+                    self.face_sigma.len()
+                );
+            }
+            if let Some(f) = self
+                .face_sigma
+                .iter()
+                .position(|s| !(s.is_finite() && *s > 0.0))
+            {
+                bail!(
+                    "face {f} σ {} must be finite and positive",
+                    self.face_sigma[f]
+                );
+            }
+        }
         for (f, face) in self.faces.iter().enumerate() {
             if let Some(&i) = face.iter().find(|&&i| i as usize >= nv) {
                 bail!(
@@ -178,8 +202,67 @@ impl<R: Real> Model<R> {
             sh_degree: self.sh_degree,
             opacity_floor: self.opacity_floor,
             sigma: self.sigma,
+            face_sigma: self.face_sigma.clone(),
             metadata: self.metadata.clone(),
         }
+    }
+
+    /// The union of several models' triangles as one model that renders every
+    /// part as it was trained: each part keeps its own σ (per face), its
+    /// opacities (logits re-mapped to the smallest part floor, which every part's
+    /// opacities are at least) and its colours (bands above a part's SH degree
+    /// are zeroed, the union renders at the largest degree). σ of the union is
+    /// the largest part σ.
+    pub fn union(parts: &[&Model<R>]) -> Result<Model<R>> {
+        let mut merged = Model::<R>::empty();
+        let floor = parts
+            .iter()
+            .map(|m| m.opacity_floor)
+            .fold(f64::INFINITY, f64::min);
+        merged.opacity_floor = if floor.is_finite() { floor } else { 0.0 };
+        merged.sh_degree = parts.iter().map(|m| m.sh_degree).max().unwrap_or(0);
+        merged.sigma = parts.iter().map(|m| m.sigma).fold(f64::NAN, f64::max);
+        if !merged.sigma.is_finite() {
+            merged.sigma = 1.0;
+        }
+        for (index, part) in parts.iter().enumerate() {
+            let mut m = (*part).clone();
+            // Re-mapping clamps extreme logits, so parts already on the floor keep theirs.
+            if m.opacity_floor != merged.opacity_floor {
+                m.set_opacity_floor(merged.opacity_floor)
+                    .map_err(|e| anyhow::anyhow!("part {index}: {e}"))?;
+            }
+            let active = crate::sh::coeff_count(m.sh_degree);
+            let base = merged.vertices.len();
+            if base + m.vertices.len() > u32::MAX as usize {
+                bail!("the union has more vertices than u32 indices can address");
+            }
+            merged.vertices.extend_from_slice(&m.vertices);
+            merged.sh.extend(m.sh.iter().map(|rows| {
+                let mut rows = *rows;
+                for row in rows.iter_mut().skip(active) {
+                    *row = [R::zero(); 3];
+                }
+                rows
+            }));
+            merged.opacity_logits.extend_from_slice(&m.opacity_logits);
+            // `base` fits in u32: checked above.
+            let offset = base as u32;
+            merged
+                .faces
+                .extend(m.faces.iter().map(|f| f.map(|v| v + offset)));
+            if m.face_sigma.is_empty() {
+                merged
+                    .face_sigma
+                    .extend(std::iter::repeat_n(m.sigma, m.faces.len()));
+            } else {
+                merged.face_sigma.extend_from_slice(&m.face_sigma);
+            }
+        }
+        if merged.face_sigma.iter().all(|&s| s == merged.sigma) {
+            merged.face_sigma.clear();
+        }
+        Ok(merged)
     }
 }
 

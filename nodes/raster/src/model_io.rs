@@ -79,6 +79,12 @@ pub fn save_model(model: &Model<f32>, dir: &Path) -> Result<()> {
     model
         .validate()
         .context("refusing to save an invalid model")?;
+    if !model.face_sigma.is_empty() {
+        bail!(
+            "the model carries a σ per face (a union of models rendered together); \
+             save its parts instead"
+        );
+    }
     if model.vertex_count() > i32::MAX as usize {
         bail!(
             "model has {} vertices; PLY int indices cannot address them",

@@ -57,6 +57,11 @@ pub struct TrainingLog {
     /// frames; an object's steps render only its footprint). Absent in older logs.
     #[serde(default)]
     pub rendered_fraction: Option<f64>,
+    /// Which views the evaluations scored: "validation" (held out of training),
+    /// "training", or "test" (the paper's protocol; or, with the `last`
+    /// checkpoint, only reported). Absent in older logs.
+    #[serde(default)]
+    pub scored_on: Option<String>,
     pub steps: Vec<StepRecord>,
     pub evals: Vec<EvalRecord>,
     /// Schedule events (connectivity step, final prune, early stop) in words.

@@ -26,6 +26,78 @@ pub struct EvaluateSettings<'a> {
     pub mesh: MeshEvalParams,
     pub ssim: SsimMode,
     pub lpips: Option<&'a Lpips>,
+    pub gt_surface: GtSurface,
+}
+
+/// Which ground-truth surface the F-scores compare against.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum GtSurface {
+    /// Only what at least one frame of the capture sees (depth-tested): a scan
+    /// holds no more, and no method can reconstruct what no camera saw.
+    #[default]
+    Observed,
+    /// The whole mesh (a synthetic room's ceiling and hidden sides included).
+    All,
+}
+
+impl GtSurface {
+    pub fn describe(self) -> &'static str {
+        match self {
+            GtSurface::Observed => {
+                "observed: mesh surface seen (depth-tested) by at least one frame"
+            }
+            GtSurface::All => "all: the whole mesh",
+        }
+    }
+}
+
+/// Depth maps of the ground-truth mesh in every frame, to tell which surface points a camera sees.
+struct ObservedSurface {
+    cameras: Vec<objectsplat_core::Camera>,
+    depth: Vec<objectsplat_synth::raster::Raster>,
+    /// Depth agreement that counts as "this point is the surface seen there": the
+    /// larger of `absolute` and `relative`·depth (a pixel spans a range of depths
+    /// on a slanted surface).
+    absolute: f64,
+    relative: f64,
+}
+
+impl ObservedSurface {
+    fn new(mesh: &Mesh, frames: &Frames, absolute: f64) -> Result<Self> {
+        let options = objectsplat_synth::raster::RasterOptions::default();
+        let cameras: Vec<_> = frames.frames.iter().map(|f| f.camera()).collect();
+        let depth = cameras
+            .iter()
+            .map(|c| {
+                objectsplat_synth::raster::rasterize(&mesh.positions, &mesh.faces, c, &options)
+                    .map_err(|e| anyhow::anyhow!("rasterizing the ground-truth mesh: {e}"))
+            })
+            .collect::<Result<Vec<_>>>()?;
+        Ok(ObservedSurface {
+            cameras,
+            depth,
+            absolute,
+            relative: 0.02,
+        })
+    }
+
+    fn sees(&self, p: &[f64; 3]) -> bool {
+        let point = glam::DVec3::from_array(*p);
+        self.cameras
+            .iter()
+            .zip(&self.depth)
+            .any(|(camera, raster)| {
+                let Some((u, v, z)) = camera.project(point) else {
+                    return false;
+                };
+                if !(u >= 0.0 && v >= 0.0 && u < camera.width as f64 && v < camera.height as f64) {
+                    return false;
+                }
+                raster
+                    .depth_at(u as u32, v as u32)
+                    .is_some_and(|d| (z - d as f64).abs() <= self.absolute.max(self.relative * z))
+            })
+    }
 }
 
 /// What the evaluation covered, for the run report.
@@ -41,7 +113,7 @@ fn surface_points(mesh: &Mesh, params: &MeshEvalParams) -> Result<Vec<[f64; 3]>>
     if mesh.faces.is_empty() {
         return Ok(Vec::new());
     }
-    Ok(sample_surface(mesh, params.samples, params.seed)?.points)
+    Ok(sample_surface(mesh, params.samples, params.seed, params.max_samples)?.points)
 }
 
 /// Runs the whole evaluation. Renders are `<renders>/<frame stem>.png` for every
@@ -116,6 +188,11 @@ pub fn evaluate_scene(
 
     let mesh_scores = match truth.mesh {
         Some((gt, _)) => {
+            let observed = match settings.gt_surface {
+                GtSurface::Observed => Some(ObservedSurface::new(gt, frames, settings.mesh.voxel)?),
+                GtSurface::All => None,
+            };
+            let keep = observed.as_ref().map(|o| move |p: &[f64; 3]| o.sees(p));
             let merged = scene.merged_model()?;
             let pred_scene = surface_points(&visible_mesh(&merged.model), &settings.mesh)
                 .context("sampling the scene's surface")?;
@@ -142,11 +219,13 @@ pub fn evaluate_scene(
                 &pred_objects,
                 &object_ids,
                 &settings.mesh,
+                keep.as_ref()
+                    .map(|k| k as &(dyn Fn(&[f64; 3]) -> bool + Sync)),
             )?)
         }
         None => None,
     };
-    let report = assemble_report(
+    let mut report = assemble_report(
         per_image,
         mesh_scores.as_ref(),
         truth.mesh.map(|_| settings.mesh.voxel),
@@ -154,5 +233,8 @@ pub fn evaluate_scene(
         settings.ssim,
         settings.lpips.is_some(),
     );
+    report.gt_surface = truth
+        .mesh
+        .map(|_| settings.gt_surface.describe().to_string());
     Ok((report, summary))
 }

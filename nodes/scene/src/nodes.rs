@@ -4,7 +4,7 @@
 //! (`report` is registered by `objectsplat-export`, which owns the report library.)
 
 use crate::edit::{apply_edits, parse_edits};
-use crate::evaluate::{EvaluateSettings, GroundTruth, evaluate_scene};
+use crate::evaluate::{EvaluateSettings, GroundTruth, GtSurface, evaluate_scene};
 use crate::render::{Backdrop, focus_bounds, orbit_cameras, render_view};
 use crate::scene::{
     FILLS_DIR, Scene, SceneEntry, SceneObject, component_of_item, load_scene, save_scene,
@@ -288,7 +288,7 @@ pub struct Evaluate;
 
 impl Node for Evaluate {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("evaluate", "1")
+        NodeSpec::new("evaluate", "2")
             .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id. Writes metrics.json and metrics.csv.")
             .input("images", "Images", "renders of the test frames (<frame stem>.png)")
             .input("frames", "Frames", "the capture; its test split is the ground truth")
@@ -300,8 +300,15 @@ impl Node for Evaluate {
             .param("voxel", ParamType::float_range(1e-6, 10.0), Some("0.02"), "voxel size for down-sampling both point sets (m)")
             .param("samples", ParamType::float_range(1.0, 1e8), Some("10000.0"), "surface samples per square metre")
             .param("seed", ParamType::int_range(0, i64::MAX), Some("0"), "seed of the surface sampling")
+            .param("max_samples", ParamType::int_range(1, i64::MAX), Some("10000000"), "cap on the samples drawn on one surface (ground truth, scene, each object); a surface that needs more (area × samples) fails the node naming its area, as a diverged model's does, instead of exhausting memory")
             .param("ssim", ParamType::enumeration(&["gs3d", "cropped"]), Some("\"gs3d\""), "SSIM border convention: 3DGS zero padding, or scikit-image's 5-pixel crop")
             .param("lpips_weights", ParamType::optional(ParamType::Path), Some("None"), "AlexNet LPIPS weights (safetensors); LPIPS is skipped without it")
+            .param(
+                "gt_surface",
+                ParamType::enumeration(&["observed", "all"]),
+                Some("\"observed\""),
+                "ground truth of the F-scores: the mesh surface at least one frame sees (depth-tested), or the whole mesh",
+            )
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
@@ -309,6 +316,7 @@ impl Node for Evaluate {
         let voxel: f64 = ctx.param("voxel")?;
         let samples: f64 = ctx.param("samples")?;
         let seed: i64 = ctx.param("seed")?;
+        let max_samples: i64 = ctx.param("max_samples")?;
         let ssim: String = ctx.param("ssim")?;
         let lpips_path: Option<String> = ctx.param("lpips_weights")?;
         let ssim = if ssim == "cropped" {
@@ -340,9 +348,15 @@ impl Node for Evaluate {
                 samples: SampleCount::PerArea(samples),
                 // Non-negative: the param range starts at 0.
                 seed: seed as u64,
+                // The param range is 1..; a cap beyond usize (32-bit) saturates.
+                max_samples: usize::try_from(max_samples).unwrap_or(usize::MAX),
             },
             ssim,
             lpips: lpips.as_ref(),
+            gt_surface: match ctx.param::<String>("gt_surface")?.as_str() {
+                "all" => GtSurface::All,
+                _ => GtSurface::Observed,
+            },
         };
         ctx.progress(0, 1, "evaluating");
         let (report, summary) =

@@ -261,66 +261,23 @@ impl Scene {
 
     /// Concatenates all members' triangles, placed in the world, into one model (no re-optimization).
     ///
-    /// The members keep their opacities: the merged opacity floor is the smallest member
-    /// floor and each member's logits are re-mapped to it. Colours above a member's own
-    /// SH degree are zeroed so that rendering at the largest member degree shows each
-    /// member as trained. σ is the largest member σ (members trained on one schedule agree).
+    /// Every member renders as it was trained ([`Model::union`]): its own σ per face,
+    /// its opacities and its SH degree.
     pub fn merged_model(&self) -> Result<MergedModel> {
-        let mut merged = Model::<f32>::empty();
-        let floor = self
+        let placed = self
             .objects
             .iter()
-            .map(|o| o.model.opacity_floor)
-            .fold(f64::INFINITY, f64::min);
-        merged.opacity_floor = if floor.is_finite() { floor } else { 0.0 };
-        merged.sh_degree = self
+            .map(|o| o.world_model())
+            .collect::<Result<Vec<_>>>()?;
+        let parts: Vec<&Model<f32>> = placed.iter().map(|m| m.as_ref()).collect();
+        let model = Model::union(&parts).context("merging the scene's members")?;
+        let face_owner = self
             .objects
             .iter()
-            .map(|o| o.model.sh_degree)
-            .max()
-            .unwrap_or(0);
-        merged.sigma = self
-            .objects
-            .iter()
-            .map(|o| o.model.sigma)
-            .fold(f64::NAN, f64::max);
-        if !merged.sigma.is_finite() {
-            merged.sigma = 1.0;
-        }
-        let mut face_owner = Vec::with_capacity(self.face_count());
-        for (index, o) in self.objects.iter().enumerate() {
-            let mut m = o.world_model()?.into_owned();
-            // Re-mapping clamps extreme logits, so members already on the floor keep theirs.
-            if m.opacity_floor != merged.opacity_floor {
-                m.set_opacity_floor(merged.opacity_floor)
-                    .with_context(|| format!("scene member {:?}", o.entry.name))?;
-            }
-            let active = objectsplat_raster::sh::coeff_count(m.sh_degree);
-            let base = merged.vertices.len();
-            ensure!(
-                base + m.vertices.len() <= u32::MAX as usize,
-                "the merged scene has more vertices than u32 indices can address"
-            );
-            merged.vertices.extend_from_slice(&m.vertices);
-            merged.sh.extend(m.sh.iter().map(|rows| {
-                let mut rows = *rows;
-                for row in rows.iter_mut().skip(active) {
-                    *row = [0.0; 3];
-                }
-                rows
-            }));
-            merged.opacity_logits.extend_from_slice(&m.opacity_logits);
-            // `base` fits in u32: checked above.
-            let offset = base as u32;
-            merged
-                .faces
-                .extend(m.faces.iter().map(|f| f.map(|v| v + offset)));
-            face_owner.extend(std::iter::repeat_n(index, m.faces.len()));
-        }
-        Ok(MergedModel {
-            model: merged,
-            face_owner,
-        })
+            .enumerate()
+            .flat_map(|(index, o)| std::iter::repeat_n(index, o.model.faces.len()))
+            .collect();
+        Ok(MergedModel { model, face_owner })
     }
 }
 

@@ -55,15 +55,21 @@ fn main() -> Result<()> {
     // $RENDERS=folder: each test view of the trained model over grey, beside its image.
     if let Ok(out) = std::env::var("RENDERS") {
         std::fs::create_dir_all(&out)?;
-        for v in data.views.iter().filter(|v| v.split == objectsplat_core::Split::Test) {
-            let img = objectsplat_raster::render_model(&report.model, &v.camera, [0.5; 3], threads)?;
-            let mut both = objectsplat_core::Image::from_fn(2 * img.width, img.height, 3, |x, y, c| {
-                if x < img.width {
-                    v.target[3 * (y * img.width + x) as usize + c as usize]
-                } else {
-                    img.data[3 * (y * img.width + x - img.width) as usize + c as usize]
-                }
-            });
+        for v in data
+            .views
+            .iter()
+            .filter(|v| v.split == objectsplat_core::Split::Test)
+        {
+            let img =
+                objectsplat_raster::render_model(&report.model, &v.camera, [0.5; 3], threads)?;
+            let mut both =
+                objectsplat_core::Image::from_fn(2 * img.width, img.height, 3, |x, y, c| {
+                    if x < img.width {
+                        v.target[3 * (y * img.width + x) as usize + c as usize]
+                    } else {
+                        img.data[3 * (y * img.width + x - img.width) as usize + c as usize]
+                    }
+                });
             both.data.iter_mut().for_each(|x| *x = x.clamp(0.0, 1.0));
             both.save_png8(&PathBuf::from(&out).join(format!("{}.png", v.name)))?;
         }

@@ -64,30 +64,44 @@ pub struct DensifyPolicy {
     pub always_largest: usize,
 }
 
+/// Per-face limits on splitting: faces with `splittable[f] == false` are never
+/// chosen (too small on screen to split).
+pub type Splittable<'a> = Option<&'a [bool]>;
+
 /// Chooses the faces to split: the `always_largest` largest faces, then the
 /// rest sampled without replacement ∝ `face_max_weight` among faces at least
 /// `min_area` large. Never returns more faces than have non-zero probability.
 pub fn select_faces_to_split(
     model: &Model<f32>,
     face_max_weight: &[f32],
+    splittable: Splittable<'_>,
     policy: DensifyPolicy,
     rng: &mut impl Rng,
 ) -> Result<Vec<usize>> {
     let t = model.faces.len();
-    if face_max_weight.len() != t {
+    if face_max_weight.len() != t || splittable.is_some_and(|s| s.len() != t) {
         bail!(
-            "densification got {} face weights for {t} faces",
-            face_max_weight.len()
+            "densification got {} face weights and {:?} split flags for {t} faces",
+            face_max_weight.len(),
+            splittable.map(|s| s.len())
         );
     }
+    let can_split = |f: usize| splittable.is_none_or(|s| s[f]);
     let areas: Vec<f64> = (0..t).map(|f| face_area(model, f)).collect();
-    let mut forced: Vec<usize> = (0..t).collect();
+    let mut forced: Vec<usize> = (0..t).filter(|&f| can_split(f)).collect();
     forced.sort_by(|&a, &b| areas[b].total_cmp(&areas[a]).then(a.cmp(&b)));
     forced.truncate(policy.always_largest.min(policy.count));
     let mut weights: Vec<f32> = face_max_weight
         .iter()
         .zip(&areas)
-        .map(|(&w, &a)| if a < policy.min_area { 0.0 } else { w })
+        .enumerate()
+        .map(|(f, (&w, &a))| {
+            if a < policy.min_area || !can_split(f) {
+                0.0
+            } else {
+                w
+            }
+        })
         .collect();
     for &f in &forced {
         weights[f] = 0.0;
@@ -163,6 +177,12 @@ pub fn subdivide_faces(model: &mut Model<f32>, selected: &[usize]) -> Result<Ver
     for f in (0..t).filter(|&f| is_selected[f]) {
         face_origin.extend([f as u32; 4]);
     }
+    if !model.face_sigma.is_empty() {
+        model.face_sigma = face_origin
+            .iter()
+            .map(|&f| model.face_sigma[f as usize])
+            .collect();
+    }
     Ok(VertexEdit {
         keep: vec![true; old_vertices],
         appended: model.vertices.len() - old_vertices,
@@ -188,6 +208,12 @@ pub fn prune_faces(model: &mut Model<f32>, keep_face: &[bool]) -> Result<VertexE
         .map(|&f| model.faces[f as usize])
         .collect();
     model.faces = faces;
+    if !model.face_sigma.is_empty() {
+        model.face_sigma = face_origin
+            .iter()
+            .map(|&f| model.face_sigma[f as usize])
+            .collect();
+    }
     let mut edit = remove_unreferenced_vertices(model)?;
     edit.face_origin = face_origin;
     Ok(edit)

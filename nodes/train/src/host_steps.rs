@@ -12,7 +12,7 @@
 use crate::face_stats::FaceWeights;
 use crate::optim::Optim;
 use crate::supervision::{ComponentData, ViewSummary, fill_region};
-use anyhow::{Result, bail};
+use anyhow::{Context, Result, bail};
 use objectsplat_core::Camera;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::cpu::{Background, CpuWorkspace};
@@ -111,6 +111,78 @@ impl<'a> Renderer<'a> {
     }
 }
 
+/// The model being trained, rendered together with frozen occluders (the
+/// trained objects behind which the background is trained). The model's
+/// vertices and faces come first, so its gradients and face statistics are a
+/// prefix of the composite's; each occluder keeps its own σ, opacities and colours.
+struct Composite {
+    frozen: Model<f32>,
+    /// Activated opacity of every frozen vertex (kept exactly while the floor moves).
+    frozen_opacity: Vec<f64>,
+    /// σ of every frozen face.
+    frozen_sigma: Vec<f64>,
+    /// The frozen logits under `floor`.
+    frozen_logits: Vec<f32>,
+    floor: Option<f64>,
+    merged: Model<f32>,
+}
+
+impl Composite {
+    fn new(frozen: &Model<f32>) -> Result<Self> {
+        frozen.validate().context("the occluders")?;
+        Ok(Composite {
+            frozen_opacity: (0..frozen.vertex_count())
+                .map(|v| frozen.vertex_opacity(v) as f64)
+                .collect(),
+            frozen_sigma: if frozen.face_sigma.is_empty() {
+                vec![frozen.sigma; frozen.face_count()]
+            } else {
+                frozen.face_sigma.clone()
+            },
+            frozen: frozen.clone(),
+            frozen_logits: Vec::new(),
+            floor: None,
+            merged: Model::empty(),
+        })
+    }
+
+    /// `model` (at σ `sigma`) followed by the occluders, in one model.
+    fn assemble(&mut self, model: &Model<f32>, sigma: f64) -> &Model<f32> {
+        let floor = model.opacity_floor;
+        if self.floor != Some(floor) {
+            self.frozen_logits.clear();
+            self.frozen_logits
+                .extend(self.frozen_opacity.iter().map(|&o| {
+                    objectsplat_raster::model::inverse_sigmoid((o - floor) / (1.0 - floor)) as f32
+                }));
+            self.floor = Some(floor);
+        }
+        let m = &mut self.merged;
+        let nv = model.vertex_count() as u32;
+        m.vertices.clear();
+        m.vertices.extend_from_slice(&model.vertices);
+        m.vertices.extend_from_slice(&self.frozen.vertices);
+        m.sh.clear();
+        m.sh.extend_from_slice(&model.sh);
+        m.sh.extend_from_slice(&self.frozen.sh);
+        m.opacity_logits.clear();
+        m.opacity_logits.extend_from_slice(&model.opacity_logits);
+        m.opacity_logits.extend_from_slice(&self.frozen_logits);
+        m.faces.clear();
+        m.faces.extend_from_slice(&model.faces);
+        m.faces
+            .extend(self.frozen.faces.iter().map(|f| f.map(|v| v + nv)));
+        m.face_sigma.clear();
+        m.face_sigma
+            .extend(std::iter::repeat_n(sigma, model.face_count()));
+        m.face_sigma.extend_from_slice(&self.frozen_sigma);
+        m.opacity_floor = floor;
+        m.sigma = sigma;
+        m.sh_degree = model.sh_degree.max(self.frozen.sh_degree);
+        m
+    }
+}
+
 /// A model's quality on some views of a component.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct HeldOut {
@@ -133,11 +205,16 @@ pub(crate) struct HostSteps<'a> {
     /// Training steps taken and the share of their frames they rendered, summed.
     steps: u64,
     rendered: f64,
+    composite: Option<Composite>,
 }
 
 impl<'a> HostSteps<'a> {
-    pub fn new(backend: &'a dyn RenderBackend<f32>, data: &ComponentData, crop: bool) -> Self {
-        HostSteps {
+    pub fn new(
+        backend: &'a dyn RenderBackend<f32>,
+        data: &ComponentData,
+        crop: bool,
+    ) -> Result<Self> {
+        Ok(HostSteps {
             renderer: Renderer::new(backend),
             loss: PhotometricLoss::new(),
             target: Vec::new(),
@@ -145,12 +222,23 @@ impl<'a> HostSteps<'a> {
             summaries: data
                 .views
                 .iter()
-                .map(|v| ViewSummary::of(v, data.kind))
+                .map(|v| ViewSummary::of(v, data.rule()))
                 .collect(),
             crop,
             steps: 0,
             rendered: 0.0,
-        }
+            composite: data.occluders.as_ref().map(Composite::new).transpose()?,
+        })
+    }
+
+    /// Steps taken and the summed share of frames they rendered (saved with a run's state).
+    pub fn rendered(&self) -> (u64, f64) {
+        (self.steps, self.rendered)
+    }
+
+    pub fn set_rendered(&mut self, (steps, rendered): (u64, f64)) {
+        self.steps = steps;
+        self.rendered = rendered;
     }
 
     /// Mean share of the frame the training steps rendered (None before any step).
@@ -182,12 +270,20 @@ impl<'a> HostSteps<'a> {
         gradient: bool,
     ) -> Result<(f64, f64)> {
         let v = &data.views[view];
-        let settings = RenderSettings {
+        let mut settings = RenderSettings {
             region: self.region(view),
             ..render.clone()
         };
         let threads = self.renderer.threads();
-        let out = self.renderer.forward(model, &v.camera, &settings, b)?;
+        let rendered = match self.composite.as_mut() {
+            Some(c) => {
+                let merged = c.assemble(model, render.sigma);
+                settings.sh_degree = merged.sh_degree;
+                merged
+            }
+            None => model,
+        };
+        let out = self.renderer.forward(rendered, &v.camera, &settings, b)?;
         if !out.all_finite() {
             bail!(
                 "the render of view {:?} is not finite (parameters overflowed; lower the learning rates)",
@@ -195,7 +291,14 @@ impl<'a> HostSteps<'a> {
             );
         }
         let region: PixelRect = out.region;
-        let inside = fill_region(v, data.kind, b, region, &mut self.target, &mut self.weights);
+        let inside = fill_region(
+            v,
+            data.rule(),
+            b,
+            region,
+            &mut self.target,
+            &mut self.weights,
+        );
         let summary = self.summaries[view];
         let norm = Normalization {
             total_weight: summary.total_weight,
@@ -245,13 +348,18 @@ impl<'a> HostSteps<'a> {
         if !loss.is_finite() || self.loss.grad.iter().any(|g| !g.is_finite()) {
             bail!("the loss on view {:?} is not finite", data.views[view].name);
         }
+        let faces = model.face_count();
         stats.record(match &self.renderer {
-            Renderer::Cpu { ws, .. } => &ws.output.face_max_weight,
-            Renderer::Other(r) => &r.out.face_max_weight,
+            Renderer::Cpu { ws, .. } => &ws.output.face_max_weight[..faces],
+            Renderer::Other(r) => &r.out.face_max_weight[..faces],
         });
+        let rendered = match &self.composite {
+            Some(c) => &c.merged,
+            None => &*model,
+        };
         let grads = self
             .renderer
-            .backward(model, &OutputGrads::color_only(&self.loss.grad))?;
+            .backward(rendered, &OutputGrads::color_only(&self.loss.grad))?;
         optim.step(model, grads)?;
         Ok(loss)
     }

@@ -160,12 +160,17 @@ pub struct ComponentMasks {
 }
 
 impl ComponentMasks {
-    pub fn read(dir: &Path) -> Result<ComponentMasks> {
+    /// The component's `component.json` alone.
+    pub fn read_info(dir: &Path) -> Result<ComponentInfo> {
         let info_path = dir.join(COMPONENT_JSON);
         let text = std::fs::read_to_string(&info_path)
             .with_context(|| format!("{}: cannot read", info_path.display()))?;
-        let info: ComponentInfo = serde_json::from_str(&text)
-            .with_context(|| format!("{}: not a component description", info_path.display()))?;
+        serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a component description", info_path.display()))
+    }
+
+    pub fn read(dir: &Path) -> Result<ComponentMasks> {
+        let info = Self::read_info(dir)?;
         let frames = Frames::read(dir)?;
         let mut masks = Vec::with_capacity(frames.frames.len());
         for f in &frames.frames {

@@ -3,13 +3,17 @@
 
 use crate::init::ComponentMasks;
 use crate::schedule::Schedule;
-use crate::trainer::{Checkpoint, ComponentData, TrainSettings, train_component};
+use crate::trainer::{Checkpoint, ComponentData, SelectOn, TrainSettings, train_component};
+use anyhow::Context as _;
 use anyhow::{Result, bail};
+use objectsplat_core::ComponentKind;
 use objectsplat_core::Points;
 use objectsplat_raster::save_model;
+use objectsplat_raster::{Model, load_model};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
 use serde_json::{Map, Number, Value};
 use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
 /// Numbers from the graph as JSON: whole numbers as integers (iteration counts
@@ -30,6 +34,24 @@ fn schedule_overrides(given: &BTreeMap<String, f64>) -> Result<Map<String, Value
     Ok(map)
 }
 
+/// Copies a folder tree (a Model folder passed through).
+fn copy_folder(from: &Path, to: &Path) -> Result<()> {
+    std::fs::create_dir_all(to).with_context(|| format!("cannot create {}", to.display()))?;
+    for entry in
+        std::fs::read_dir(from).with_context(|| format!("cannot list {}", from.display()))?
+    {
+        let entry = entry?;
+        let target = to.join(entry.file_name());
+        if entry.file_type()?.is_dir() {
+            copy_folder(&entry.path(), &target)?;
+        } else {
+            std::fs::copy(entry.path(), &target)
+                .with_context(|| format!("cannot copy {}", entry.path().display()))?;
+        }
+    }
+    Ok(())
+}
+
 pub fn register(reg: &mut Registry) {
     let node: Arc<dyn Node> = Arc::new(TrainNode);
     // The kind is unique within this crate; a clash means another crate
@@ -43,7 +65,7 @@ pub struct TrainNode;
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("train", "3")
+        NodeSpec::new("train", "4")
             .doc(
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
@@ -54,6 +76,13 @@ impl Node for TrainNode {
                 "the component to train (fan out over [Component])",
             )
             .input("points", "Points", "sparse SfM points of the scene")
+            .optional_input(
+                "occluders",
+                "[Model]",
+                "trained objects (another train node's models): the background is trained behind \
+                 them, frozen, so every pixel is supervised by the composite; items of kinds not \
+                 trained here (`components`) are passed through from it by name",
+            )
             .output(
                 "model",
                 "Model",
@@ -92,6 +121,28 @@ impl Node for TrainNode {
                  last: the model at the end of the full budget",
             )
             .param(
+                "select_on",
+                ParamType::enumeration(&["validation", "training", "test"]),
+                Some("\"validation\""),
+                "views that choose the best checkpoint: validation = 1 in 8 training views held out \
+                 of training (the training views when there are fewer than 8); test = the test views \
+                 the evaluation scores too (the paper's protocol)",
+            )
+            .param(
+                "components",
+                ParamType::enumeration(&["all", "objects", "background"]),
+                Some("\"all\""),
+                "which components this node trains; the others are skipped, or passed through \
+                 from `occluders` when it holds an item of the same name",
+            )
+            .param(
+                "state_every_s",
+                ParamType::float_range(0.0, 1e9),
+                Some("60.0"),
+                "seconds between saves of the training state into the cache: a run killed \
+                 half-way resumes from the last save and ends with the same model (0: never save)",
+            )
+            .param(
                 "world_scale",
                 ParamType::float_range(1e-9, 1e9),
                 Some("1.0"),
@@ -107,6 +158,31 @@ impl Node for TrainNode {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let component_dir = ctx.input("component")?.to_path_buf();
+        let info = ComponentMasks::read_info(&component_dir)?;
+        let wanted = match ctx.param::<String>("components")?.as_str() {
+            "objects" => info.kind == ComponentKind::Object,
+            "background" => info.kind == ComponentKind::Background,
+            _ => true,
+        };
+        let occluders: Vec<(String, PathBuf)> = match ctx.input_opt("occluders") {
+            Some(_) => ctx.input_items("occluders")?.to_vec(),
+            None => Vec::new(),
+        };
+        if !wanted {
+            let item = ctx.item().unwrap_or(&info.name).to_string();
+            return match occluders.iter().find(|(name, _)| *name == item) {
+                Some((_, dir)) => {
+                    copy_folder(dir, &ctx.output("model")?)?;
+                    ctx.note("passed through", "from `occluders`");
+                    Ok(Outcome::Done)
+                }
+                None => Ok(Outcome::Skipped(format!(
+                    "component {:?} is not among the components this node trains",
+                    info.name
+                ))),
+            };
+        }
         let iterations: i64 = ctx.param("iterations")?;
         let seed: i64 = ctx.param("seed")?;
         let randomize: bool = ctx.param("background_randomization")?;
@@ -116,11 +192,16 @@ impl Node for TrainNode {
             "last" => Checkpoint::Last,
             _ => Checkpoint::Best,
         };
+        let select_on = match ctx.param::<String>("select_on")?.as_str() {
+            "training" => SelectOn::Training,
+            "test" => SelectOn::Test,
+            _ => SelectOn::Validation,
+        };
+        let state_every: f64 = ctx.param("state_every_s")?;
         let overrides: BTreeMap<String, f64> = ctx.param("schedule")?;
         let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
         let (backend, why) = objectsplat_wgpu::backend_for(&backend_name, ctx.threads())?;
         ctx.note("backend", why);
-        let component_dir = ctx.input("component")?.to_path_buf();
         let points_path = ctx.input("points")?.join("points.ply");
         let all_points = Points::read_ply(&points_path)?;
         let masks = ComponentMasks::read(&component_dir)?;
@@ -140,12 +221,28 @@ impl Node for TrainNode {
                 all_points.positions.len()
             ),
         );
-        let data = ComponentData::read(&component_dir)?;
+        let mut data = ComponentData::read(&component_dir)?;
+        if data.kind == ComponentKind::Background && !occluders.is_empty() {
+            let models = occluders
+                .iter()
+                .filter(|(name, _)| name.starts_with("obj_"))
+                .map(|(name, dir)| load_model(dir).with_context(|| format!("occluder {name:?}")))
+                .collect::<Result<Vec<_>>>()?;
+            let parts: Vec<&Model<f32>> = models.iter().collect();
+            ctx.note(
+                "occluders",
+                format!("{} trained objects, frozen", parts.len()),
+            );
+            data.occluders = Some(Model::union(&parts)?);
+        }
         let settings = TrainSettings {
             seed: seed as u64,
             background_randomization: randomize,
             world_scale,
             checkpoint,
+            select_on,
+            resume_dir: (state_every > 0.0).then(|| ctx.resume().to_path_buf()),
+            save_seconds: state_every,
             ..TrainSettings::new(schedule)
         };
         let report = {

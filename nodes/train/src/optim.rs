@@ -3,7 +3,7 @@
 use crate::adam::Adam;
 use crate::densify::VertexEdit;
 use crate::schedule::Schedule;
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use objectsplat_raster::model::SH_COEFFS;
 use objectsplat_raster::{Model, ModelGrads};
 
@@ -43,12 +43,21 @@ impl Optim {
 
     /// One Adam step of every group, in place. SH bands above the model's
     /// degree have no gradient and no moments yet, so they are skipped.
+    /// `grads` may cover more vertices than the model (a render of the model
+    /// with frozen occluders appended): the model's vertices come first.
     pub fn step(&mut self, model: &mut Model<f32>, grads: &ModelGrads<f32>) -> Result<()> {
+        let nv = model.vertex_count();
+        if grads.vertices.len() < nv || grads.sh.len() < nv || grads.opacity_logits.len() < nv {
+            bail!(
+                "gradients of {} vertices for a model of {nv}",
+                grads.vertices.len()
+            );
+        }
         self.adam
             .step_columns(
                 self.vertices,
                 model.vertices.as_flattened_mut(),
-                grads.vertices.as_flattened(),
+                grads.vertices[..nv].as_flattened(),
                 3,
             )
             .context("vertex positions")?;
@@ -57,7 +66,7 @@ impl Optim {
             .step_columns(
                 self.sh,
                 model.sh.as_flattened_mut().as_flattened_mut(),
-                grads.sh.as_flattened().as_flattened(),
+                grads.sh[..nv].as_flattened().as_flattened(),
                 active,
             )
             .context("SH coefficients")?;
@@ -65,7 +74,7 @@ impl Optim {
             .step_columns(
                 self.opacity,
                 &mut model.opacity_logits,
-                &grads.opacity_logits,
+                &grads.opacity_logits[..nv],
                 1,
             )
             .context("opacity logits")

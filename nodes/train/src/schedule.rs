@@ -2,7 +2,13 @@
 //! iteration budget) scaled linearly to the actual budget.
 //!
 //! Iteration counts (starts, ends, periods) scale with `iterations / 30000`
-//! (periods never below 1); rates, thresholds and fractions do not scale.
+//! (periods never below 1); thresholds and fractions do not scale. The vertex
+//! learning rates do, between two measured points: the reference's
+//! 1.5e-3 → 1.5e-5 at 30k iterations, and 4e-3 → 4e-4 at 3k iterations and
+//! below (log-interpolated in the budget between them). At short budgets the
+//! reference rates leave triangles too little travel to tile the surfaces: on
+//! the synthetic room (160×120, dense split) they gave 14.9 dB held-out PSNR
+//! at 3000 iterations against 27.5 dB with 4e-3 → 4e-4 (docs/benchmarks.md).
 //! Any field can be overridden by name (`Schedule::new(iterations, overrides)`).
 
 use anyhow::{Context, Result, bail};
@@ -64,11 +70,20 @@ pub struct Schedule {
     pub densify_min_area: f64,
     /// The largest-area faces always split at each densification.
     pub densify_always_largest: usize,
+    /// Faces whose screen inradius (px) stays below this in every training view
+    /// are never split: their children would fall under the renderer's 1 px
+    /// inradius cull, draw nothing and be pruned again.
+    pub densify_min_inradius: f64,
     /// Densification stops adding once the model has this many vertices.
     pub max_vertices: usize,
 
     /// Iteration at whose start the restricted Delaunay connectivity step runs.
     pub connectivity_at: u64,
+
+    /// One epoch after the connectivity step, faces whose max blending weight over
+    /// the training views is ≤ this are removed: most faces of the restricted
+    /// Delaunay mesh lie inside surfaces and never show. 0 turns the cleanup off.
+    pub connectivity_cleanup_threshold: f64,
 
     /// After training, faces whose max blending weight over the training views is ≤ this are removed.
     pub final_prune_threshold: f64,
@@ -78,6 +93,26 @@ pub struct Schedule {
     /// Early stop when the held-out score has not improved for this many iterations
     /// (counted only after the connectivity step).
     pub patience: u64,
+}
+
+/// The budget at and below which the short-budget vertex learning rates apply.
+pub const SHORT_BUDGET: u64 = 3_000;
+
+/// `(short, reference)` log-interpolated in the budget between
+/// [`SHORT_BUDGET`] and [`REFERENCE_ITERATIONS`] (clamped outside).
+fn by_budget(iterations: u64, short: f64, reference: f64) -> f64 {
+    let (lo, hi) = (
+        (SHORT_BUDGET as f64).ln(),
+        (REFERENCE_ITERATIONS as f64).ln(),
+    );
+    let t = (((iterations.max(1)) as f64).ln() - lo) / (hi - lo);
+    if t <= 0.0 {
+        short
+    } else if t >= 1.0 {
+        reference
+    } else {
+        (short.ln() * (1.0 - t) + reference.ln() * t).exp()
+    }
 }
 
 /// A reference iteration count scaled to the budget.
@@ -97,8 +132,8 @@ impl Schedule {
         let every = |r| scale_every(r, iterations);
         Schedule {
             iterations,
-            lr_vertices_start: 1.5e-3,
-            lr_vertices_end: 1.5e-5,
+            lr_vertices_start: by_budget(iterations, 4e-3, 1.5e-3),
+            lr_vertices_end: by_budget(iterations, 4e-4, 1.5e-5),
             lr_sh_dc: 1.6e-3,
             sh_rest_lr_divisor: 20.0,
             lr_opacity: 0.03,
@@ -124,9 +159,11 @@ impl Schedule {
             densify_growth: 0.23,
             densify_min_area: 7.5e-5,
             densify_always_largest: 100,
+            densify_min_inradius: 2.0,
             max_vertices: 4_000_000,
             // The reference runs it at the start of iteration densify_until + 1000 + 1 (11001).
             connectivity_at: at(11_000) + 1,
+            connectivity_cleanup_threshold: 0.02,
             final_prune_threshold: 0.5,
             eval_every: every(500),
             patience: every(3000),
@@ -178,6 +215,11 @@ impl Schedule {
             ("densify_growth", self.densify_growth),
             ("densify_min_area", self.densify_min_area),
             ("final_prune_threshold", self.final_prune_threshold),
+            ("densify_min_inradius", self.densify_min_inradius),
+            (
+                "connectivity_cleanup_threshold",
+                self.connectivity_cleanup_threshold,
+            ),
         ];
         for (name, v) in non_negative {
             if !v.is_finite() || v < 0.0 {

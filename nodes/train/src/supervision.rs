@@ -5,7 +5,10 @@
 //! background colour `b` (weight 1 for OTHER pixels, 0 for IGNORE and unowned
 //! ones, whose target is `b` too, so an object's targets differ from `b` only on
 //! its own pixels); the background component keeps its OWN pixels and gives
-//! every other pixel zero weight.
+//! every other pixel zero weight — unless it is trained behind the frozen,
+//! already trained objects (`occluders`): then every valid pixel is
+//! supervised by the composite, so nothing of the background may hang in
+//! front of an object.
 
 use anyhow::{Result, bail};
 use objectsplat_core::component::{OTHER, OWN};
@@ -29,6 +32,9 @@ pub struct ComponentData {
     pub name: String,
     pub kind: ComponentKind,
     pub views: Vec<View>,
+    /// Trained objects rendered, frozen, with the background (their union, see
+    /// `Model::union`); only for the background component.
+    pub occluders: Option<objectsplat_raster::Model<f32>>,
 }
 
 impl ComponentData {
@@ -73,21 +79,48 @@ impl ComponentData {
             name: masks.info.name.clone(),
             kind: masks.info.kind,
             views,
+            occluders: None,
         })
+    }
+
+    /// How this component's pixels are supervised.
+    pub fn rule(&self) -> PixelRule {
+        PixelRule {
+            kind: self.kind,
+            behind_occluders: self.occluders.is_some(),
+        }
     }
 }
 
-/// A pixel's loss weight and whether its target is the background colour
-/// (instead of the image), from its label.
-#[inline]
-pub fn pixel_rule(label: u8, kind: ComponentKind) -> (f32, bool) {
-    match (label, kind) {
-        (OWN, _) => (1.0, false),
-        (OTHER, ComponentKind::Object) => (1.0, true),
-        // IGNORE and unowned grey values: not supervised; for an object the
-        // target is the background colour, what renders where it draws nothing.
-        (_, ComponentKind::Object) => (0.0, true),
-        (_, ComponentKind::Background) => (0.0, false),
+/// How a component's pixels are supervised.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct PixelRule {
+    pub kind: ComponentKind,
+    /// The background trained behind frozen objects: the composite is supervised everywhere.
+    pub behind_occluders: bool,
+}
+
+impl PixelRule {
+    pub fn new(kind: ComponentKind) -> Self {
+        PixelRule {
+            kind,
+            behind_occluders: false,
+        }
+    }
+
+    /// A pixel's loss weight and whether its target is the background colour
+    /// (instead of the image), from its label.
+    #[inline]
+    pub fn apply(&self, label: u8) -> (f32, bool) {
+        match (label, self.kind) {
+            (OWN, _) => (1.0, false),
+            (OTHER, ComponentKind::Object) => (1.0, true),
+            // IGNORE and unowned grey values: not supervised; for an object the
+            // target is the background colour, what renders where it draws nothing.
+            (_, ComponentKind::Object) => (0.0, true),
+            (OTHER, ComponentKind::Background) if self.behind_occluders => (1.0, false),
+            (_, ComponentKind::Background) => (0.0, false),
+        }
     }
 }
 
@@ -106,7 +139,8 @@ pub(crate) fn supervision_parts(
     view: &View,
     kind: ComponentKind,
 ) -> (Vec<f32>, Vec<f32>, Vec<bool>) {
-    let (weights, from_background) = view.labels.iter().map(|&l| pixel_rule(l, kind)).unzip();
+    let rule = PixelRule::new(kind);
+    let (weights, from_background) = view.labels.iter().map(|&l| rule.apply(l)).unzip();
     (view.target.clone(), weights, from_background)
 }
 
@@ -120,11 +154,11 @@ pub struct ViewSummary {
 }
 
 impl ViewSummary {
-    pub fn of(view: &View, kind: ComponentKind) -> ViewSummary {
+    pub fn of(view: &View, rule: PixelRule) -> ViewSummary {
         let w = view.camera.width as usize;
         let (mut include, mut total_weight) = (PixelRect::default(), 0.0);
         for (p, &l) in view.labels.iter().enumerate() {
-            let (weight, from_background) = pixel_rule(l, kind);
+            let (weight, from_background) = rule.apply(l);
             total_weight += weight as f64;
             if !from_background {
                 let (x, y) = ((p % w) as u32, (p / w) as u32);
@@ -147,7 +181,7 @@ impl ViewSummary {
 /// background colour `b`, reusing the buffers; returns the region's weight sum.
 pub fn fill_region(
     view: &View,
-    kind: ComponentKind,
+    rule: PixelRule,
     b: [f32; 3],
     region: PixelRect,
     target: &mut Vec<f32>,
@@ -160,7 +194,7 @@ pub fn fill_region(
     for y in region.y0 as usize..region.y1 as usize {
         for x in region.x0 as usize..region.x1 as usize {
             let p = y * w + x;
-            let (weight, from_background) = pixel_rule(view.labels[p], kind);
+            let (weight, from_background) = rule.apply(view.labels[p]);
             weights.push(weight);
             sum += weight as f64;
             if from_background {

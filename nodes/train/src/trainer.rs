@@ -15,10 +15,12 @@
 //! the result can be selected (after the connectivity step, with the `best`
 //! checkpoint) and once at the end.
 //!
-//! On a wgpu backend the iterations themselves (render, loss, backward, Adam)
-//! run on the device (`device_steps.rs`); the model comes back to the host
-//! for evaluation and for the schedule's structural edits.
+//! On a wgpu backend the iterations themselves (render, loss, backward, Adam,
+//! cropped like the host's), the held-out evaluations and the per-face weight
+//! statistics run on the device (`device_steps.rs`); the model comes back to
+//! the host for the schedule's structural edits and for a new best checkpoint.
 
+use crate::checkpoint::{Progress, TrainerState};
 use crate::connectivity::{ConnectivityOptions, restricted_delaunay};
 use crate::densify::{DensifyPolicy, prune_faces, select_faces_to_split, subdivide_faces};
 use crate::device_steps::DeviceSteps;
@@ -51,6 +53,29 @@ pub enum Checkpoint {
     Last,
 }
 
+/// Which views choose the `best` checkpoint.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum SelectOn {
+    /// One in eight training views, held out of training (with fewer than eight
+    /// training views, the training views themselves).
+    #[default]
+    Validation,
+    /// The training views (nothing held out).
+    Training,
+    /// The test views, which the evaluation then scores too: the paper's protocol.
+    Test,
+}
+
+impl SelectOn {
+    pub fn name(self) -> &'static str {
+        match self {
+            SelectOn::Validation => "validation",
+            SelectOn::Training => "training",
+            SelectOn::Test => "test",
+        }
+    }
+}
+
 #[derive(Debug, Clone)]
 pub struct TrainSettings {
     pub schedule: Schedule,
@@ -64,6 +89,14 @@ pub struct TrainSettings {
     pub checkpoint: Checkpoint,
     /// Render and score only each view's footprint (exact; off renders whole frames).
     pub crop: bool,
+    /// Which views choose the `best` checkpoint.
+    pub select_on: SelectOn,
+    /// A folder to save the run's state in (every `save_seconds`) and to resume
+    /// from: a run killed half-way continues from its last save and ends with
+    /// the same model as an uninterrupted one.
+    pub resume_dir: Option<std::path::PathBuf>,
+    /// Wall seconds between saves of the state (0: at every loss-log point).
+    pub save_seconds: f64,
 }
 
 impl TrainSettings {
@@ -78,6 +111,9 @@ impl TrainSettings {
             world_scale: 1.0,
             checkpoint: Checkpoint::Best,
             crop: true,
+            select_on: SelectOn::Validation,
+            resume_dir: None,
+            save_seconds: 60.0,
         }
     }
 }
@@ -98,19 +134,62 @@ fn render_settings(model: &Model<f32>, settings: &TrainSettings) -> RenderSettin
     RenderSettings::for_model(model).with_world_scale(settings.world_scale)
 }
 
-/// The held-out views of a component (its training views when none is held out).
-fn evaluation_views(data: &ComponentData) -> Vec<usize> {
+/// Which views a run trains on and which it scores models on.
+struct ViewRoles {
+    train: Vec<usize>,
+    scored: Vec<usize>,
+    /// What `scored` is, for the log.
+    scored_on: &'static str,
+}
+
+/// Splits a component's views: with the `best` checkpoint the scored views are
+/// those `select_on` names (validation views leave training); with `last`
+/// nothing is selected, every training view trains and the test views (else the
+/// training views) only report.
+fn view_roles(data: &ComponentData, checkpoint: Checkpoint, select_on: SelectOn) -> ViewRoles {
     let of = |split: Split| -> Vec<usize> {
         (0..data.views.len())
             .filter(|&i| data.views[i].split == split)
             .collect()
     };
-    let test = of(Split::Test);
-    if test.is_empty() {
-        of(Split::Train)
-    } else {
-        test
+    let (train, test) = (of(Split::Train), of(Split::Test));
+    let test_or_train = |train: Vec<usize>| {
+        if test.is_empty() {
+            ViewRoles {
+                scored: train.clone(),
+                train,
+                scored_on: "training",
+            }
+        } else {
+            ViewRoles {
+                train,
+                scored: test.clone(),
+                scored_on: "test",
+            }
+        }
+    };
+    match (checkpoint, select_on) {
+        (Checkpoint::Last, _) | (Checkpoint::Best, SelectOn::Test) => test_or_train(train),
+        (Checkpoint::Best, SelectOn::Validation) if train.len() >= 8 => {
+            let (validation, train): (Vec<(usize, usize)>, Vec<(usize, usize)>) =
+                train.into_iter().enumerate().partition(|(k, _)| k % 8 == 7);
+            ViewRoles {
+                train: train.into_iter().map(|(_, v)| v).collect(),
+                scored: validation.into_iter().map(|(_, v)| v).collect(),
+                scored_on: "validation",
+            }
+        }
+        (Checkpoint::Best, _) => ViewRoles {
+            scored: train.clone(),
+            train,
+            scored_on: "training",
+        },
     }
+}
+
+/// The held-out views of a component (its training views when none is held out).
+fn evaluation_views(data: &ComponentData) -> Vec<usize> {
+    view_roles(data, Checkpoint::Last, SelectOn::Test).scored
 }
 
 /// Scores `model` on the held-out views over a black background, so stray
@@ -121,7 +200,7 @@ pub fn held_out_eval(
     data: &ComponentData,
     settings: &TrainSettings,
 ) -> Result<HeldOut> {
-    HostSteps::new(backend, data, settings.crop).evaluate(
+    HostSteps::new(backend, data, settings.crop)?.evaluate(
         model,
         data,
         &evaluation_views(data),
@@ -139,10 +218,19 @@ pub fn held_out_score(
     Ok(held_out_eval(backend, model, data, settings)?.loss)
 }
 
-/// Per face, the largest screen extent in pixels (centroid-to-corner
-/// distance, faces in front of the camera) over `cameras`: projection only.
-fn max_screen_extent(model: &Model<f32>, cameras: &[&objectsplat_core::Camera]) -> Vec<f64> {
-    let mut extent = vec![0.0f64; model.face_count()];
+/// Per face over a set of cameras (projection only): the largest screen
+/// extent (centroid-to-corner distance, px) and the largest screen inradius
+/// (px), for faces in front of the camera.
+struct ScreenSizes {
+    extent: Vec<f64>,
+    inradius: Vec<f64>,
+}
+
+fn screen_sizes(model: &Model<f32>, cameras: &[&objectsplat_core::Camera]) -> ScreenSizes {
+    let mut sizes = ScreenSizes {
+        extent: vec![0.0; model.face_count()],
+        inradius: vec![0.0; model.face_count()],
+    };
     let mut projected = Vec::with_capacity(model.vertex_count());
     for camera in cameras {
         projected.clear();
@@ -161,10 +249,17 @@ fn max_screen_extent(model: &Model<f32>, cameras: &[&objectsplat_core::Camera]) 
                 .iter()
                 .map(|p| (p.0 - cx).hypot(p.1 - cy))
                 .fold(0.0, f64::max);
-            extent[f] = extent[f].max(e);
+            sizes.extent[f] = sizes.extent[f].max(e);
+            let twice_area = ((b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1)).abs();
+            let perimeter = (b.0 - a.0).hypot(b.1 - a.1)
+                + (c.0 - b.0).hypot(c.1 - b.1)
+                + (a.0 - c.0).hypot(a.1 - c.1);
+            if perimeter > 0.0 {
+                sizes.inradius[f] = sizes.inradius[f].max(twice_area / perimeter);
+            }
         }
     }
-    extent
+    sizes
 }
 
 /// The best model so far on the held-out views.
@@ -219,13 +314,14 @@ pub fn train_component(
             settings.world_scale
         );
     }
-    let train: Vec<usize> = (0..data.views.len())
-        .filter(|&i| data.views[i].split == Split::Train)
-        .collect();
+    let ViewRoles {
+        train,
+        scored: held_out,
+        scored_on,
+    } = view_roles(data, settings.checkpoint, settings.select_on);
     if train.is_empty() {
         bail!("component {:?} has no training views", data.name);
     }
-    let held_out = evaluation_views(data);
     let mut model = init_model(
         points,
         &InitSettings {
@@ -236,17 +332,37 @@ pub fn train_component(
     .with_context(|| format!("initializing component {:?}", data.name))?;
     let mut optim = Optim::new(s, model.vertex_count())?;
     // On a wgpu backend the iterations run on the device; everything else stays here.
+    // Training behind frozen occluders renders a composite, which only the host path builds.
     let mut device = match backend
         .as_any()
         .and_then(|b| b.downcast_ref::<WgpuBackend>())
     {
-        Some(gpu) => Some(DeviceSteps::new(gpu, data, &train, &optim)?),
-        None => None,
+        Some(gpu) if data.occluders.is_none() => Some(DeviceSteps::new(
+            gpu,
+            data,
+            &train,
+            &held_out,
+            &optim,
+            settings.crop,
+        )?),
+        _ => None,
     };
-    let mut host = HostSteps::new(backend, data, settings.crop);
+    let mut host = HostSteps::new(backend, data, settings.crop)?;
     let mut rng = Pcg64Mcg::seed_from_u64(settings.seed ^ 0x9e37_79b9_7f4a_7c15);
     let mut order = ViewOrder::new(train.len());
     let mut stats = FaceWeights::new(model.face_count());
+    // What a saved state must belong to for this run to continue from it.
+    let identity = format!(
+        "{}|{:?}|{}|{}|{:?}|{:?}|{}|{}",
+        data.name,
+        data.kind,
+        settings.seed,
+        serde_json::to_string(s)?,
+        settings.checkpoint,
+        settings.select_on,
+        settings.background_randomization,
+        data.views.len()
+    );
     let train_cameras: Vec<&objectsplat_core::Camera> =
         train.iter().map(|&i| &data.views[i].camera).collect();
     let mut best: Option<Snapshot> = None;
@@ -263,7 +379,44 @@ pub fn train_component(
     let (mut steps, mut evals) = (Vec::new(), Vec::new());
     let mut window_loss = 0.0;
     let mut stopped_early = false;
+    let mut cleanup_pending = false;
+    // The host changed the face statistics; the device gets them with the next step.
+    let mut stats_edited = false;
     let mut it = 0;
+    let mut elapsed_before = 0.0;
+    if let Some(dir) = &settings.resume_dir
+        && let Some(state) = TrainerState::load(dir, &identity, &optim.adam)
+            .with_context(|| format!("reading the saved training state in {}", dir.display()))?
+    {
+        let p = state.progress;
+        model = state.model;
+        optim.adam = state.adam;
+        stats = state.stats;
+        rng = p.rng;
+        order = ViewOrder {
+            order: p.order,
+            next: p.order_next,
+        };
+        best = match (p.best, state.best) {
+            (Some((score, iteration, _)), Some((model, face_weights))) => Some(Snapshot {
+                score,
+                iteration,
+                model,
+                face_weights,
+            }),
+            _ => None,
+        };
+        (steps, evals, notes) = (p.steps, p.evals, p.notes);
+        cleanup_pending = p.cleanup_pending;
+        elapsed_before = p.elapsed;
+        host.set_rendered(p.rendered);
+        it = p.iteration;
+        // A device gets the restored statistics with its first step.
+        stats_edited = device.is_some();
+        notes.push(format!("resumed at iteration {it} from a saved state"));
+    }
+    let clock = |started: &Instant| elapsed_before + started.elapsed().as_secs_f64();
+    let mut last_save = Instant::now();
     while it < s.iterations {
         let edits_model = (it == s.connectivity_at && model.face_count() > 0)
             || s.floor_update(it).is_some()
@@ -271,6 +424,9 @@ pub fn train_component(
             || (s.densify_at(it) && model.vertex_count() < s.max_vertices);
         if let Some(device) = device.as_mut().filter(|_| edits_model) {
             device.pull(&mut model, &mut optim, data)?;
+            if let Some((current, previous)) = device.face_weights()? {
+                stats.set_arrays(current, previous);
+            }
             device.host_edited();
         }
         if it == s.connectivity_at && model.face_count() > 0 {
@@ -283,6 +439,7 @@ pub fn train_component(
                 },
             )?;
             stats.reset(model.face_count());
+            cleanup_pending = true;
             notes.push(format!(
                 "connectivity step at {it}: {} faces",
                 model.face_count()
@@ -299,18 +456,18 @@ pub fn train_component(
         let densify = s.densify_at(it) && model.vertex_count() < s.max_vertices;
         if prune.is_some() || densify {
             let render = render_settings(&model, settings);
-            let mut max_weight = if stats.complete() && device.is_none() {
+            let mut max_weight = if stats.complete() {
                 stats.max_weight()
             } else {
                 host.face_max_weight(&model, data, &train, &render)?
             };
+            let mut sizes = screen_sizes(&model, &train_cameras);
             if let Some(threshold) = prune {
-                let extent = max_screen_extent(&model, &train_cameras);
                 let keep: Vec<bool> = (0..model.face_count())
                     .map(|f| {
                         model.face_opacity(f) as f64 > threshold
                             && max_weight[f] as f64 > threshold
-                            && extent[f] <= s.prune_max_screen_extent
+                            && sizes.extent[f] <= s.prune_max_screen_extent
                     })
                     .collect();
                 // Never prune the model away entirely; the held-out score decides what survives.
@@ -318,6 +475,11 @@ pub fn train_component(
                     let edit = prune_faces(&mut model, &keep)?;
                     optim.apply_edit(&edit)?;
                     stats.follow(&edit);
+                    sizes.inradius = edit
+                        .face_origin
+                        .iter()
+                        .map(|&f| sizes.inradius[f as usize])
+                        .collect();
                     max_weight = edit
                         .face_origin
                         .iter()
@@ -331,7 +493,18 @@ pub fn train_component(
                     min_area: s.densify_min_area * settings.world_scale * settings.world_scale,
                     always_largest: s.densify_always_largest,
                 };
-                let chosen = select_faces_to_split(&model, &max_weight, policy, &mut rng)?;
+                let splittable: Vec<bool> = sizes
+                    .inradius
+                    .iter()
+                    .map(|&r| r >= s.densify_min_inradius)
+                    .collect();
+                let chosen = select_faces_to_split(
+                    &model,
+                    &max_weight,
+                    Some(&splittable),
+                    policy,
+                    &mut rng,
+                )?;
                 let edit = subdivide_faces(&mut model, &chosen)?;
                 optim.apply_edit(&edit)?;
                 stats.follow(&edit);
@@ -342,6 +515,37 @@ pub fn train_component(
         let (slot, new_epoch) = order.next(&mut rng);
         if new_epoch && it > 0 {
             stats.end_epoch();
+            if let Some(device) = device.as_mut() {
+                device.end_epoch();
+            }
+            // The first complete statistics of the connected mesh: drop what never shows.
+            if cleanup_pending && stats.complete() && s.connectivity_cleanup_threshold > 0.0 {
+                cleanup_pending = false;
+                if let Some(device) = device.as_mut() {
+                    device.pull(&mut model, &mut optim, data)?;
+                    device.host_edited();
+                    if let Some((current, previous)) = device.face_weights()? {
+                        stats.set_arrays(current, previous);
+                    }
+                    stats_edited = true;
+                }
+                let keep: Vec<bool> = stats
+                    .max_weight()
+                    .iter()
+                    .map(|&w| w as f64 > s.connectivity_cleanup_threshold)
+                    .collect();
+                let removed = keep.iter().filter(|k| !**k).count();
+                if removed > 0 && removed < keep.len() {
+                    let edit = prune_faces(&mut model, &keep)?;
+                    optim.apply_edit(&edit)?;
+                    stats.follow(&edit);
+                    notes.push(format!(
+                        "cleanup at {it}: {removed} faces never above weight {} removed, {} remain",
+                        s.connectivity_cleanup_threshold,
+                        model.face_count()
+                    ));
+                }
+            }
         }
         let b = if settings.background_randomization {
             [
@@ -354,7 +558,14 @@ pub fn train_component(
         };
         let render = render_settings(&model, settings);
         match device.as_mut() {
-            Some(device) => device.step(&model, &optim, it + 1, slot, b, render)?,
+            Some(device) => {
+                if edits_model || stats_edited {
+                    let (current, previous) = stats.arrays();
+                    device.set_face_weights(current.to_vec(), previous.to_vec())?;
+                    stats_edited = false;
+                }
+                device.step(&model, &optim, it + 1, slot, b, render)?
+            }
             None => {
                 let view = train[slot];
                 let loss = host
@@ -379,7 +590,7 @@ pub fn train_component(
             let window = (it - 1) % log_every + 1;
             steps.push(StepRecord {
                 iteration: it,
-                wall_seconds: started.elapsed().as_secs_f64(),
+                wall_seconds: clock(&started),
                 loss: window_loss / window as f64,
                 faces: model.face_count(),
             });
@@ -395,25 +606,30 @@ pub fn train_component(
         let selectable =
             settings.checkpoint == Checkpoint::Best && it > eval_from && it % s.eval_every == 0;
         if selectable || it == s.iterations {
-            if let Some(device) = device.as_mut() {
-                device.pull(&mut model, &mut optim, data)?;
-            }
-            let score =
-                host.evaluate(&model, data, &held_out, &render_settings(&model, settings))?;
+            let render = render_settings(&model, settings);
+            let score = match device.as_mut() {
+                Some(device) => device.evaluate(&model, &optim, data, &held_out, render)?,
+                None => host.evaluate(&model, data, &held_out, &render)?,
+            };
             evals.push(EvalRecord {
                 iteration: it,
-                wall_seconds: started.elapsed().as_secs_f64(),
+                wall_seconds: clock(&started),
                 loss: score.loss,
                 psnr: score.psnr,
                 faces: model.face_count(),
             });
             if best.as_ref().is_none_or(|b| score.loss < b.score) {
+                if let Some(device) = device.as_mut() {
+                    device.pull(&mut model, &mut optim, data)?;
+                    if let Some((current, previous)) = device.face_weights()? {
+                        stats.set_arrays(current, previous);
+                    }
+                }
                 best = Some(Snapshot {
                     score: score.loss,
                     iteration: it,
                     model: model.clone(),
-                    face_weights: (stats.complete() && device.is_none())
-                        .then(|| stats.max_weight()),
+                    face_weights: stats.complete().then(|| stats.max_weight()),
                 });
             }
             if let Some(Snapshot {
@@ -431,12 +647,61 @@ pub fn train_component(
                 break;
             }
         }
+        // Save at loss-log points, where no loss is pending anywhere.
+        if let Some(dir) = &settings.resume_dir
+            && it % log_every == 0
+            && it < s.iterations
+            && last_save.elapsed().as_secs_f64() >= settings.save_seconds
+        {
+            if let Some(device) = device.as_mut() {
+                device.pull(&mut model, &mut optim, data)?;
+                if let Some((current, previous)) = device.face_weights()? {
+                    stats.set_arrays(current, previous);
+                }
+            }
+            TrainerState {
+                progress: Progress {
+                    identity: identity.clone(),
+                    iteration: it,
+                    rng: rng.clone(),
+                    order: order.order.clone(),
+                    order_next: order.next,
+                    stats_epochs: stats.epochs(),
+                    best: best
+                        .as_ref()
+                        .map(|b| (b.score, b.iteration, b.face_weights.is_some())),
+                    steps: steps.clone(),
+                    evals: evals.clone(),
+                    notes: notes.clone(),
+                    cleanup_pending,
+                    elapsed: clock(&started),
+                    adam: optim
+                        .adam
+                        .groups
+                        .iter()
+                        .map(|g| (g.lr, g.lr_rest, g.split, g.steps))
+                        .collect(),
+                    rendered: host.rendered(),
+                },
+                model: model.clone(),
+                adam: optim.adam.clone(),
+                stats: stats.clone(),
+                best: best
+                    .as_ref()
+                    .map(|b| (b.model.clone(), b.face_weights.clone())),
+            }
+            .save(dir)
+            .with_context(|| format!("saving the training state in {}", dir.display()))?;
+            last_save = Instant::now();
+        }
     }
     if let Some(device) = device.as_mut() {
         device.pull(&mut model, &mut optim, data)?;
-        notes.push(device.summary());
+        if let Some((current, previous)) = device.face_weights()? {
+            stats.set_arrays(current, previous);
+        }
     }
-    let current_weights = (stats.complete() && device.is_none()).then(|| stats.max_weight());
+    let current_weights = stats.complete().then(|| stats.max_weight());
     let (best_iteration, mut model, weights) = match (best, settings.checkpoint) {
         (Some(b), Checkpoint::Best) => (b.iteration, b.model, b.face_weights),
         (Some(b), Checkpoint::Last) => (b.iteration, model, current_weights),
@@ -465,7 +730,15 @@ pub fn train_component(
             model.face_count()
         ));
     }
-    let final_score = host.evaluate(&model, data, &held_out, &render_settings(&model, settings))?;
+    let render = render_settings(&model, settings);
+    let final_score = match device.as_mut() {
+        Some(device) => {
+            let score = device.evaluate_model(&model, data, &held_out, render)?;
+            notes.push(device.summary());
+            score
+        }
+        None => host.evaluate(&model, data, &held_out, &render)?,
+    };
     let log = TrainingLog {
         component: data.name.clone(),
         kind: match data.kind {
@@ -485,10 +758,14 @@ pub fn train_component(
         }
         .into(),
         stopped_early,
-        wall_seconds: started.elapsed().as_secs_f64(),
+        wall_seconds: clock(&started),
         final_psnr: final_score.psnr,
         final_faces: model.face_count(),
-        rendered_fraction: host.rendered_fraction(),
+        rendered_fraction: match &device {
+            Some(device) => device.rendered_fraction(),
+            None => host.rendered_fraction(),
+        },
+        scored_on: Some(scored_on.to_string()),
         steps,
         evals,
         notes: notes.clone(),

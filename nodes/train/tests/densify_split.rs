@@ -64,7 +64,7 @@ fn selection_guards_and_forces_the_largest() {
         min_area: 0.0,
         always_largest: 1,
     };
-    let chosen = select_faces_to_split(&m, &[0.0, 0.0], policy, &mut rng).unwrap();
+    let chosen = select_faces_to_split(&m, &[0.0, 0.0], None, policy, &mut rng).unwrap();
     assert_eq!(
         chosen,
         vec![1],
@@ -75,12 +75,12 @@ fn selection_guards_and_forces_the_largest() {
         min_area: 10.0,
         always_largest: 0,
     };
-    let chosen = select_faces_to_split(&m, &[1.0, 1.0], policy, &mut rng).unwrap();
+    let chosen = select_faces_to_split(&m, &[1.0, 1.0], None, policy, &mut rng).unwrap();
     assert!(
         chosen.is_empty(),
         "faces under the area floor are not candidates"
     );
-    assert!(select_faces_to_split(&m, &[1.0], policy, &mut rng).is_err());
+    assert!(select_faces_to_split(&m, &[1.0], None, policy, &mut rng).is_err());
 }
 
 #[test]

@@ -44,6 +44,25 @@ fn reference_budget_gives_the_reference_numbers() {
     assert_eq!(s.final_prune_threshold, 0.5);
 }
 
+/// Short budgets get larger vertex learning rates: 4e-3 → 4e-4 at 3000 iterations and
+/// below, the reference's at 30k, log-interpolated in between.
+#[test]
+fn vertex_learning_rates_follow_the_budget() {
+    for budget in [200, 1000, 3000] {
+        let s = Schedule::scaled(budget);
+        assert!((s.lr_vertices_start - 4e-3).abs() < 1e-15, "{budget}");
+        assert!((s.lr_vertices_end - 4e-4).abs() < 1e-15, "{budget}");
+    }
+    let mid = Schedule::scaled(9487); // √(3000 · 30000): half-way in log budget
+    assert!((mid.lr_vertices_start - (4e-3f64 * 1.5e-3).sqrt()).abs() < 1e-4 * 4e-3);
+    assert!((mid.lr_vertices_end - (4e-4f64 * 1.5e-5).sqrt()).abs() < 1e-4 * 4e-4);
+    let long = Schedule::scaled(100_000);
+    assert_eq!(
+        (long.lr_vertices_start, long.lr_vertices_end),
+        (1.5e-3, 1.5e-5)
+    );
+}
+
 #[test]
 fn six_hundred_iterations_scale_every_iteration_count() {
     let s = Schedule::scaled(600);
@@ -63,7 +82,8 @@ fn six_hundred_iterations_scale_every_iteration_count() {
     let want: Vec<u64> = (2..=19).map(|k| k * 10).collect();
     assert_eq!(densify, want);
     assert!((s.sigma(600) - 1e-4).abs() < 1e-15);
-    assert!((s.lr_vertices(300) - 1.5e-4).abs() < 1e-12);
+    // Half-way through the run the rate is the geometric mean of its ends (4e-3, 4e-4).
+    assert!((s.lr_vertices(300) - (4e-3f64 * 4e-4).sqrt()).abs() < 1e-12);
 }
 
 #[test]

@@ -1,7 +1,7 @@
 //! Opening a plugin library: the dlopen, the entry symbol, the ABI checks and the
-//! `describe` call. Libraries are never unloaded (their code may still be running
-//! on another thread, and unloading Rust cdylibs is unsound in general), so each
-//! canonical path is opened once per process and kept in a global list.
+//! `describe` call. Only plugin child processes ([`super::child`]) open libraries;
+//! the engine never maps plugin code. Libraries are never unloaded (unloading Rust
+//! cdylibs is unsound in general), so each canonical path is opened once per process.
 
 use super::abi::{
     ABI_VERSION, ENTRY_SYMBOL, EntryFn, EntryHeader, EntryV1, OwnedBuf, STATUS_OK, STATUS_PANIC,
@@ -21,6 +21,8 @@ pub struct LoadedLibrary {
     /// blake3 of the library file, hex.
     pub digest: String,
     pub description: Description,
+    /// The describe text as the library answered it (checked by parsing `description`).
+    pub description_json: String,
 }
 
 static LOADED: Mutex<Vec<Arc<LoadedLibrary>>> = Mutex::new(Vec::new());
@@ -71,13 +73,16 @@ fn open_new(path: &Path, digest: String) -> Result<LoadedLibrary, String> {
         read_static(entry.plugin_build, "plugin_build")?,
         read_static(entry.sdk_build, "sdk_build")?
     );
-    let description = describe(entry)?;
+    let description_json = describe(entry)?;
+    let description = serde_json::from_str(&description_json)
+        .map_err(|e| format!("its describe text is malformed: {e}"))?;
     Ok(LoadedLibrary {
         path: path.to_path_buf(),
         entry,
         build,
         digest,
         description,
+        description_json,
     })
 }
 
@@ -135,7 +140,7 @@ pub(crate) fn take(entry: &EntryV1, buf: OwnedBuf) -> Vec<u8> {
     bytes
 }
 
-fn describe(entry: &EntryV1) -> Result<Description, String> {
+fn describe(entry: &EntryV1) -> Result<String, String> {
     let mut out = OwnedBuf {
         ptr: std::ptr::null_mut(),
         len: 0,
@@ -159,5 +164,5 @@ fn describe(entry: &EntryV1) -> Result<Description, String> {
             ));
         }
     }
-    serde_json::from_slice(&bytes).map_err(|e| format!("its describe text is malformed: {e}"))
+    String::from_utf8(bytes).map_err(|_| "its describe text is not UTF-8".to_string())
 }

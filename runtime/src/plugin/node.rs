@@ -1,20 +1,29 @@
-//! A plugin's node kind as an engine `Node`: each run becomes one `run` call
-//! through the entry table, with a JSON request in and a JSON response out.
+//! A plugin's node kind as an engine `Node`: each run is one `run` call made by a
+//! child process ([`super::host`]), with a JSON request in and a JSON response out.
+//! Whatever the library does to its process fails this node only; a run that
+//! answers `done` must have written every output it did not forward.
 
-use super::abi::{HostV1, OwnedBuf, STATUS_ERROR, STATUS_OK, STATUS_PANIC};
-use super::library::{LoadedLibrary, take};
+use super::PluginLibrary;
+use super::abi::{STATUS_ERROR, STATUS_OK, STATUS_PANIC};
+use super::host;
 use super::protocol::{InputArg, OutcomeKind, RunRequest, RunResponse};
-use crate::node::{Context, InputValue, Node, NodeSpec, Outcome, ProgressSink};
+use super::spec::TIMEOUT_PARAM;
+use super::wire::{self, Call, Reply};
+use crate::node::{Context, InputValue, Node, NodeSpec, Outcome, TypeRef};
 use anyhow::{Result, anyhow, bail};
-use std::ffi::c_void;
 use std::path::Path;
 use std::sync::Arc;
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::Duration;
 
 pub struct PluginNode {
     pub(crate) spec: NodeSpec,
-    pub(crate) library: Arc<LoadedLibrary>,
+    pub(crate) library: Arc<PluginLibrary>,
 }
+
+/// Notes and warnings a run may add, and the length of each; beyond them the
+/// report would only get longer, not clearer.
+const MAX_NOTES: usize = 100;
+const MAX_NOTE_TEXT: usize = 1000;
 
 impl Node for PluginNode {
     fn spec(&self) -> NodeSpec {
@@ -22,60 +31,109 @@ impl Node for PluginNode {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let request = serde_json::to_vec(&request(&self.spec.kind, ctx)?)?;
-        let services = HostServices {
-            job: ctx.job.clone(),
-            progress: ctx.progress,
-            cancel: ctx.cancel,
+        let plugin = self.library.description.plugin.clone();
+        let timeout: f64 = ctx.param(TIMEOUT_PARAM)?;
+        let mut req = request(&self.spec.kind, ctx)?;
+        // The engine's own param; the library never declared it.
+        req.params.remove(TIMEOUT_PARAM);
+        let call = Call::Run {
+            library: self.library.path.clone(),
+            digest: self.library.digest.clone(),
+            request: serde_json::to_string(&req)?,
         };
-        let host = HostV1 {
-            struct_size: std::mem::size_of::<HostV1>(),
-            ctx: &services as *const HostServices as *const c_void,
-            progress: host_progress,
-            cancelled: host_cancelled,
+        let reply = {
+            let view: &Context = ctx;
+            host::call(
+                &call,
+                Duration::from_secs_f64(timeout),
+                &mut |done, total, msg| view.progress(done, total, msg),
+                &|| view.cancelled(),
+            )
+            .map_err(|e| {
+                anyhow!(
+                    "plugin `{plugin}` running `{}`: its process {e}",
+                    self.spec.kind
+                )
+            })?
         };
-        let entry = self.library.entry;
-        let mut out = OwnedBuf {
-            ptr: std::ptr::null_mut(),
-            len: 0,
-            cap: 0,
+        let (status, body) = match reply {
+            Reply::Answer { status, body } => (status, body),
+            Reply::Refused { message } => bail!("plugin `{plugin}`: {message}"),
+            other => bail!("plugin `{plugin}`: its process answered the run with {other:?}"),
         };
-        // SAFETY: request bytes, host table and `services` outlive the call; `out` is a valid slot.
-        let status = unsafe { (entry.run)(request.as_ptr(), request.len(), &host, &mut out) };
-        let bytes = take(entry, out);
-        let plugin = &self.library.description.plugin;
         let response: RunResponse = match status {
-            STATUS_OK => serde_json::from_slice(&bytes).map_err(|e| {
+            STATUS_OK => serde_json::from_str(&body).map_err(|e| {
                 anyhow!("plugin `{plugin}` answered with a malformed response: {e}")
             })?,
-            STATUS_ERROR => bail!("plugin `{plugin}`: {}", String::from_utf8_lossy(&bytes)),
-            STATUS_PANIC => bail!(
-                "plugin `{plugin}` panicked: {}",
-                String::from_utf8_lossy(&bytes)
-            ),
+            STATUS_ERROR => bail!("plugin `{plugin}`: {}", wire::bounded(&body)),
+            STATUS_PANIC => bail!("plugin `{plugin}` panicked: {}", wire::bounded(&body)),
             other => bail!(
                 "plugin `{plugin}` returned unknown status {other}: {}",
-                String::from_utf8_lossy(&bytes)
+                wire::bounded(&body)
             ),
         };
-        for (key, value) in response.notes {
-            ctx.note(&key, value);
+        let note = |t: &str| wire::bounded_to(t, MAX_NOTE_TEXT);
+        for (key, value) in response.notes.iter().take(MAX_NOTES) {
+            ctx.note(&note(key), note(value));
         }
-        for warning in response.warnings {
-            ctx.warn(warning);
+        for warning in response.warnings.iter().take(MAX_NOTES) {
+            ctx.warn(note(warning));
         }
         for (input, output) in &response.forwards {
             ctx.forward(input, output)
                 .map_err(|e| anyhow!("plugin `{plugin}`: {e}"))?;
         }
-        Ok(match response.outcome {
+        let outcome = match response.outcome {
             OutcomeKind::Done => Outcome::Done,
-            OutcomeKind::Skipped => Outcome::Skipped(
+            OutcomeKind::Skipped => Outcome::Skipped(note(
                 response
                     .reason
-                    .unwrap_or_else(|| "skipped by the plugin".into()),
-            ),
-        })
+                    .as_deref()
+                    .unwrap_or("skipped by the plugin"),
+            )),
+        };
+        if outcome == Outcome::Done {
+            self.check_outputs(ctx, &plugin)?;
+        }
+        Ok(outcome)
+    }
+}
+
+impl PluginNode {
+    /// A run that says `done` wrote every output it did not forward: an empty output
+    /// folder (or an empty item of a collection) is the plugin's failure, reported on
+    /// its own node rather than on the consumer that would trip over it.
+    fn check_outputs(&self, ctx: &Context, plugin: &str) -> Result<()> {
+        let is_empty = |dir: &Path| {
+            std::fs::read_dir(dir)
+                .map(|mut d| d.next().is_none())
+                .unwrap_or(true)
+        };
+        for port in &self.spec.outputs {
+            if ctx.forwarded.contains_key(&port.name) {
+                continue;
+            }
+            let dir = ctx.output(&port.name)?;
+            let empty: Vec<String> = match &port.ty {
+                TypeRef::One(_) if is_empty(&dir) => vec![String::new()],
+                TypeRef::One(_) => vec![],
+                // A collection may have no items; an item must hold something.
+                TypeRef::List(_) => std::fs::read_dir(&dir)?
+                    .flatten()
+                    .filter(|e| e.path().is_dir() && is_empty(&e.path()))
+                    .map(|e| format!(" item {:?}", e.file_name()))
+                    .collect(),
+            };
+            if let Some(first) = empty.first() {
+                bail!(
+                    "plugin `{plugin}` finished `{}` without writing its output `{}`{first} (an empty folder); \
+                     a node with nothing to write should skip, or forward an input",
+                    self.spec.kind,
+                    port.name
+                );
+            }
+        }
+        Ok(())
     }
 }
 
@@ -126,41 +184,4 @@ fn request(kind: &str, ctx: &Context) -> Result<RunRequest> {
             .map(|(k, v)| (k.clone(), v.to_ron()))
             .collect(),
     })
-}
-
-/// What the host callbacks reach through `HostV1::ctx`; only thread-safe parts of
-/// the context, since a plugin may report from its worker threads.
-struct HostServices<'a> {
-    job: String,
-    progress: &'a dyn ProgressSink,
-    cancel: &'a AtomicBool,
-}
-
-unsafe extern "C" fn host_progress(
-    ctx: *const c_void,
-    done: u64,
-    total: u64,
-    msg: *const u8,
-    len: usize,
-) {
-    // Unwinding into the plugin's frames would abort the process: contain any panic.
-    let _ = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        // SAFETY: ctx is the HostServices this run passed, alive for the whole run call.
-        let services = unsafe { &*(ctx as *const HostServices) };
-        let message = if msg.is_null() {
-            String::new()
-        } else {
-            // SAFETY: the plugin passes len readable bytes for the duration of the call.
-            String::from_utf8_lossy(unsafe { std::slice::from_raw_parts(msg, len) }).into_owned()
-        };
-        services
-            .progress
-            .progress(&services.job, done, total, &message);
-    }));
-}
-
-unsafe extern "C" fn host_cancelled(ctx: *const c_void) -> u8 {
-    // SAFETY: as in host_progress.
-    let services = unsafe { &*(ctx as *const HostServices) };
-    u8::from(services.cancel.load(Ordering::Relaxed))
 }

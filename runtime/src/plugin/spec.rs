@@ -8,6 +8,13 @@ use crate::params::{ParamSpec, ParamType};
 /// Hex digits of the library digest kept in node versions.
 const DIGEST_CHARS: usize = 12;
 
+/// The param the engine adds to every plugin node kind: seconds before the run's
+/// child process is killed. It is not sent to the plugin.
+pub const TIMEOUT_PARAM: &str = "plugin_timeout_s";
+
+/// One hour: generous for an image stage, and a hung plugin still ends.
+const DEFAULT_TIMEOUT_S: &str = "3600.0";
+
 /// The code version the engine records for a plugin node: the plugin's declared
 /// version plus a digest of the library file. The declared version is what authors
 /// bump on purpose; the digest makes any rebuilt library a new version too, so a
@@ -61,6 +68,12 @@ fn node_spec(n: &NodeDescription, version: &str) -> Result<NodeSpec, String> {
     if spec.outputs.iter().any(|p| p.optional) {
         return Err(format!("node `{}`: outputs cannot be optional", n.kind));
     }
+    if n.params.iter().any(|p| p.name == TIMEOUT_PARAM) {
+        return Err(format!(
+            "node `{}`: param `{TIMEOUT_PARAM}` is the host's (the run's time limit); rename it",
+            n.kind
+        ));
+    }
     spec.params = n
         .params
         .iter()
@@ -75,6 +88,14 @@ fn node_spec(n: &NodeDescription, version: &str) -> Result<NodeSpec, String> {
             })
         })
         .collect::<Result<_, String>>()?;
+    spec.params.push(ParamSpec {
+        name: TIMEOUT_PARAM.into(),
+        ty: ParamType::float_range(0.001, 1.0e9),
+        default: Some(DEFAULT_TIMEOUT_S.into()),
+        doc:
+            "seconds before the run's process is killed (the host's limit, not sent to the plugin)"
+                .into(),
+    });
     Ok(spec)
 }
 

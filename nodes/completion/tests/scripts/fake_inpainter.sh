@@ -5,6 +5,8 @@
 #   ok          write the mask itself as the "filled" image (white inside the hole)
 #   fail        complain on stderr and exit 3
 #   hang        never finish (the adapter must kill it)
+#   hang_with_helper  start a helper process (its pid in WORKDIR/helper.pid), then
+#               never finish: the adapter must kill the helper too
 #   missing     exit 0 without writing anything
 #   wrong_size  write FILE (4th argument) as every output
 #   args        print each argument on stderr, then exit 1
@@ -21,6 +23,11 @@ case "$mode" in
   hang)
     echo "loading model..." >&2
     exec sleep 30 ;;
+  hang_with_helper)
+    sleep 30 &
+    echo $! > "$input/../helper.pid"
+    echo "started helper" >&2
+    wait ;;
   missing)
     exit 0 ;;
   wrong_size)

@@ -130,13 +130,13 @@ fn build_series(logs: &[&TrainingLog]) -> Plots {
 }
 
 fn table(training: &[ModelTraining], html: &mut String) {
-    html.push_str("<table id=\"training-table\"><tr><th>component</th><th>budget</th><th>iterations run</th><th>best iteration</th><th>model returned</th><th>stopped early</th><th>wall s</th><th>final PSNR (dB)</th><th>faces</th></tr>");
+    html.push_str("<table id=\"training-table\"><tr><th>component</th><th>budget</th><th>iterations run</th><th>best iteration</th><th>model returned</th><th>scored on</th><th>stopped early</th><th>wall s</th><th>final PSNR (dB)</th><th>faces</th></tr>");
     for entry in training {
         match &entry.log {
             Some(log) => {
                 let _ = write!(
                     html,
-                    r#"<tr data-component="{c}"><td>{c}</td><td class="num">{budget}</td><td class="num">{run}</td><td class="num">{best}</td><td>{returned}</td><td>{early}</td><td class="num">{wall:.2}</td><td class="num">{psnr:.2}</td><td class="num">{faces}</td></tr>"#,
+                    r#"<tr data-component="{c}"><td>{c}</td><td class="num">{budget}</td><td class="num">{run}</td><td class="num">{best}</td><td>{returned}</td><td>{scored}</td><td>{early}</td><td class="num">{wall:.2}</td><td class="num">{psnr:.2}</td><td class="num">{faces}</td></tr>"#,
                     c = escape(&log.component),
                     budget = log.iterations_budget,
                     run = log.iterations_run,
@@ -147,6 +147,8 @@ fn table(training: &[ModelTraining], html: &mut String) {
                     } else {
                         log.checkpoint.as_str()
                     },
+                    // Which views chose the checkpoint (or, with `last`, only reported).
+                    scored = escape(log.scored_on.as_deref().unwrap_or("–")),
                     early = if log.stopped_early { "yes" } else { "no" },
                     wall = log.wall_seconds,
                     psnr = log.final_psnr,
@@ -156,7 +158,7 @@ fn table(training: &[ModelTraining], html: &mut String) {
             None => {
                 let _ = write!(
                     html,
-                    r#"<tr data-component="{m}"><td>{m}</td><td colspan="8">no training log</td></tr>"#,
+                    r#"<tr data-component="{m}"><td>{m}</td><td colspan="9">no training log</td></tr>"#,
                     m = escape(&entry.model)
                 );
             }

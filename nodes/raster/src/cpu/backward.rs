@@ -197,7 +197,6 @@ pub fn backward_tile<R: Real>(
                     gc[i],
                     gd[i],
                     if is_median { gm[i] } else { R::zero() },
-                    rules.sigma,
                     &mut behind[i],
                     &mut part,
                 );
@@ -216,7 +215,6 @@ fn accumulate_fragment<R: Real>(
     gc: [R; 3],
     gd: R,
     gm: R,
-    sigma: R,
     behind: &mut R,
     part: &mut FacePartial<R>,
 ) {
@@ -244,7 +242,7 @@ fn accumulate_fragment<R: Real>(
     if !fr.clamped {
         // α = o·G^σ.
         part.d_opacity += d_alpha * fr.intensity;
-        let d_g = d_alpha * f.opacity * sigma * fr.intensity / fr.g;
+        let d_g = d_alpha * f.opacity * f.sigma * fr.intensity / fr.g;
         let k = fr.kstar;
         d_lambda[k] += d_g * f.scale[k];
         part.d_scale[k] += d_g * fr.lambda[k];

@@ -9,7 +9,6 @@ use crate::real::Real;
 /// The thresholds of the pixel loop in the renderer's scalar type.
 #[derive(Debug, Clone, Copy)]
 pub struct PixelRules<R: Real> {
-    pub sigma: R,
     pub alpha_max: R,
     pub alpha_min: R,
     pub transmittance_min: R,
@@ -19,7 +18,6 @@ pub struct PixelRules<R: Real> {
 impl<R: Real> PixelRules<R> {
     pub fn new(s: &RenderSettings) -> Self {
         PixelRules {
-            sigma: R::of(s.sigma),
             alpha_max: R::of(s.alpha_max),
             alpha_min: R::of(s.alpha_min),
             transmittance_min: R::of(s.transmittance_min),
@@ -85,7 +83,7 @@ pub fn evaluate<R: Real>(
     if !(gmin > R::zero()) {
         return None;
     }
-    let intensity = gmin.powf(rules.sigma);
+    let intensity = gmin.powf(f.sigma);
     let raw = f.opacity * intensity;
     let clamped = raw > rules.alpha_max;
     let alpha = if clamped { rules.alpha_max } else { raw };

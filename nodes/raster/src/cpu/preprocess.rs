@@ -150,6 +150,8 @@ pub struct ScreenFace<R: Real> {
     /// Edge lengths opposite each corner and the perimeter.
     pub len: [R; 3],
     pub perimeter: R,
+    /// Window sharpness σ of this face.
+    pub sigma: R,
     /// Triangle opacity (min of the corners') and the corner attaining it.
     pub opacity: R,
     pub argmin_corner: u8,
@@ -278,6 +280,7 @@ pub fn preprocess_face<R: Real>(
         inv_area2,
         len,
         perimeter,
+        sigma: R::of(model.face_sigma.get(f).copied().unwrap_or(settings.sigma)),
         opacity,
         argmin_corner: argmin as u8,
         // Filled by `shade_vertices` once the visible faces are known.

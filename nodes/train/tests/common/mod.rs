@@ -144,5 +144,8 @@ pub fn short_run_settings(
         world_scale: 1.0,
         checkpoint: Default::default(),
         crop: true,
+        select_on: Default::default(),
+        resume_dir: None,
+        save_seconds: 60.0,
     }
 }

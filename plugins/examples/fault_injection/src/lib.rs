@@ -1,7 +1,10 @@
 //! A test fixture, not an example to copy: a plugin that misbehaves on request, so
 //! the host's refusals and failure isolation can be tested against a real library.
 //!
-//! - node `faulty_stage` (image → image) with `mode: "pass" | "error" | "panic"`;
+//! - node `faulty_stage` (image → image) with `mode`: `pass` copies the image;
+//!   `error` and `panic` fail politely; `abort`, `segfault`, `stack_overflow` and
+//!   `exit` end the process the library runs in; `hang` never returns; `no_output`
+//!   returns `done` without writing; `huge_error` fails with a 50 MB message;
 //! - `OBJECTSPLAT_FAULT_VARIANT` (read when the host loads the library) turns the
 //!   whole library bad: `wrong_abi` (entry table claims ABI v999), `malformed_describe`
 //!   (truncated JSON), `kind_collision` (declares the built-in `load_image`),
@@ -16,10 +19,38 @@ use objectsplat_plugin_sdk::abi::{
 };
 use objectsplat_plugin_sdk::prelude::*;
 
+/// Recurses until the stack runs out; `black_box` keeps the frames and their arrays.
+#[allow(unconditional_recursion)]
+fn exhaust_stack(depth: u64) -> u64 {
+    let frame = std::hint::black_box([depth; 512]);
+    exhaust_stack(depth + 1) + frame[7]
+}
+
 fn faulty_stage(req: &mut Request) -> Result<Outcome> {
     match req.param::<String>("mode")?.as_str() {
         "error" => bail!("injected failure: faulty_stage refused its input"),
         "panic" => panic!("injected panic in faulty_stage"),
+        "abort" => {
+            eprintln!("faulty_stage: aborting on purpose");
+            std::process::abort()
+        }
+        // SAFETY: none: writing to an unmapped page is the fault being injected (a
+        // non-null, aligned address, so debug builds fault rather than assert).
+        "segfault" => unsafe {
+            std::ptr::write_volatile(0x10 as *mut u64, 1);
+            unreachable!("the write above faults")
+        },
+        "stack_overflow" => Ok(if exhaust_stack(0) == 0 {
+            Outcome::Done
+        } else {
+            Outcome::Skipped("unreachable: the recursion never returns".into())
+        }),
+        "exit" => std::process::exit(0),
+        "hang" => loop {
+            std::thread::sleep(std::time::Duration::from_secs(1));
+        },
+        "no_output" => Ok(Outcome::Done),
+        "huge_error" => bail!("injected huge error: {}", "x".repeat(50 << 20)),
         _ => {
             let image = read_image(req.input("image")?)?;
             write_image(&req.output("image")?, &image, 8)?;
@@ -42,12 +73,12 @@ fn plugin() -> &'static Plugin {
         };
         Plugin::new("fault_injection", "1").node(
             NodeDecl::new(kind, faulty_stage)
-                .doc("Copies an image, or fails on purpose (mode error or panic).")
+                .doc("Copies an image, or fails on purpose in the way `mode` names.")
                 .input("image", port_type, "any image")
                 .output("image", "Image", "the same pixels, 8-bit")
                 .param(
                     "mode",
-                    "enum(pass|error|panic)",
+                    "enum(pass|error|panic|abort|segfault|stack_overflow|exit|hang|no_output|huge_error)",
                     Some("\"pass\""),
                     "how to behave",
                 ),
