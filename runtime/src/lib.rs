@@ -2,6 +2,7 @@
 //! functions from input folders to output folders; the engine validates graphs,
 //! caches results by content, schedules work in parallel and loads plugins.
 
+pub mod check;
 pub mod diag;
 pub mod exec;
 pub mod graph;
@@ -20,8 +21,8 @@ pub mod value;
 
 pub use diag::{Diagnostic, Diagnostics};
 pub use node::{
-    Context, DeclaredPorts, InputValue, Node, NodeSpec, Outcome, ParamError, PortSpec,
-    ProgressSink, TypeRef,
+    CheckedInput, Context, DeclaredPorts, InputValue, Node, NodeSpec, Outcome, ParamError,
+    PortSpec, ProgressSink, TypeRef,
 };
 pub use params::{ParamSpec, ParamType, Params};
 pub use registry::{Origin, Registry};

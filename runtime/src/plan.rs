@@ -19,6 +19,12 @@ pub struct Override {
     pub param: String,
     pub value: Value,
     pub text: String,
+    /// The value as typed. A bare word (`dense`) or text that is not RON
+    /// (`data/scene.json`) is taken as this string when the param takes a string
+    /// (string, enum, path; optional or not).
+    pub raw: String,
+    /// Why `raw` is not RON, when it is not (then `value` is `raw` as a string).
+    pub not_ron: Option<String>,
 }
 
 impl Override {
@@ -31,23 +37,44 @@ impl Override {
             .split_once('.')
             .filter(|(n, p)| !n.is_empty() && !p.is_empty())
             .ok_or_else(|| Diagnostic::argument(&text, "expected NODE.PARAM=VALUE"))?;
-        let value = syntax::parse(rhs)
-            .map_err(|e| {
-                Diagnostic::argument(
-                    &text,
-                    format!(
-                        "value is not RON: {} (strings need quotes: \"...\")",
-                        e.message
-                    ),
-                )
-            })?
-            .to_value();
+        let (value, not_ron) = match syntax::parse(rhs) {
+            Ok(v) => (v.to_value(), None),
+            Err(e) => (Value::Str(rhs.to_string()), Some(e.message)),
+        };
         Ok(Override {
             node: node.into(),
             param: param.into(),
             value,
             text,
+            raw: rhs.to_string(),
+            not_ron,
         })
+    }
+
+    /// The value for a param of type `ty`: the RON value, or the text as typed when
+    /// it is a bare word or not RON and `ty` takes a string. The caller checks it.
+    fn value_for(&self, ty: &ParamType) -> Result<Value, String> {
+        fn takes_string(ty: &ParamType) -> bool {
+            match ty {
+                ParamType::Str | ParamType::Enum(_) | ParamType::Path | ParamType::RelPath => true,
+                ParamType::Optional(inner) => takes_string(inner),
+                _ => false,
+            }
+        }
+        let bare = self.not_ron.is_some() || matches!(self.value, Value::Ident(_));
+        if self.not_ron.is_none() && ty.check(&self.value).is_ok() {
+            return Ok(self.value.clone());
+        }
+        if bare && takes_string(ty) {
+            return Ok(Value::Str(self.raw.clone()));
+        }
+        match &self.not_ron {
+            Some(why) => Err(format!(
+                "value is not RON: {why} (a bare word is read as a string only where the param \
+                 takes one; otherwise write RON, e.g. 3, 0.5, true, [1, 2], \"text\")"
+            )),
+            None => Ok(self.value.clone()),
+        }
     }
 }
 
@@ -539,10 +566,20 @@ fn check_params(
         let (value, report): (Value, Box<dyn Fn(String) -> Diagnostic>) = match (over, declared) {
             (Some(o), _) => {
                 let text = o.text.clone();
-                (
-                    o.value.clone(),
-                    Box::new(move |m| Diagnostic::argument(&text, m)),
-                )
+                let report: Box<dyn Fn(String) -> Diagnostic> =
+                    Box::new(move |m| Diagnostic::argument(&text, m));
+                match o.value_for(&ps.ty) {
+                    Ok(v) => (v, report),
+                    Err(msg) => {
+                        diags.push(report(format!(
+                            "node {:?} param `{}`: {msg} (expected {})",
+                            n.id,
+                            ps.name,
+                            ps.ty.describe()
+                        )));
+                        continue;
+                    }
+                }
             }
             (None, Some(d)) => {
                 let span = d.value.span;
@@ -595,8 +632,18 @@ fn check_params(
             ))),
         }
     }
+    if !diags.is_empty() {
+        return Err(diags);
+    }
+    let params = Params::new(values);
+    let diags: Vec<Diagnostic> = reg
+        .node
+        .check_params(&params)
+        .iter()
+        .map(|e| crate::check::param_error_diag(src, n, overrides, e))
+        .collect();
     if diags.is_empty() {
-        Ok((Params::new(values), input_paths))
+        Ok((params, input_paths))
     } else {
         Err(diags)
     }

@@ -67,10 +67,7 @@ struct Declared {
 }
 
 fn param_error(param: &str, message: impl Into<String>) -> ParamError {
-    ParamError {
-        param: param.into(),
-        message: message.into(),
-    }
+    ParamError::new(param, message)
 }
 
 fn ports(params: &Params, name: &str) -> Result<BTreeMap<String, TypeRef>, ParamError> {

@@ -130,6 +130,7 @@ impl Node for Double {
             ms + per_unit * x.max(0) as u64,
         ));
         write_num(&ctx.output("out")?, 2 * x)?;
+        ctx.note("doubled", format!("{x} → {}", 2 * x));
         Ok(Outcome::Done)
     }
 }
@@ -195,10 +196,7 @@ impl Node for SumOf {
             .param("term_type", ParamType::Str, Some("\"Num\""), "")
     }
     fn declared_ports(&self, params: &Params) -> Result<Option<DeclaredPorts>, ParamError> {
-        let bad = |m: String| ParamError {
-            param: "terms".into(),
-            message: m,
-        };
+        let bad = |m: String| ParamError::new("terms", m);
         let terms: Vec<String> = params.get("terms").map_err(|e| bad(e.to_string()))?;
         let ty: String = params.get("term_type").map_err(|e| bad(e.to_string()))?;
         if terms.is_empty() {
@@ -228,6 +226,50 @@ impl Node for SumOf {
     }
 }
 
+/// `x × rate` over `steps`: a nested `schedule` map whose keys it checks before
+/// anything runs (like a trainer's schedule overrides).
+struct Tuned;
+const TUNED_KEYS: [&str; 2] = ["rate", "steps"];
+impl Node for Tuned {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("tuned", "1")
+            .input("x", "Num", "")
+            .output("out", "Num", "")
+            .param(
+                "schedule",
+                ParamType::Ron("map of settings".into()),
+                Some("{}"),
+                "",
+            )
+            .param("label", ParamType::Str, Some("\"\""), "")
+    }
+    fn check_params(&self, params: &Params) -> Vec<ParamError> {
+        let Ok(map) = params.get::<std::collections::BTreeMap<String, f64>>("schedule") else {
+            return vec![ParamError::new("schedule", "expected a map of numbers")];
+        };
+        map.keys()
+            .filter(|k| !TUNED_KEYS.contains(&k.as_str()))
+            .map(|k| {
+                ParamError::new(
+                    "schedule",
+                    format!(
+                        "unknown setting `{k}`; settings are {}",
+                        TUNED_KEYS.join(", ")
+                    ),
+                )
+                .at([k])
+            })
+            .collect()
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let map: std::collections::BTreeMap<String, f64> = ctx.param("schedule")?;
+        let rate = map.get("rate").copied().unwrap_or(1.0);
+        let x = read_num(ctx.input("x")?)?;
+        write_num(&ctx.output("out")?, (x as f64 * rate) as i64)?;
+        Ok(Outcome::Done)
+    }
+}
+
 pub fn registry() -> Registry {
     let mut reg = Registry::new();
     reg.add_type("Num", "a folder with value.txt");
@@ -240,6 +282,7 @@ pub fn registry() -> Registry {
         Arc::new(Sum),
         Arc::new(Flaky),
         Arc::new(SumOf),
+        Arc::new(Tuned),
     ] {
         reg.add_node(n).unwrap();
     }
