@@ -27,9 +27,15 @@ impl Status {
 pub struct ItemReport {
     pub name: String,
     pub status: Status,
+    /// Its own run time; for a cached item, that of the run that produced it.
     pub seconds: f64,
+    /// Time it waited for a worker (not part of `seconds`).
+    pub queued_seconds: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+    /// The notes this item's run left (each item its own).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub notes: BTreeMap<String, String>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -37,7 +43,11 @@ pub struct NodeReport {
     pub id: String,
     pub kind: String,
     pub status: Status,
+    /// Its own run time, queue waiting excluded (a fan-out node: the sum over its
+    /// items). Cached: the time of the run that produced the cached outputs.
     pub seconds: f64,
+    /// Time from being ready to run until a worker took it (or its first item) up.
+    pub queued_seconds: f64,
     pub reason: Option<String>,
     pub items: Vec<ItemReport>,
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
@@ -116,13 +126,19 @@ impl RunReport {
                 .map(|r| format!("  {}", first_line(r)))
                 .unwrap_or_default();
             s.push_str(&format!(
-                "  {:<w$}  {:<7} {:>8.2}s{items}{reason}\n",
+                "  {:<w$}  {:<7} {:>8.2}s{}{items}{reason}\n",
                 n.id,
                 n.status.as_str(),
-                n.seconds
+                n.seconds,
+                timing_note(n.status, n.queued_seconds)
             ));
             for (k, v) in &n.notes {
                 s.push_str(&format!("  {:<w$}    {k}: {v}\n", ""));
+            }
+            for i in &n.items {
+                for (k, v) in &i.notes {
+                    s.push_str(&format!("  {:<w$}    [{}] {k}: {v}\n", "", i.name));
+                }
             }
             for i in n
                 .items
@@ -149,6 +165,23 @@ impl RunReport {
             self.jobs
         ));
         s
+    }
+}
+
+/// After the seconds column: where a cached time comes from, and queue waiting worth
+/// mentioning (under 0.05 s it is scheduling noise).
+fn timing_note(status: Status, queued: f64) -> String {
+    let mut parts = Vec::new();
+    if status == Status::Cached {
+        parts.push("when produced".to_string());
+    }
+    if queued >= 0.05 {
+        parts.push(format!("queued {queued:.2}s"));
+    }
+    if parts.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", parts.join(", "))
     }
 }
 

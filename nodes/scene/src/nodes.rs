@@ -3,7 +3,7 @@
 //!
 //! (`report` is registered by `objectsplat-export`, which owns the report library.)
 
-use crate::edit::{apply_edits, parse_edits};
+use crate::edit::{apply_edits, edit_item_problem, parse_edits};
 use crate::evaluate::{EvaluateSettings, GroundTruth, GtSurface, evaluate_scene};
 use crate::render::{Backdrop, focus_bounds, orbit_cameras, render_view};
 use crate::scene::{
@@ -17,7 +17,10 @@ use objectsplat_export::viewer::{ViewerCamera, ViewerMember, ViewerScene, write_
 use objectsplat_export::{ExportObject, ExportedComponent, SrgbColors, build_glb};
 use objectsplat_metrics::{Lpips, MeshEvalParams, SampleCount, SsimMode};
 use objectsplat_raster::load_model;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, Value};
+use objectsplat_runtime::{
+    CheckedInput, Context, Node, NodeSpec, Outcome, ParamError, ParamType, Params, Registry, Value,
+};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -121,6 +124,59 @@ impl Node for EditScene {
             .optional_input("fills", "Images", "per-frame inpainted background images (<frame stem>.png)")
             .output("scene", "Scene", "the edited scene")
             .param("edits", ParamType::Ron("list of edits".into()), Some("[]"), EDITS_DOC)
+    }
+
+    /// Every edit's kind and fields, before anything runs.
+    fn check_params(&self, params: &Params) -> Vec<ParamError> {
+        match params.value("edits") {
+            Some(Value::List(items)) => items
+                .iter()
+                .enumerate()
+                .filter_map(|(i, item)| {
+                    let (field, message) = edit_item_problem(item)?;
+                    let path = std::iter::once(i.to_string()).chain(field);
+                    Some(ParamError::new("edits", message).at(path))
+                })
+                .collect(),
+            Some(other) => vec![ParamError::new(
+                "edits",
+                format!("expected a list of edits, found {}", other.shape()),
+            )],
+            None => Vec::new(),
+        }
+    }
+
+    fn checked_inputs(&self) -> Vec<CheckedInput> {
+        vec![CheckedInput {
+            port: "scene".into(),
+            what: "edit targets (ids, labels, member names)".into(),
+        }]
+    }
+
+    /// Each edit's target against the scene as the edits before it leave it.
+    fn check_with_inputs(
+        &self,
+        params: &Params,
+        inputs: &BTreeMap<String, PathBuf>,
+    ) -> Result<Vec<ParamError>> {
+        let (Some(Value::List(items)), Some(dir)) = (params.value("edits"), inputs.get("scene"))
+        else {
+            return Ok(Vec::new());
+        };
+        let Ok(edits) = parse_edits(items) else {
+            // check_params reports malformed edits.
+            return Ok(Vec::new());
+        };
+        let mut scene = load_scene(dir)?;
+        for (i, edit) in edits.iter().enumerate() {
+            if let Err(e) = apply_edits(&mut scene, std::slice::from_ref(edit)) {
+                let message = format!("{} (in the cached scene)", e.root_cause());
+                return Ok(vec![
+                    ParamError::new("edits", message).at([i.to_string(), "target".into()]),
+                ]);
+            }
+        }
+        Ok(Vec::new())
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
