@@ -257,20 +257,22 @@ impl Node for CompleteSurfacesNode {
             .param("planarity_tolerance", ParamType::float_range(1e-6, 1.0), Some("0.02"), "plane tolerance relative to the surface model's bounding-box diagonal")
             .param("min_plane_fraction", ParamType::float_range(1e-6, 1.0), Some("0.5"), "fraction of the surface's visible face area that must lie on its plane")
             .param("contact_tolerance", ParamType::float_range(1e-6, 1.0), Some("0.03"), "how far an object's base may be from the plane to rest on it, relative to the surface's diagonal")
-            .param("resolution", ParamType::int_range(8, 4096), Some("256"), "grid cells along the surface's longer side")
-            .param("vertex_step", ParamType::int_range(1, 256), Some("4"), "interior vertices of a patch every this many cells")
+            .param("cell_scale", ParamType::float_range(1e-3, 100.0), Some("0.5"), "grid cell side relative to the median edge of the surface's in-plane faces (patch triangles come out about as large as the trained ones)")
+            .param("max_resolution", ParamType::int_range(8, 4096), Some("512"), "most grid cells along the surface's longer side")
+            .param("vertex_step", ParamType::int_range(1, 256), Some("2"), "interior vertices of a patch every this many cells")
             .param("max_hole_fraction", ParamType::float_range(1e-6, 1.0), Some("0.5"), "skip a surface whose hole would take more than this fraction of its outline")
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let resolution: i64 = ctx.param("resolution")?;
+        let max_resolution: i64 = ctx.param("max_resolution")?;
         let vertex_step: i64 = ctx.param("vertex_step")?;
         let params = SurfaceMeshParams {
             planarity_tolerance: ctx.param("planarity_tolerance")?,
             min_plane_fraction: ctx.param("min_plane_fraction")?,
             contact_tolerance: ctx.param("contact_tolerance")?,
             // Both are range-checked by the param types above.
-            resolution: resolution as usize,
+            cell_scale: ctx.param("cell_scale")?,
+            max_resolution: max_resolution as usize,
             vertex_step: vertex_step as usize,
             max_hole_fraction: ctx.param("max_hole_fraction")?,
         };

@@ -12,9 +12,11 @@
 //!    `planarity_tolerance` × its extent of the plane. The normal points to the side
 //!    most of the surface's frames look from.
 //! 2. **Outline.** The inlier faces are rasterized into a grid of square cells on the
-//!    plane (`resolution` cells along the longer side); gaps of one cell are closed,
-//!    and the convex hull of the largest connected part is the surface's outline.
-//!    Nothing is ever added outside it.
+//!    plane; a cell is `cell_scale` × the median edge of those faces (so the patch's
+//!    triangles are as large as the trained ones and render like them), but at most
+//!    `max_resolution` cells along the longer side. Gaps of one cell are closed, and
+//!    the convex hull of the largest connected part is the surface's outline. Nothing
+//!    is ever added outside it.
 //! 3. **Hole.** Every other object whose lowest visible vertices above the outline lie
 //!    within `contact_tolerance` × the extent of the plane rests on the surface; the
 //!    shadow of its parts above the plane, dilated by two cells, is its footprint. The
@@ -61,6 +63,8 @@ use triangulate::triangulate_cells;
 pub const METADATA_KEY: &str = "surface_completion_3d";
 /// A surface model with fewer visible faces cannot be tested for planarity.
 pub const MIN_SURFACE_FACES: usize = 16;
+/// Fewest grid cells along the longer side of a surface.
+pub const MIN_RESOLUTION: usize = 8;
 /// Hole fragments smaller than this many cells are dropped (slivers along seams).
 pub const MIN_HOLE_CELLS: usize = 4;
 /// Footprints are dilated by this many cells to close the seam around an object's base.
@@ -78,8 +82,10 @@ pub struct SurfaceMeshParams {
     /// How far (relative to the outline's diagonal) an object's base may be from the
     /// plane for it to rest on the surface.
     pub contact_tolerance: f64,
-    /// Grid cells along the longer side of the surface.
-    pub resolution: usize,
+    /// Grid cell side relative to the median edge of the surface's in-plane faces.
+    pub cell_scale: f64,
+    /// Most grid cells along the longer side of the surface.
+    pub max_resolution: usize,
     /// Interior vertices every this many cells.
     pub vertex_step: usize,
     /// Largest fraction of the outline the hole may take.
@@ -92,8 +98,9 @@ impl Default for SurfaceMeshParams {
             planarity_tolerance: 0.02,
             min_plane_fraction: 0.5,
             contact_tolerance: 0.03,
-            resolution: 256,
-            vertex_step: 4,
+            cell_scale: 0.5,
+            max_resolution: 512,
+            vertex_step: 2,
             max_hole_fraction: 0.5,
         }
     }
@@ -205,8 +212,11 @@ fn check_params(p: &SurfaceMeshParams) -> Result<()> {
             p.max_hole_fraction
         );
     }
-    if !(8..=4096).contains(&p.resolution) {
-        bail!("resolution = {} must be in 8..=4096", p.resolution);
+    if !(p.cell_scale.is_finite() && p.cell_scale > 0.0 && p.cell_scale <= 100.0) {
+        bail!("cell_scale = {} must be in (0, 100]", p.cell_scale);
+    }
+    if !(8..=4096).contains(&p.max_resolution) {
+        bail!("max_resolution = {} must be in 8..=4096", p.max_resolution);
     }
     if !(1..=256).contains(&p.vertex_step) {
         bail!("vertex_step = {} must be in 1..=256", p.vertex_step);
@@ -337,7 +347,16 @@ fn complete_one(
         (DVec2::splat(f64::INFINITY), DVec2::splat(f64::NEG_INFINITY)),
         |(lo, hi), q| (lo.min(*q), hi.max(*q)),
     );
-    let grid = Grid::covering(lo, hi, params.resolution, FOOTPRINT_MARGIN_CELLS + 2);
+    let extent = (hi - lo).max_element();
+    let mut edges: Vec<f64> = projected
+        .iter()
+        .flat_map(|t| (0..3).map(move |k| (t[(k + 1) % 3] - t[k]).length()))
+        .collect();
+    edges.sort_by(f64::total_cmp);
+    let median_edge = edges[edges.len() / 2];
+    let resolution = ((extent / (params.cell_scale * median_edge)).ceil() as usize)
+        .clamp(MIN_RESOLUTION, params.max_resolution);
+    let grid = Grid::covering(lo, hi, resolution, FOOTPRINT_MARGIN_CELLS + 2);
     let mut covered = vec![false; grid.len()];
     for t in &projected {
         grid.fill_triangle(t.map(|q| grid.to_cells(q)), &mut covered);
@@ -483,23 +502,30 @@ fn views_with_surface(surface: &ComponentDir) -> Result<usize> {
     Ok(views)
 }
 
-/// Area-weighted least-squares plane through the faces within `tolerance` of the
+/// Weighted least-squares plane through the faces within `tolerance` of the
 /// RANSAC plane: the smallest-variance direction of their centroids, found by power
 /// iteration on `trace·I − covariance` from the RANSAC normal.
 fn refine_plane(faces: &[Face], normal: DVec3, offset: f64, tolerance: f64) -> (DVec3, f64) {
-    let inliers: Vec<&Face> = faces
+    // Faces across the plane (a rim, a leg's top) say little about its tilt: each face
+    // weighs its area times how parallel it is to the RANSAC plane.
+    let weighted: Vec<(DVec3, f64)> = faces
         .iter()
         .filter(|f| (normal.dot(f.centroid) - offset).abs() <= tolerance && f.area > 0.0)
+        .map(|f| {
+            let n = (f.corners[1] - f.corners[0]).cross(f.corners[2] - f.corners[0]);
+            (f.centroid, f.area * n.normalize_or_zero().dot(normal).abs())
+        })
+        .filter(|(_, w)| *w > 0.0)
         .collect();
-    let weight: f64 = inliers.iter().map(|f| f.area).sum();
-    if inliers.len() < 3 || weight <= 0.0 {
+    let weight: f64 = weighted.iter().map(|(_, w)| w).sum();
+    if weighted.len() < 3 || weight <= 0.0 {
         return (normal, offset);
     }
-    let mean = inliers.iter().map(|f| f.centroid * f.area).sum::<DVec3>() / weight;
+    let mean = weighted.iter().map(|(c, w)| *c * *w).sum::<DVec3>() / weight;
     let mut cov = DMat3::ZERO;
-    for f in &inliers {
-        let d = f.centroid - mean;
-        cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z) * f.area;
+    for (c, w) in &weighted {
+        let d = *c - mean;
+        cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z) * *w;
     }
     let cov = cov * (1.0 / weight);
     let trace = cov.x_axis.x + cov.y_axis.y + cov.z_axis.z;
