@@ -5,9 +5,10 @@
 //! `completion.json`, which says it is a planar support surface), the matching scene
 //! member's model is completed:
 //!
-//! 1. **Plane.** RANSAC ([`fit_plane`]) over the centroids of the model's visible faces
-//!    (and, when points are given, the scene points on the surface's pixels), refined by
-//!    an area-weighted least-squares fit to the inlier faces. The surface must be
+//! 1. **Plane.** RANSAC ([`fit_plane`]) over the centroids of the model's visible faces,
+//!    refined by a least-squares fit to the inlier faces (weighted by area and by how
+//!    parallel they lie to the plane) and, when points are given, the inlier scene
+//!    points on the surface's pixels. The surface must be
 //!    planar: at least `min_plane_fraction` of its visible face area within
 //!    `planarity_tolerance` × its extent of the plane. The normal points to the side
 //!    most of the surface's frames look from.
@@ -303,18 +304,22 @@ fn complete_one(
             ),
         );
     }
-    let mut samples: Vec<DVec3> = faces.iter().map(|f| f.centroid).collect();
-    if let Some(points) = points {
-        samples.extend(surface_points(surface, points)?);
-    }
-    let Some(fit) = fit_plane(&samples, params.planarity_tolerance, RANSAC_ITERATIONS) else {
+    // The plane and its tolerance come from the trained faces alone: scene points on the
+    // surface's pixels can stray (and widen the extent the tolerance scales with), so
+    // they only join the refinement, where they are within the tolerance.
+    let centroids: Vec<DVec3> = faces.iter().map(|f| f.centroid).collect();
+    let surface_points = match points {
+        Some(points) => surface_points(surface, points)?,
+        None => Vec::new(),
+    };
+    let Some(fit) = fit_plane(&centroids, params.planarity_tolerance, RANSAC_ITERATIONS) else {
         return skip(
             &mut outcome,
             "the trained surface's faces are collinear; no plane fits them".into(),
         );
     };
     let tolerance = fit.tolerance;
-    let (normal, offset) = refine_plane(&faces, fit.normal, fit.offset, tolerance);
+    let (normal, offset) = refine_plane(&faces, &surface_points, fit.normal, fit.offset, tolerance);
     let total_area: f64 = faces.iter().map(|f| f.area).sum();
     let inliers: Vec<&Face> = faces
         .iter()
@@ -392,7 +397,10 @@ fn complete_one(
     if outcome.resting.is_empty() {
         return skip(
             &mut outcome,
-            "no object rests on the surface: nothing can have hidden part of it".into(),
+            format!(
+                "no object rests on the surface: nothing can have hidden part of it ({:.0}% of its visible area on its plane)",
+                fraction * 100.0
+            ),
         );
     }
     let footprint = grid.dilate(&footprint, FOOTPRINT_MARGIN_CELLS);
@@ -502,13 +510,19 @@ fn views_with_surface(surface: &ComponentDir) -> Result<usize> {
     Ok(views)
 }
 
-/// Weighted least-squares plane through the faces within `tolerance` of the
-/// RANSAC plane: the smallest-variance direction of their centroids, found by power
-/// iteration on `trace·I − covariance` from the RANSAC normal.
-fn refine_plane(faces: &[Face], normal: DVec3, offset: f64, tolerance: f64) -> (DVec3, f64) {
+/// Weighted least-squares plane through the faces and points within `tolerance` of
+/// the RANSAC plane: the smallest-variance direction of their centroids (and the
+/// points), found by power iteration on `trace·I − covariance` from the RANSAC normal.
+fn refine_plane(
+    faces: &[Face],
+    points: &[DVec3],
+    normal: DVec3,
+    offset: f64,
+    tolerance: f64,
+) -> (DVec3, f64) {
     // Faces across the plane (a rim, a leg's top) say little about its tilt: each face
     // weighs its area times how parallel it is to the RANSAC plane.
-    let weighted: Vec<(DVec3, f64)> = faces
+    let mut weighted: Vec<(DVec3, f64)> = faces
         .iter()
         .filter(|f| (normal.dot(f.centroid) - offset).abs() <= tolerance && f.area > 0.0)
         .map(|f| {
@@ -517,6 +531,16 @@ fn refine_plane(faces: &[Face], normal: DVec3, offset: f64, tolerance: f64) -> (
         })
         .filter(|(_, w)| *w > 0.0)
         .collect();
+    // A point weighs as much as a typical face.
+    let mut areas: Vec<f64> = weighted.iter().map(|(_, w)| *w).collect();
+    areas.sort_by(f64::total_cmp);
+    let point_weight = areas.get(areas.len() / 2).copied().unwrap_or(0.0);
+    weighted.extend(
+        points
+            .iter()
+            .filter(|p| (normal.dot(**p) - offset).abs() <= tolerance)
+            .map(|p| (*p, point_weight)),
+    );
     let weight: f64 = weighted.iter().map(|(_, w)| w).sum();
     if weighted.len() < 3 || weight <= 0.0 {
         return (normal, offset);
