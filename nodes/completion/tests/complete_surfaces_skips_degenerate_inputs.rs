@@ -15,15 +15,22 @@ use room::{Room, Soup, TABLE_TOP, id_of, object_faces, soup, subdivide};
 use std::path::Path;
 
 fn run(room: &Room, scene: &Scene, components: &Path, name: &str) -> NodeRun {
+    run_with(room, scene, components, name, true)
+}
+
+fn run_with(room: &Room, scene: &Scene, components: &Path, name: &str, points: bool) -> NodeRun {
     let dir = room::write_scene(scene, &room.root.path().join(format!("{name}_in")));
+    let mut inputs: Vec<(&str, &Path)> = vec![
+        ("scene", &dir),
+        ("components", components),
+        ("frames", &room.frames),
+    ];
+    if points {
+        inputs.push(("points", &room.points));
+    }
     let run = run_node(
         &CompleteSurfacesNode,
-        &[
-            ("scene", &dir),
-            ("components", components),
-            ("frames", &room.frames),
-            ("points", &room.points),
-        ],
+        &inputs,
         "()",
         &room.root.path().join(format!("{name}_out")),
         None,
@@ -170,8 +177,11 @@ fn a_table_that_is_not_planar() {
         })
         .collect();
     let scene = room::trained_scene_with_table(&room, room::model_of(&bowl));
-    let out = run(&room, &scene, &room.completed, "bowl");
+    // Without points the trained faces decide (the room's points would say the real,
+    // flat table is planar).
+    let out = run_with(&room, &scene, &room.completed, "bowl", false);
     skipped_because(&out, "not planar");
+    skipped_because(&out, "of its visible area");
 }
 
 fn copy_tree(src: &Path, dst: &Path) {

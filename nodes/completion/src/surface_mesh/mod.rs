@@ -304,9 +304,10 @@ fn complete_one(
             ),
         );
     }
-    // The plane and its tolerance come from the trained faces alone: scene points on the
-    // surface's pixels can stray (and widen the extent the tolerance scales with), so
-    // they only join the refinement, where they are within the tolerance.
+    // The plane and its tolerance come from the trained faces alone: the scene points
+    // on the surface's pixels are chosen without a depth test, so they include what the
+    // surface hides (the floor under a table, often the larger plane); they only join
+    // the refinement, where they are within the tolerance of the faces' plane.
     let centroids: Vec<DVec3> = faces.iter().map(|f| f.centroid).collect();
     let surface_points = match points {
         Some(points) => surface_points(surface, points)?,
@@ -331,7 +332,7 @@ fn complete_one(
         return skip(
             &mut outcome,
             format!(
-                "not planar: {:.0}% of the visible surface lies within {tolerance:.3} of its best plane (need {:.0}%)",
+                "not planar: {:.0}% of its visible area lies within {tolerance:.3} of its best plane (need {:.0}%)",
                 fraction * 100.0,
                 params.min_plane_fraction * 100.0
             ),
