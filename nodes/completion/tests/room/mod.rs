@@ -47,17 +47,16 @@ pub fn id_of(labels: &ObjectLabels, label: &str) -> u16 {
         .0
 }
 
+/// The small room of the tests: 12 views of 128×96.
 pub fn build() -> Room {
+    build_with("(views: 12, width: 128, height: 96, split: \"all\", points: 2000, supersample: 1)")
+}
+
+/// The room with `synthetic_scene` params (RON struct text).
+pub fn build_with(scene_params: &str) -> Room {
     let root = tempfile::tempdir().unwrap();
     let out = |name: &str| root.path().join(name);
-    let scene = run_node(
-        &SyntheticSceneNode,
-        &[],
-        "(views: 12, width: 128, height: 96, split: \"all\", points: 2000, supersample: 1)",
-        &out("scene"),
-        None,
-    )
-    .unwrap();
+    let scene = run_node(&SyntheticSceneNode, &[], scene_params, &out("scene"), None).unwrap();
     let (frames, mesh_dir, points) = (
         scene.outputs["frames"].clone(),
         scene.outputs["mesh"].clone(),
