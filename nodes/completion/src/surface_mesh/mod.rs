@@ -5,13 +5,18 @@
 //! `completion.json`, which says it is a planar support surface), the matching scene
 //! member's model is completed:
 //!
+//! All of it happens in the frame the surface was trained in (a member's model frame is
+//! the capture's world), so placements from edits do not matter; resting objects are
+//! taken where they were trained too, which is where they hid the surface.
+//!
 //! 1. **Plane.** RANSAC ([`fit_plane`]) over the centroids of the model's visible faces,
-//!    refined by a least-squares fit to the inlier faces (weighted by area and by how
-//!    parallel they lie to the plane) and, when points are given, the inlier scene
-//!    points on the surface's pixels. The surface must be
-//!    planar: at least `min_plane_fraction` of its visible face area within
-//!    `planarity_tolerance` × its extent of the plane. The normal points to the side
-//!    most of the surface's frames look from.
+//!    with a tolerance of `planarity_tolerance` × their bounding-box diagonal, refined by
+//!    a least-squares fit to the inlier faces (weighted by area and by how parallel they
+//!    lie to the plane) and, when points are given, the inlier scene points on the
+//!    surface's pixels (they never choose the plane: picked without a depth test, they
+//!    include the floor under a table). The surface must be planar: at least
+//!    `min_plane_fraction` of its visible face area on the plane. The normal points to
+//!    the side most of the surface's frames look from.
 //! 2. **Outline.** The inlier faces are rasterized into a grid of square cells on the
 //!    plane; a cell is `cell_scale` × the median edge of those faces (so the patch's
 //!    triangles are as large as the trained ones and render like them), but at most
@@ -19,7 +24,7 @@
 //!    the convex hull of the largest connected part is the surface's outline. Nothing
 //!    is ever added outside it.
 //! 3. **Hole.** Every other object whose lowest visible vertices above the outline lie
-//!    within `contact_tolerance` × the extent of the plane rests on the surface; the
+//!    within `contact_tolerance` × the outline's diagonal rests on the surface; the
 //!    shadow of its parts above the plane, dilated by two cells, is its footprint. The
 //!    hole is the part of the outline under footprints that the surface's faces do not
 //!    cover (fragments under four cells are dropped).
