@@ -38,6 +38,7 @@ mod tests {
             "inpaint",
             "fill_holes",
             "surface_completion",
+            "complete_surfaces",
             "inpaint_background",
             "report",
             "compose",

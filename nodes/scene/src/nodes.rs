@@ -344,8 +344,8 @@ pub struct Evaluate;
 
 impl Node for Evaluate {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("evaluate", "3")
-            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id. Writes metrics.json and metrics.csv.")
+        NodeSpec::new("evaluate", "4")
+            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id (per object also at each of object_taus). Writes metrics.json and metrics.csv.")
             .input("images", "Images", "renders of the test frames (<frame stem>.png)")
             .input("frames", "Frames", "the capture; its test split is the ground truth")
             .input("scene", "Scene", "the scene whose surface is scored")
@@ -353,6 +353,7 @@ impl Node for Evaluate {
             .optional_input("masks", "Masks", "ground-truth object-id maps of the test frames, for per-object image metrics")
             .output("metrics", "Metrics", "metrics.json + metrics.csv")
             .param("tau", ParamType::float_range(1e-6, 10.0), Some("0.05"), "F-score distance threshold (m)")
+            .param("object_taus", ParamType::list(ParamType::float_range(1e-6, 10.0)), Some("[0.05, 0.02]"), "more thresholds (m) at which every object's precision, recall and F-score are reported (metrics.json objects[].thresholds)")
             .param("voxel", ParamType::float_range(1e-6, 10.0), Some("0.02"), "voxel size for down-sampling both point sets (m)")
             .param("samples", ParamType::float_range(1.0, 1e8), Some("10000.0"), "surface samples per square metre")
             .param("seed", ParamType::int_range(0, i64::MAX), Some("0"), "seed of the surface sampling")
@@ -407,6 +408,7 @@ impl Node for Evaluate {
                 // The param range is 1..; a cap beyond usize (32-bit) saturates.
                 max_samples: usize::try_from(max_samples).unwrap_or(usize::MAX),
             },
+            object_taus: ctx.param("object_taus")?,
             ssim,
             lpips: lpips.as_ref(),
             gt_surface: match ctx.param::<String>("gt_surface")?.as_str() {
@@ -432,6 +434,22 @@ impl Node for Evaluate {
         );
         if gt_mesh.is_none() {
             ctx.note("mesh F-score", "skipped: no ground-truth mesh wired");
+        }
+        for o in report.objects.iter().filter(|o| !o.thresholds.is_empty()) {
+            let scores: Vec<String> = o
+                .thresholds
+                .iter()
+                .map(|t| {
+                    let show = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3}"));
+                    format!(
+                        "τ {} cm: P {} R {}",
+                        t.tau * 100.0,
+                        show(t.precision),
+                        show(t.recall)
+                    )
+                })
+                .collect();
+            ctx.note(&format!("object {} {}", o.id, o.label), scores.join(", "));
         }
         Ok(Outcome::Done)
     }
