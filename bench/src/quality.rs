@@ -89,6 +89,12 @@ const VARIANTS: &[Variant] = &[
         params: "",
     },
     Variant {
+        name: "no_point_depth",
+        what: "no depth loss at the measured points",
+        layout: Layout::BehindObjects,
+        params: r#"schedule: {"point_depth_weight": 0}"#,
+    },
+    Variant {
         name: "reference_lr",
         what: "the reference's vertex learning rates (1.5e-3 → 1.5e-5)",
         layout: Layout::BehindObjects,

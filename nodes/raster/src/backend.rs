@@ -44,6 +44,11 @@ impl PixelRect {
         self.width() as usize * self.height() as usize
     }
 
+    /// Whether pixel (`x`, `y`) lies inside.
+    pub fn contains(&self, x: u32, y: u32) -> bool {
+        (self.x0..self.x1).contains(&x) && (self.y0..self.y1).contains(&y)
+    }
+
     /// The smallest rectangle holding both (an empty one adds nothing).
     pub fn union(self, o: PixelRect) -> PixelRect {
         if self.is_empty() {

@@ -532,6 +532,7 @@ mod tests {
             kind: ComponentKind::Object,
             views,
             occluders: None,
+            depth_points: Vec::new(),
         };
         (model, data)
     }
@@ -567,7 +568,7 @@ mod tests {
         let render = RenderSettings::for_model(&model);
         for crop in [true, false] {
             let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], &optim, crop).unwrap();
-            let mut host = HostSteps::new(&cpu, &data, crop).unwrap();
+            let mut host = HostSteps::new(&cpu, &data, crop, false).unwrap();
             for views in [&[3usize][..], &[0, 1, 2, 3][..]] {
                 let got = device
                     .evaluate(&model, &optim, &data, views, render.clone())
@@ -598,7 +599,7 @@ mod tests {
         let slots = [1usize, 0];
 
         let (mut host_model, mut host_optim) = (model.clone(), optim(&model));
-        let mut host = HostSteps::new(&cpu, &data, true).unwrap();
+        let mut host = HostSteps::new(&cpu, &data, true, false).unwrap();
         let mut host_stats = FaceWeights::new(model.face_count());
         let mut host_losses = Vec::new();
         for (&slot, &b) in slots.iter().zip(&backgrounds) {
@@ -610,6 +611,7 @@ mod tests {
                     slot,
                     b,
                     &render,
+                    0.0,
                     &mut host_stats,
                 )
                 .unwrap(),

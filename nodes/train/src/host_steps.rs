@@ -11,6 +11,7 @@
 
 use crate::face_stats::FaceWeights;
 use crate::optim::Optim;
+use crate::point_depth::PointDepth;
 use crate::supervision::{ComponentData, ViewSummary, fill_region};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::Camera;
@@ -206,6 +207,11 @@ pub(crate) struct HostSteps<'a> {
     steps: u64,
     rendered: f64,
     composite: Option<Composite>,
+    /// Depth supervision at measured points (none kept when it is off).
+    point_depth: PointDepth,
+    /// Reused dL/ddepth and dL/dalpha planes of the depth loss.
+    d_depth: Vec<f32>,
+    d_alpha: Vec<f32>,
 }
 
 impl<'a> HostSteps<'a> {
@@ -213,7 +219,13 @@ impl<'a> HostSteps<'a> {
         backend: &'a dyn RenderBackend<f32>,
         data: &ComponentData,
         crop: bool,
+        depth_supervised: bool,
     ) -> Result<Self> {
+        let point_depth = if depth_supervised {
+            PointDepth::new(&data.depth_points, data)
+        } else {
+            PointDepth::default()
+        };
         Ok(HostSteps {
             renderer: Renderer::new(backend),
             loss: PhotometricLoss::new(),
@@ -228,6 +240,9 @@ impl<'a> HostSteps<'a> {
             steps: 0,
             rendered: 0.0,
             composite: data.occluders.as_ref().map(Composite::new).transpose()?,
+            point_depth,
+            d_depth: Vec::new(),
+            d_alpha: Vec::new(),
         })
     }
 
@@ -327,8 +342,9 @@ impl<'a> HostSteps<'a> {
         Ok((value.total, squared))
     }
 
-    /// One iteration: render view `view` over `b`, loss, backward, Adam.
-    /// The render's per-face weights go into `stats`. Returns the loss.
+    /// One iteration: render view `view` over `b`, loss (with the depth loss at
+    /// weight `depth_weight`), backward, Adam. The render's per-face weights go
+    /// into `stats`. Returns the photometric loss.
     #[allow(clippy::too_many_arguments)]
     pub fn step(
         &mut self,
@@ -338,6 +354,7 @@ impl<'a> HostSteps<'a> {
         view: usize,
         b: [f32; 3],
         render: &RenderSettings,
+        depth_weight: f64,
         stats: &mut FaceWeights,
     ) -> Result<f64> {
         let (loss, _) = self.render_and_score(model, data, view, b, render, true)?;
@@ -357,9 +374,37 @@ impl<'a> HostSteps<'a> {
             Some(c) => &c.merged,
             None => &*model,
         };
-        let grads = self
-            .renderer
-            .backward(rendered, &OutputGrads::color_only(&self.loss.grad))?;
+        let with_depth = depth_weight > 0.0 && self.point_depth.count(view) > 0;
+        let grads = if with_depth {
+            let out = match &self.renderer {
+                Renderer::Cpu { ws, .. } => &ws.output,
+                Renderer::Other(r) => &r.out,
+            };
+            let pixels = out.region.pixels();
+            self.d_depth.clear();
+            self.d_depth.resize(pixels, 0.0);
+            self.d_alpha.clear();
+            self.d_alpha.resize(pixels, 0.0);
+            self.point_depth.add_gradient(
+                view,
+                out,
+                depth_weight,
+                &mut self.d_depth,
+                &mut self.d_alpha,
+            );
+            self.renderer.backward(
+                rendered,
+                &OutputGrads {
+                    color: &self.loss.grad,
+                    alpha: Some(&self.d_alpha),
+                    depth: Some(&self.d_depth),
+                    median_depth: None,
+                },
+            )?
+        } else {
+            self.renderer
+                .backward(rendered, &OutputGrads::color_only(&self.loss.grad))?
+        };
         optim.step(model, grads)?;
         Ok(loss)
     }

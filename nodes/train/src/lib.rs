@@ -21,6 +21,7 @@ mod host_steps;
 pub mod hull;
 pub mod init;
 pub mod optim;
+pub mod point_depth;
 pub mod schedule;
 
 pub use adam::{Adam, LogLinearDecay};

@@ -67,7 +67,7 @@ pub struct TrainNode;
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("train", "5")
+        NodeSpec::new("train", "6")
             .doc(
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
@@ -276,6 +276,7 @@ impl Node for TrainNode {
                 )
             },
         );
+        data.depth_points = points.positions[..points.positions.len() - seeded].to_vec();
         if data.kind == ComponentKind::Background && !occluders.is_empty() {
             let models = occluders
                 .iter()

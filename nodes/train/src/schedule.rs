@@ -88,6 +88,11 @@ pub struct Schedule {
     /// After training, faces whose max blending weight over the training views is ≤ this are removed.
     pub final_prune_threshold: f64,
 
+    /// Weight of the depth loss at the component's measured points (see
+    /// `crate::point_depth`), log-linear from start to end over the run; 0 turns it off.
+    pub point_depth_weight: f64,
+    pub point_depth_weight_end: f64,
+
     /// Held-out evaluation (best checkpoint) every this many iterations.
     pub eval_every: u64,
     /// Early stop when the held-out score has not improved for this many iterations
@@ -165,6 +170,8 @@ impl Schedule {
             connectivity_at: at(11_000) + 1,
             connectivity_cleanup_threshold: 0.02,
             final_prune_threshold: 0.5,
+            point_depth_weight: 1.0,
+            point_depth_weight_end: 1.0,
             eval_every: every(500),
             patience: every(3000),
         }
@@ -215,6 +222,8 @@ impl Schedule {
             ("densify_growth", self.densify_growth),
             ("densify_min_area", self.densify_min_area),
             ("final_prune_threshold", self.final_prune_threshold),
+            ("point_depth_weight", self.point_depth_weight),
+            ("point_depth_weight_end", self.point_depth_weight_end),
             ("densify_min_inradius", self.densify_min_inradius),
             (
                 "connectivity_cleanup_threshold",
@@ -254,6 +263,19 @@ impl Schedule {
         crate::adam::LogLinearDecay {
             start: self.lr_vertices_start,
             end: self.lr_vertices_end,
+            total: self.iterations,
+        }
+        .at(it)
+    }
+
+    /// The depth loss's weight at iteration `it` (0 when either end is 0: off).
+    pub fn point_depth_weight(&self, it: u64) -> f64 {
+        if self.point_depth_weight <= 0.0 || self.point_depth_weight_end <= 0.0 {
+            return 0.0;
+        }
+        crate::adam::LogLinearDecay {
+            start: self.point_depth_weight,
+            end: self.point_depth_weight_end,
             total: self.iterations,
         }
         .at(it)

@@ -35,6 +35,9 @@ pub struct ComponentData {
     /// Trained objects rendered, frozen, with the background (their union, see
     /// `Model::union`); only for the background component.
     pub occluders: Option<objectsplat_raster::Model<f32>>,
+    /// Measured points on this component's surfaces (its SfM or scanner points,
+    /// not seeds), which supervise depth (see `crate::point_depth`).
+    pub depth_points: Vec<[f32; 3]>,
 }
 
 impl ComponentData {
@@ -80,6 +83,7 @@ impl ComponentData {
             kind: masks.info.kind,
             views,
             occluders: None,
+            depth_points: Vec::new(),
         })
     }
 

@@ -200,7 +200,7 @@ pub fn held_out_eval(
     data: &ComponentData,
     settings: &TrainSettings,
 ) -> Result<HeldOut> {
-    HostSteps::new(backend, data, settings.crop)?.evaluate(
+    HostSteps::new(backend, data, settings.crop, false)?.evaluate(
         model,
         data,
         &evaluation_views(data),
@@ -331,13 +331,24 @@ pub fn train_component(
     )
     .with_context(|| format!("initializing component {:?}", data.name))?;
     let mut optim = Optim::new(s, model.vertex_count())?;
+    let depth_supervised = s.point_depth_weight(0) > 0.0 && !data.depth_points.is_empty();
+    let mut notes = Vec::new();
+    if depth_supervised {
+        notes.push(format!(
+            "depth loss at {} measured points, weight {} → {}",
+            data.depth_points.len(),
+            s.point_depth_weight,
+            s.point_depth_weight_end
+        ));
+    }
     // On a wgpu backend the iterations run on the device; everything else stays here.
     // Training behind frozen occluders renders a composite, which only the host path builds.
     let mut device = match backend
         .as_any()
         .and_then(|b| b.downcast_ref::<WgpuBackend>())
     {
-        Some(gpu) if data.occluders.is_none() => Some(DeviceSteps::new(
+        // Depth supervision at measured points, too, is built only on the host.
+        Some(gpu) if data.occluders.is_none() && !depth_supervised => Some(DeviceSteps::new(
             gpu,
             data,
             &train,
@@ -345,9 +356,18 @@ pub fn train_component(
             &optim,
             settings.crop,
         )?),
+        Some(_) if depth_supervised && data.occluders.is_none() => {
+            notes.push(
+                "wgpu renders each step, but the steps run on the host path: the depth loss at \
+                 measured points is not built on the device (schedule point_depth_weight: 0 \
+                 keeps the steps on the device)"
+                    .into(),
+            );
+            None
+        }
         _ => None,
     };
-    let mut host = HostSteps::new(backend, data, settings.crop)?;
+    let mut host = HostSteps::new(backend, data, settings.crop, depth_supervised)?;
     let mut rng = Pcg64Mcg::seed_from_u64(settings.seed ^ 0x9e37_79b9_7f4a_7c15);
     let mut order = ViewOrder::new(train.len());
     let mut stats = FaceWeights::new(model.face_count());
@@ -366,7 +386,6 @@ pub fn train_component(
     let train_cameras: Vec<&objectsplat_core::Camera> =
         train.iter().map(|&i| &data.views[i].camera).collect();
     let mut best: Option<Snapshot> = None;
-    let mut notes = Vec::new();
     let started = Instant::now();
     // Evaluations before the connectivity step could never be returned (it resets the best).
     let eval_from = if s.connectivity_at < s.iterations {
@@ -584,7 +603,16 @@ pub fn train_component(
             None => {
                 let view = train[slot];
                 let loss = host
-                    .step(&mut model, &mut optim, data, view, b, &render, &mut stats)
+                    .step(
+                        &mut model,
+                        &mut optim,
+                        data,
+                        view,
+                        b,
+                        &render,
+                        s.point_depth_weight(it),
+                        &mut stats,
+                    )
                     .with_context(|| {
                         format!(
                             "training of {:?} diverged at iteration {} (view {:?}; parameters \
