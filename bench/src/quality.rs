@@ -132,7 +132,14 @@ struct Row {
     faces: Option<u64>,
 }
 
-fn graph_text(args: &QualityArgs, w: u32, h: u32, seed: u64, layout: Layout, params: &str) -> String {
+fn graph_text(
+    args: &QualityArgs,
+    w: u32,
+    h: u32,
+    seed: u64,
+    layout: Layout,
+    params: &str,
+) -> String {
     let scene = format!(
         r#""scene": (kind: "synthetic_scene", params: (seed: {}, views: {}, width: {w}, height: {h}, split: "{}")),
     "masks": (kind: "gt_masks", inputs: (frames: "scene.frames", mesh: "scene.mesh")),"#,
@@ -140,7 +147,10 @@ fn graph_text(args: &QualityArgs, w: u32, h: u32, seed: u64, layout: Layout, par
     );
     let train_params = |extra: &str| {
         let sep = if params.is_empty() { "" } else { ", " };
-        format!("iterations: {}, seed: {seed}, checkpoint: \"last\"{extra}{sep}{params}", args.iterations)
+        format!(
+            "iterations: {}, seed: {seed}, checkpoint: \"last\"{extra}{sep}{params}",
+            args.iterations
+        )
     };
     let training = match layout {
         Layout::BehindObjects => format!(
@@ -179,8 +189,10 @@ fn graph_text(args: &QualityArgs, w: u32, h: u32, seed: u64, layout: Layout, par
 
 /// The graph an older binary understands: one train node, no `components`/`occluders`.
 fn baseline_graph(args: &QualityArgs, w: u32, h: u32, seed: u64) -> String {
-    graph_text(args, w, h, seed, Layout::Independent, "")
-        .replace("\n    \"metrics_2cm\"", "\n    // no 2 cm evaluation: older evaluate\n    \"metrics_2cm_unused\"")
+    graph_text(args, w, h, seed, Layout::Independent, "").replace(
+        "\n    \"metrics_2cm\"",
+        "\n    // no 2 cm evaluation: older evaluate\n    \"metrics_2cm_unused\"",
+    )
 }
 
 fn run(binary: &Path, graph: &Path, dir: &Path, jobs: usize) -> Result<Value> {
@@ -204,9 +216,14 @@ fn run(binary: &Path, graph: &Path, dir: &Path, jobs: usize) -> Result<Value> {
         .status()
         .with_context(|| format!("cannot start {}", binary.display()))?;
     if !status.success() {
-        bail!("{} run {} failed ({status})", binary.display(), graph.display());
+        bail!(
+            "{} run {} failed ({status})",
+            binary.display(),
+            graph.display()
+        );
     }
-    let text = std::fs::read_to_string(&json).with_context(|| format!("cannot read {}", json.display()))?;
+    let text = std::fs::read_to_string(&json)
+        .with_context(|| format!("cannot read {}", json.display()))?;
     serde_json::from_str(&text).with_context(|| format!("{} is not JSON", json.display()))
 }
 
@@ -248,15 +265,24 @@ pub fn quality(args: &QualityArgs) -> Result<()> {
             .context("the bench binary has no folder")?
             .join("objectsplat"),
     };
-    std::fs::create_dir_all(&args.out).with_context(|| format!("cannot create {}", args.out.display()))?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut rows = Vec::new();
     let mut runs: Vec<(String, PathBuf, String)> = Vec::new();
     for &seed in &args.seeds {
         for v in &chosen {
-            runs.push((v.name.to_string(), binary.clone(), graph_text(args, w, h, seed, v.layout, v.params)));
+            runs.push((
+                v.name.to_string(),
+                binary.clone(),
+                graph_text(args, w, h, seed, v.layout, v.params),
+            ));
         }
         if let Some(base) = &args.baseline {
-            runs.push(("baseline".into(), base.clone(), baseline_graph(args, w, h, seed)));
+            runs.push((
+                "baseline".into(),
+                base.clone(),
+                baseline_graph(args, w, h, seed),
+            ));
         }
         for (name, bin, text) in runs.drain(..) {
             let tag = format!("{name}-seed{seed}");
@@ -274,13 +300,19 @@ pub fn quality(args: &QualityArgs) -> Result<()> {
                 .filter_map(|n| n["seconds"].as_f64())
                 .sum();
             let out = dir.join("out");
-            let faces = std::fs::read_dir(out.join("train/model")).ok().map(|entries| {
-                entries
-                    .filter_map(|e| e.ok())
-                    .filter_map(|e| objectsplat_raster::TrainingLog::load(&e.path()).ok().flatten())
-                    .map(|l| l.final_faces as u64)
-                    .sum()
-            });
+            let faces = std::fs::read_dir(out.join("train/model"))
+                .ok()
+                .map(|entries| {
+                    entries
+                        .filter_map(|e| e.ok())
+                        .filter_map(|e| {
+                            objectsplat_raster::TrainingLog::load(&e.path())
+                                .ok()
+                                .flatten()
+                        })
+                        .map(|l| l.final_faces as u64)
+                        .sum()
+                });
             let row = Row {
                 variant: name,
                 seed,
@@ -303,7 +335,10 @@ pub fn quality(args: &QualityArgs) -> Result<()> {
             rows.push(row);
         }
     }
-    std::fs::write(args.out.join("quality.json"), serde_json::to_string_pretty(&rows)?)?;
+    std::fs::write(
+        args.out.join("quality.json"),
+        serde_json::to_string_pretty(&rows)?,
+    )?;
     let md = markdown(args, &chosen, &rows)?;
     std::fs::write(args.out.join("quality.md"), &md)?;
     print!("{md}");
@@ -323,16 +358,23 @@ fn markdown(args: &QualityArgs, chosen: &[&Variant], rows: &[Row]) -> Result<Str
          PSNR/SSIM over the test views of the composed scene, F-score against the observed ground-truth surface.\n",
         args.scene, args.views, args.size, args.split, args.iterations, args.seeds
     )?;
-    writeln!(md, "| variant | what | PSNR | SSIM | F (5 cm) | F (2 cm) | train s | faces |")?;
+    writeln!(
+        md,
+        "| variant | what | PSNR | SSIM | F (5 cm) | F (2 cm) | train s | faces |"
+    )?;
     writeln!(md, "|---|---|---:|---:|---:|---:|---:|---:|")?;
     let mut names: Vec<(&str, &str)> = chosen.iter().map(|v| (v.name, v.what)).collect();
     if args.baseline.is_some() {
-        names.push(("baseline", "the code before this round (one train node, its defaults)"));
+        names.push((
+            "baseline",
+            "the code before this round (one train node, its defaults)",
+        ));
     }
     for (name, what) in names {
         let mine: Vec<&Row> = rows.iter().filter(|r| r.variant == name).collect();
         let cell = |f: &dyn Fn(&Row) -> Option<f64>, d: usize| {
-            mean(&mine.iter().map(|r| f(r)).collect::<Vec<_>>()).map_or("–".into(), |v| format!("{v:.d$}"))
+            mean(&mine.iter().map(|r| f(r)).collect::<Vec<_>>())
+                .map_or("–".into(), |v| format!("{v:.d$}"))
         };
         writeln!(
             md,

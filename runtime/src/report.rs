@@ -30,6 +30,13 @@ pub struct ItemReport {
     pub seconds: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+    /// Where it was computed: `local` or `slurm` (a cache hit: where its record says;
+    /// `null` for records older than this field and for items that never ran).
+    pub executor: Option<String>,
+    /// The Slurm job that computed it (`<array job>_<task>`).
+    pub job_id: Option<String>,
+    /// The machine that computed it.
+    pub host: Option<String>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -40,6 +47,10 @@ pub struct NodeReport {
     pub seconds: f64,
     pub reason: Option<String>,
     pub items: Vec<ItemReport>,
+    /// For a node that does not fan out: where it was computed (as for items).
+    pub executor: Option<String>,
+    pub job_id: Option<String>,
+    pub host: Option<String>,
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub notes: BTreeMap<String, String>,
     #[serde(skip_serializing_if = "Vec::is_empty")]

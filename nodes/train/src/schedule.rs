@@ -101,7 +101,10 @@ pub const SHORT_BUDGET: u64 = 3_000;
 /// `(short, reference)` log-interpolated in the budget between
 /// [`SHORT_BUDGET`] and [`REFERENCE_ITERATIONS`] (clamped outside).
 fn by_budget(iterations: u64, short: f64, reference: f64) -> f64 {
-    let (lo, hi) = ((SHORT_BUDGET as f64).ln(), (REFERENCE_ITERATIONS as f64).ln());
+    let (lo, hi) = (
+        (SHORT_BUDGET as f64).ln(),
+        (REFERENCE_ITERATIONS as f64).ln(),
+    );
     let t = (((iterations.max(1)) as f64).ln() - lo) / (hi - lo);
     if t <= 0.0 {
         short

@@ -57,7 +57,10 @@ fn vertex_learning_rates_follow_the_budget() {
     assert!((mid.lr_vertices_start - (4e-3f64 * 1.5e-3).sqrt()).abs() < 1e-4 * 4e-3);
     assert!((mid.lr_vertices_end - (4e-4f64 * 1.5e-5).sqrt()).abs() < 1e-4 * 4e-4);
     let long = Schedule::scaled(100_000);
-    assert_eq!((long.lr_vertices_start, long.lr_vertices_end), (1.5e-3, 1.5e-5));
+    assert_eq!(
+        (long.lr_vertices_start, long.lr_vertices_end),
+        (1.5e-3, 1.5e-5)
+    );
 }
 
 #[test]
