@@ -196,15 +196,23 @@ fn paper(args: &PaperArgs) -> Result<()> {
                             pipeline.name
                         );
                         eprintln!("[bench] {name}");
-                        let sets = [
+                        let source = GraphSource::read(&args.graphs.join(pipeline.graph))?;
+                        let mut sets = vec![
                             format!("scene.seed={scene}"),
                             format!("scene.split=\"{split}\""),
-                            format!("train.seed={seed}"),
-                            format!("train.iterations={}", args.iterations),
-                            format!("train.checkpoint=\"{checkpoint}\""),
                         ];
+                        // Graphs that train the objects first have a second train node.
+                        let train_nodes: &[&str] = if source.text.contains("\"objects\":") {
+                            &["objects", "train"]
+                        } else {
+                            &["train"]
+                        };
+                        for node in train_nodes {
+                            sets.push(format!("{node}.seed={seed}"));
+                            sets.push(format!("{node}.iterations={}", args.iterations));
+                            sets.push(format!("{node}.checkpoint=\"{checkpoint}\""));
+                        }
                         let out = args.out.join("runs").join(&name);
-                        let source = GraphSource::read(&args.graphs.join(pipeline.graph))?;
                         let overrides = sets
                             .iter()
                             .map(|s| Override::parse(s))

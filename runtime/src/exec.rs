@@ -810,6 +810,7 @@ pub(crate) fn execute_inner(
             warnings: vec![],
             threads,
             scratch,
+            resume: store.resume_dir(&job.key),
             progress: opts.observer.as_ref(),
             cancel,
         };
@@ -892,6 +893,11 @@ pub(crate) fn execute_inner(
             ran_on: Some(ran_on.clone()),
         };
         store.put_action(&rec)?;
+        // The action is stored: progress saved for a resume is no longer needed.
+        let resume = store.resume_dir(&job.key);
+        if resume.exists() {
+            let _ = std::fs::remove_dir_all(&resume);
+        }
         Ok((rec, false))
     })();
     let _ = std::fs::remove_dir_all(&stage);

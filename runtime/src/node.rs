@@ -205,6 +205,7 @@ pub struct Context<'a> {
     pub(crate) warnings: Vec<String>,
     pub(crate) threads: usize,
     pub(crate) scratch: PathBuf,
+    pub(crate) resume: PathBuf,
     pub(crate) progress: &'a dyn ProgressSink,
     pub(crate) cancel: &'a AtomicBool,
 }
@@ -282,6 +283,15 @@ impl<'a> Context<'a> {
     /// A private scratch folder, deleted after the run.
     pub fn scratch(&self) -> &Path {
         &self.scratch
+    }
+
+    /// A folder kept across runs of this very action (same cache key) until one
+    /// of them succeeds, then deleted: a long node saves its progress here so
+    /// that a run killed half-way resumes where it stopped. Created on demand
+    /// by the node; whatever it holds must let the node finish with the same
+    /// outputs an uninterrupted run gives.
+    pub fn resume(&self) -> &Path {
+        &self.resume
     }
 
     /// A fact for the run report (e.g. `backend` = `cpu (no GPU adapter)`).

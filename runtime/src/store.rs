@@ -591,6 +591,14 @@ impl Store {
         self.read_heads(graph).remove(node)
     }
 
+    /// A folder that outlives a run of action `key` until that action
+    /// succeeds: a long node keeps its progress there, so a killed run resumes
+    /// where it stopped. One per key (keys sharing a prefix must never resume
+    /// from each other's progress); only the holder of the key's lock uses it.
+    pub fn resume_dir(&self, key: &str) -> PathBuf {
+        self.root.join("resume").join(hex2(key)).join(key)
+    }
+
     /// An exclusive cross-process lock on a key while it is computed. One lock file
     /// per key: cluster jobs hold theirs for hours, and a job must never wait (holding
     /// its GPU) for an unrelated key that happens to share a lock.

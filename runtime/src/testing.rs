@@ -103,6 +103,7 @@ pub fn run_node(
         warnings: vec![],
         threads: 2,
         scratch: scratch.clone(),
+        resume: out_dir.join(".resume"),
         progress: &NoProgress,
         cancel: &cancel,
     };

@@ -243,13 +243,13 @@ fn report_node_tabulates_every_model_and_says_which_have_no_log() {
     let html = std::fs::read_to_string(run.outputs["file"].join(REPORT_FILE)).unwrap();
     let table = section(&html, "training");
     assert!(table.contains(
-        r#"<tr data-component="obj_3_chair"><td>obj_3_chair</td><td class="num">600</td><td class="num">400</td><td class="num">300</td><td>best</td><td>yes</td><td class="num">4.75</td><td class="num">23.75</td><td class="num">850</td></tr>"#
+        r#"<tr data-component="obj_3_chair"><td>obj_3_chair</td><td class="num">600</td><td class="num">400</td><td class="num">300</td><td>best</td><td>–</td><td>yes</td><td class="num">4.75</td><td class="num">23.75</td><td class="num">850</td></tr>"#
     ));
     assert!(table.contains(
-        r#"<tr data-component="background"><td>background</td><td class="num">600</td><td class="num">600</td><td class="num">600</td><td>last</td><td>no</td><td class="num">7.00</td><td class="num">17.00</td><td class="num">6400</td></tr>"#
+        r#"<tr data-component="background"><td>background</td><td class="num">600</td><td class="num">600</td><td class="num">600</td><td>last</td><td>–</td><td>no</td><td class="num">7.00</td><td class="num">17.00</td><td class="num">6400</td></tr>"#
     ));
     assert!(table.contains(
-        r#"<tr data-component="obj_5_lamp"><td>obj_5_lamp</td><td colspan="8">no training log</td></tr>"#
+        r#"<tr data-component="obj_5_lamp"><td>obj_5_lamp</td><td colspan="9">no training log</td></tr>"#
     ));
     assert_eq!(svg_blocks(table).len(), 4);
     assert!(

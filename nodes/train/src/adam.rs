@@ -231,6 +231,15 @@ impl Adam {
         Ok(())
     }
 
+    /// Every group to `rows` rows (moments of new rows zero), e.g. before
+    /// restoring saved moments of a model of that size.
+    pub fn resize_rows(&mut self, rows: usize) {
+        for g in &mut self.groups {
+            g.m.resize(rows * g.width, 0.0);
+            g.v.resize(rows * g.width, 0.0);
+        }
+    }
+
     /// Appends `rows` rows with zero moments to every group.
     pub fn append_rows(&mut self, rows: usize) {
         for g in &mut self.groups {

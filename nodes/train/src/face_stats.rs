@@ -29,6 +29,41 @@ impl FaceWeights {
         }
     }
 
+    /// Statistics saved earlier (see [`FaceWeights::parts`]).
+    pub fn from_parts(current: Vec<f32>, previous: Vec<f32>, epochs: u32) -> anyhow::Result<Self> {
+        if current.len() != previous.len() {
+            anyhow::bail!(
+                "face statistics of {} and {} faces",
+                current.len(),
+                previous.len()
+            );
+        }
+        Ok(FaceWeights {
+            current,
+            previous,
+            epochs,
+        })
+    }
+
+    /// The current and previous epoch's maxima.
+    pub fn parts(&self) -> (&[f32], &[f32]) {
+        (&self.current, &self.previous)
+    }
+
+    /// Epochs finished since the last reset.
+    pub fn epochs(&self) -> u32 {
+        self.epochs
+    }
+
+    /// Number of faces.
+    pub fn len(&self) -> usize {
+        self.current.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.current.is_empty()
+    }
+
     /// Folds one training render's per-face maximum blending weights in.
     pub fn record(&mut self, face_max_weight: &[f32]) {
         for (m, &w) in self.current.iter_mut().zip(face_max_weight) {
@@ -55,6 +90,18 @@ impl FaceWeights {
             .zip(&self.previous)
             .map(|(a, b)| a.max(*b))
             .collect()
+    }
+
+    /// The per-face maxima of the current and the previous epoch, for a
+    /// trainer that keeps them elsewhere (on a device) between edits.
+    pub fn arrays(&self) -> (&[f32], &[f32]) {
+        (&self.current, &self.previous)
+    }
+
+    /// Replaces the two arrays by values kept elsewhere; the epoch count stays.
+    pub fn set_arrays(&mut self, current: Vec<f32>, previous: Vec<f32>) {
+        self.current = current;
+        self.previous = previous;
     }
 
     /// Follows a pruning or densification: kept faces keep their values, and

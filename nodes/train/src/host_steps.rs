@@ -231,6 +231,16 @@ impl<'a> HostSteps<'a> {
         })
     }
 
+    /// Steps taken and the summed share of frames they rendered (saved with a run's state).
+    pub fn rendered(&self) -> (u64, f64) {
+        (self.steps, self.rendered)
+    }
+
+    pub fn set_rendered(&mut self, (steps, rendered): (u64, f64)) {
+        self.steps = steps;
+        self.rendered = rendered;
+    }
+
     /// Mean share of the frame the training steps rendered (None before any step).
     pub fn rendered_fraction(&self) -> Option<f64> {
         (self.steps > 0).then(|| self.rendered / self.steps as f64)

@@ -11,6 +11,7 @@
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
 pub mod adam;
+pub mod checkpoint;
 pub mod connectivity;
 pub mod delaunay;
 pub mod densify;

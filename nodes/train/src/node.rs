@@ -136,6 +136,13 @@ impl Node for TrainNode {
                  from `occluders` when it holds an item of the same name",
             )
             .param(
+                "state_every_s",
+                ParamType::float_range(0.0, 1e9),
+                Some("60.0"),
+                "seconds between saves of the training state into the cache: a run killed \
+                 half-way resumes from the last save and ends with the same model (0: never save)",
+            )
+            .param(
                 "world_scale",
                 ParamType::float_range(1e-9, 1e9),
                 Some("1.0"),
@@ -190,6 +197,7 @@ impl Node for TrainNode {
             "test" => SelectOn::Test,
             _ => SelectOn::Validation,
         };
+        let state_every: f64 = ctx.param("state_every_s")?;
         let overrides: BTreeMap<String, f64> = ctx.param("schedule")?;
         let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
         let (backend, why) = objectsplat_wgpu::backend_for(&backend_name, ctx.threads())?;
@@ -233,6 +241,8 @@ impl Node for TrainNode {
             world_scale,
             checkpoint,
             select_on,
+            resume_dir: (state_every > 0.0).then(|| ctx.resume().to_path_buf()),
+            save_seconds: state_every,
             ..TrainSettings::new(schedule)
         };
         let report = {

@@ -15,10 +15,12 @@
 //! the result can be selected (after the connectivity step, with the `best`
 //! checkpoint) and once at the end.
 //!
-//! On a wgpu backend the iterations themselves (render, loss, backward, Adam)
-//! run on the device (`device_steps.rs`); the model comes back to the host
-//! for evaluation and for the schedule's structural edits.
+//! On a wgpu backend the iterations themselves (render, loss, backward, Adam,
+//! cropped like the host's), the held-out evaluations and the per-face weight
+//! statistics run on the device (`device_steps.rs`); the model comes back to
+//! the host for the schedule's structural edits and for a new best checkpoint.
 
+use crate::checkpoint::{Progress, TrainerState};
 use crate::connectivity::{ConnectivityOptions, restricted_delaunay};
 use crate::densify::{DensifyPolicy, prune_faces, select_faces_to_split, subdivide_faces};
 use crate::device_steps::DeviceSteps;
@@ -89,6 +91,12 @@ pub struct TrainSettings {
     pub crop: bool,
     /// Which views choose the `best` checkpoint.
     pub select_on: SelectOn,
+    /// A folder to save the run's state in (every `save_seconds`) and to resume
+    /// from: a run killed half-way continues from its last save and ends with
+    /// the same model as an uninterrupted one.
+    pub resume_dir: Option<std::path::PathBuf>,
+    /// Wall seconds between saves of the state (0: at every loss-log point).
+    pub save_seconds: f64,
 }
 
 impl TrainSettings {
@@ -104,6 +112,8 @@ impl TrainSettings {
             checkpoint: Checkpoint::Best,
             crop: true,
             select_on: SelectOn::Validation,
+            resume_dir: None,
+            save_seconds: 60.0,
         }
     }
 }
@@ -327,13 +337,32 @@ pub fn train_component(
         .as_any()
         .and_then(|b| b.downcast_ref::<WgpuBackend>())
     {
-        Some(gpu) if data.occluders.is_none() => Some(DeviceSteps::new(gpu, data, &train, &optim)?),
+        Some(gpu) if data.occluders.is_none() => Some(DeviceSteps::new(
+            gpu,
+            data,
+            &train,
+            &held_out,
+            &optim,
+            settings.crop,
+        )?),
         _ => None,
     };
     let mut host = HostSteps::new(backend, data, settings.crop)?;
     let mut rng = Pcg64Mcg::seed_from_u64(settings.seed ^ 0x9e37_79b9_7f4a_7c15);
     let mut order = ViewOrder::new(train.len());
     let mut stats = FaceWeights::new(model.face_count());
+    // What a saved state must belong to for this run to continue from it.
+    let identity = format!(
+        "{}|{:?}|{}|{}|{:?}|{:?}|{}|{}",
+        data.name,
+        data.kind,
+        settings.seed,
+        serde_json::to_string(s)?,
+        settings.checkpoint,
+        settings.select_on,
+        settings.background_randomization,
+        data.views.len()
+    );
     let train_cameras: Vec<&objectsplat_core::Camera> =
         train.iter().map(|&i| &data.views[i].camera).collect();
     let mut best: Option<Snapshot> = None;
@@ -351,7 +380,43 @@ pub fn train_component(
     let mut window_loss = 0.0;
     let mut stopped_early = false;
     let mut cleanup_pending = false;
+    // The host changed the face statistics; the device gets them with the next step.
+    let mut stats_edited = false;
     let mut it = 0;
+    let mut elapsed_before = 0.0;
+    if let Some(dir) = &settings.resume_dir
+        && let Some(state) = TrainerState::load(dir, &identity, &optim.adam)
+            .with_context(|| format!("reading the saved training state in {}", dir.display()))?
+    {
+        let p = state.progress;
+        model = state.model;
+        optim.adam = state.adam;
+        stats = state.stats;
+        rng = p.rng;
+        order = ViewOrder {
+            order: p.order,
+            next: p.order_next,
+        };
+        best = match (p.best, state.best) {
+            (Some((score, iteration, _)), Some((model, face_weights))) => Some(Snapshot {
+                score,
+                iteration,
+                model,
+                face_weights,
+            }),
+            _ => None,
+        };
+        (steps, evals, notes) = (p.steps, p.evals, p.notes);
+        cleanup_pending = p.cleanup_pending;
+        elapsed_before = p.elapsed;
+        host.set_rendered(p.rendered);
+        it = p.iteration;
+        // A device gets the restored statistics with its first step.
+        stats_edited = device.is_some();
+        notes.push(format!("resumed at iteration {it} from a saved state"));
+    }
+    let clock = |started: &Instant| elapsed_before + started.elapsed().as_secs_f64();
+    let mut last_save = Instant::now();
     while it < s.iterations {
         let edits_model = (it == s.connectivity_at && model.face_count() > 0)
             || s.floor_update(it).is_some()
@@ -359,6 +424,9 @@ pub fn train_component(
             || (s.densify_at(it) && model.vertex_count() < s.max_vertices);
         if let Some(device) = device.as_mut().filter(|_| edits_model) {
             device.pull(&mut model, &mut optim, data)?;
+            if let Some((current, previous)) = device.face_weights()? {
+                stats.set_arrays(current, previous);
+            }
             device.host_edited();
         }
         if it == s.connectivity_at && model.face_count() > 0 {
@@ -388,7 +456,7 @@ pub fn train_component(
         let densify = s.densify_at(it) && model.vertex_count() < s.max_vertices;
         if prune.is_some() || densify {
             let render = render_settings(&model, settings);
-            let mut max_weight = if stats.complete() && device.is_none() {
+            let mut max_weight = if stats.complete() {
                 stats.max_weight()
             } else {
                 host.face_max_weight(&model, data, &train, &render)?
@@ -447,19 +515,22 @@ pub fn train_component(
         let (slot, new_epoch) = order.next(&mut rng);
         if new_epoch && it > 0 {
             stats.end_epoch();
+            if let Some(device) = device.as_mut() {
+                device.end_epoch();
+            }
             // The first complete statistics of the connected mesh: drop what never shows.
             if cleanup_pending && stats.complete() && s.connectivity_cleanup_threshold > 0.0 {
                 cleanup_pending = false;
                 if let Some(device) = device.as_mut() {
                     device.pull(&mut model, &mut optim, data)?;
                     device.host_edited();
+                    if let Some((current, previous)) = device.face_weights()? {
+                        stats.set_arrays(current, previous);
+                    }
+                    stats_edited = true;
                 }
-                let weights = if device.is_none() {
-                    stats.max_weight()
-                } else {
-                    host.face_max_weight(&model, data, &train, &render_settings(&model, settings))?
-                };
-                let keep: Vec<bool> = weights
+                let keep: Vec<bool> = stats
+                    .max_weight()
                     .iter()
                     .map(|&w| w as f64 > s.connectivity_cleanup_threshold)
                     .collect();
@@ -487,7 +558,14 @@ pub fn train_component(
         };
         let render = render_settings(&model, settings);
         match device.as_mut() {
-            Some(device) => device.step(&model, &optim, it + 1, slot, b, render)?,
+            Some(device) => {
+                if edits_model || stats_edited {
+                    let (current, previous) = stats.arrays();
+                    device.set_face_weights(current.to_vec(), previous.to_vec())?;
+                    stats_edited = false;
+                }
+                device.step(&model, &optim, it + 1, slot, b, render)?
+            }
             None => {
                 let view = train[slot];
                 let loss = host
@@ -512,7 +590,7 @@ pub fn train_component(
             let window = (it - 1) % log_every + 1;
             steps.push(StepRecord {
                 iteration: it,
-                wall_seconds: started.elapsed().as_secs_f64(),
+                wall_seconds: clock(&started),
                 loss: window_loss / window as f64,
                 faces: model.face_count(),
             });
@@ -528,25 +606,30 @@ pub fn train_component(
         let selectable =
             settings.checkpoint == Checkpoint::Best && it > eval_from && it % s.eval_every == 0;
         if selectable || it == s.iterations {
-            if let Some(device) = device.as_mut() {
-                device.pull(&mut model, &mut optim, data)?;
-            }
-            let score =
-                host.evaluate(&model, data, &held_out, &render_settings(&model, settings))?;
+            let render = render_settings(&model, settings);
+            let score = match device.as_mut() {
+                Some(device) => device.evaluate(&model, &optim, data, &held_out, render)?,
+                None => host.evaluate(&model, data, &held_out, &render)?,
+            };
             evals.push(EvalRecord {
                 iteration: it,
-                wall_seconds: started.elapsed().as_secs_f64(),
+                wall_seconds: clock(&started),
                 loss: score.loss,
                 psnr: score.psnr,
                 faces: model.face_count(),
             });
             if best.as_ref().is_none_or(|b| score.loss < b.score) {
+                if let Some(device) = device.as_mut() {
+                    device.pull(&mut model, &mut optim, data)?;
+                    if let Some((current, previous)) = device.face_weights()? {
+                        stats.set_arrays(current, previous);
+                    }
+                }
                 best = Some(Snapshot {
                     score: score.loss,
                     iteration: it,
                     model: model.clone(),
-                    face_weights: (stats.complete() && device.is_none())
-                        .then(|| stats.max_weight()),
+                    face_weights: stats.complete().then(|| stats.max_weight()),
                 });
             }
             if let Some(Snapshot {
@@ -564,12 +647,61 @@ pub fn train_component(
                 break;
             }
         }
+        // Save at loss-log points, where no loss is pending anywhere.
+        if let Some(dir) = &settings.resume_dir
+            && it % log_every == 0
+            && it < s.iterations
+            && last_save.elapsed().as_secs_f64() >= settings.save_seconds
+        {
+            if let Some(device) = device.as_mut() {
+                device.pull(&mut model, &mut optim, data)?;
+                if let Some((current, previous)) = device.face_weights()? {
+                    stats.set_arrays(current, previous);
+                }
+            }
+            TrainerState {
+                progress: Progress {
+                    identity: identity.clone(),
+                    iteration: it,
+                    rng: rng.clone(),
+                    order: order.order.clone(),
+                    order_next: order.next,
+                    stats_epochs: stats.epochs(),
+                    best: best
+                        .as_ref()
+                        .map(|b| (b.score, b.iteration, b.face_weights.is_some())),
+                    steps: steps.clone(),
+                    evals: evals.clone(),
+                    notes: notes.clone(),
+                    cleanup_pending,
+                    elapsed: clock(&started),
+                    adam: optim
+                        .adam
+                        .groups
+                        .iter()
+                        .map(|g| (g.lr, g.lr_rest, g.split, g.steps))
+                        .collect(),
+                    rendered: host.rendered(),
+                },
+                model: model.clone(),
+                adam: optim.adam.clone(),
+                stats: stats.clone(),
+                best: best
+                    .as_ref()
+                    .map(|b| (b.model.clone(), b.face_weights.clone())),
+            }
+            .save(dir)
+            .with_context(|| format!("saving the training state in {}", dir.display()))?;
+            last_save = Instant::now();
+        }
     }
     if let Some(device) = device.as_mut() {
         device.pull(&mut model, &mut optim, data)?;
-        notes.push(device.summary());
+        if let Some((current, previous)) = device.face_weights()? {
+            stats.set_arrays(current, previous);
+        }
     }
-    let current_weights = (stats.complete() && device.is_none()).then(|| stats.max_weight());
+    let current_weights = stats.complete().then(|| stats.max_weight());
     let (best_iteration, mut model, weights) = match (best, settings.checkpoint) {
         (Some(b), Checkpoint::Best) => (b.iteration, b.model, b.face_weights),
         (Some(b), Checkpoint::Last) => (b.iteration, model, current_weights),
@@ -598,7 +730,15 @@ pub fn train_component(
             model.face_count()
         ));
     }
-    let final_score = host.evaluate(&model, data, &held_out, &render_settings(&model, settings))?;
+    let render = render_settings(&model, settings);
+    let final_score = match device.as_mut() {
+        Some(device) => {
+            let score = device.evaluate_model(&model, data, &held_out, render)?;
+            notes.push(device.summary());
+            score
+        }
+        None => host.evaluate(&model, data, &held_out, &render)?,
+    };
     let log = TrainingLog {
         component: data.name.clone(),
         kind: match data.kind {
@@ -618,10 +758,13 @@ pub fn train_component(
         }
         .into(),
         stopped_early,
-        wall_seconds: started.elapsed().as_secs_f64(),
+        wall_seconds: clock(&started),
         final_psnr: final_score.psnr,
         final_faces: model.face_count(),
-        rendered_fraction: host.rendered_fraction(),
+        rendered_fraction: match &device {
+            Some(device) => device.rendered_fraction(),
+            None => host.rendered_fraction(),
+        },
         scored_on: Some(scored_on.to_string()),
         steps,
         evals,

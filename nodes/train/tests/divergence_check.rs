@@ -31,6 +31,8 @@ fn absurd_run(backend: &dyn RenderBackend<f32>) -> String {
         checkpoint: Default::default(),
         crop: true,
         select_on: Default::default(),
+        resume_dir: None,
+        save_seconds: 60.0,
     };
     let err = train_component(backend, &data, &points, &settings, |_, _| true)
         .err()

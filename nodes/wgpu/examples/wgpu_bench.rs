@@ -9,11 +9,15 @@
 //! `--train` measures whole training iterations instead (render, L1 + D-SSIM
 //! loss, backward, Adam): on the device with [`DeviceTrainer`], wgpu with the
 //! loss and Adam on the host (the image and every gradient cross each
-//! iteration), and the CPU backend.
+//! iteration), and the CPU backend. It then measures device steps on a small
+//! object (about a tenth of a 320×240 frame, every other pixel supervised
+//! toward the background colour) rendering the whole frame and only the
+//! footprint (`Region::Footprint`); `--object` runs that table alone.
 
 use objectsplat_core::Camera;
 use objectsplat_core::glam::DVec3;
-use objectsplat_raster::loss::{DEFAULT_LAMBDA_DSSIM, Dims, photometric};
+use objectsplat_raster::backend::{PixelRect, Region};
+use objectsplat_raster::loss::{CROP_MARGIN, DEFAULT_LAMBDA_DSSIM, Dims, photometric};
 use objectsplat_raster::{
     CpuBackend, Model, OutputGrads, RenderBackend, RenderSettings, SH_COEFFS,
 };
@@ -215,12 +219,26 @@ fn device_training_rate(
         weights: vec![1.0; pixels],
         from_background: vec![false; pixels],
     };
+    device_view_rate(gpu, model, view, Region::Full, budget)
+}
+
+/// Device training iterations per second on one view, rendering `region`.
+fn device_view_rate(
+    gpu: &WgpuBackend,
+    model: &Model<f32>,
+    view: TrainingView,
+    region: Region,
+    budget: Duration,
+) -> anyhow::Result<f64> {
     let mut trainer = DeviceTrainer::new(gpu, &[view], AdamSettings::default())?;
     trainer.load(model, &OptimizerState::zeros(model.vertex_count()))?;
     let step = Step {
         view: 0,
         background: [0.3; 3],
-        render: RenderSettings::for_model(model),
+        render: RenderSettings {
+            region,
+            ..RenderSettings::for_model(model)
+        },
         learning_rates: RATES,
         lambda_dssim: DEFAULT_LAMBDA_DSSIM,
     };
@@ -237,6 +255,102 @@ fn device_training_rate(
     // Queued work must finish inside the measurement: the last results wait for it.
     trainer.results()?;
     Ok(r)
+}
+
+/// A small object: `count` faces in a cube of side 0.8 at the origin (about
+/// 80 px across at 320×240, a tenth of the frame), and its view: its own
+/// pixels (the central 80×80 box) keep a target, every other pixel is
+/// supervised toward the background colour.
+fn small_object(count: usize, w: u32, h: u32) -> (Model<f32>, TrainingView) {
+    let mut state = 0x0bad_5eed_1234_5678u64;
+    let mut uniform = move || {
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        (state >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let mut m = Model::<f32>::empty();
+    m.sh_degree = 3;
+    for _ in 0..count {
+        let c = [0, 1, 2].map(|_| uniform() * 0.8 - 0.4);
+        let base = m.vertices.len() as u32;
+        for _ in 0..3 {
+            m.vertices
+                .push([0, 1, 2].map(|a| (c[a] + (uniform() - 0.5) * 0.16) as f32));
+            let mut rows = [[0f32; 3]; SH_COEFFS];
+            for row in rows.iter_mut() {
+                *row = [0, 1, 2].map(|_| (uniform() * 0.4 - 0.2) as f32);
+            }
+            m.sh.push(rows);
+            m.opacity_logits.push((uniform() * 4.0 - 1.0) as f32);
+        }
+        m.faces.push([base, base + 1, base + 2]);
+    }
+    let own = |x: u32, y: u32| x.abs_diff(w / 2) < 40 && y.abs_diff(h / 2) < 40;
+    let pixels = (w * h) as usize;
+    let mut view = TrainingView {
+        camera: bench_camera(w, h),
+        target: vec![0.0; pixels * 3],
+        weights: vec![1.0; pixels],
+        from_background: vec![true; pixels],
+    };
+    for p in 0..pixels {
+        let (x, y) = (p as u32 % w, p as u32 / w);
+        if own(x, y) {
+            view.from_background[p] = false;
+            for c in 0..3 {
+                view.target[3 * p + c] = ((p * 3 + c) % 17) as f32 / 17.0;
+            }
+        }
+    }
+    (m, view)
+}
+
+/// Device steps on a small object: whole frame against its footprint.
+fn object_table(gpu: &WgpuBackend, cpu: &CpuBackend) -> anyhow::Result<()> {
+    println!(
+        "| object faces | image | rendered share (footprint) | device, whole frame (it/s) | device, footprint (it/s) | footprint / whole frame |"
+    );
+    println!("|---|---|---|---|---|---|");
+    let (w, h) = (320, 240);
+    for faces in [2_000, 20_000] {
+        let (model, view) = small_object(faces, w, h);
+        // The share of the frame a footprint render covers, as the CPU backend computes it.
+        let include = view
+            .from_background
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| !**b)
+            .fold(PixelRect::default(), |r, (p, _)| {
+                let (x, y) = (p as u32 % w, p as u32 / w);
+                r.union(PixelRect {
+                    x0: x,
+                    y0: y,
+                    x1: x + 1,
+                    y1: y + 1,
+                })
+            });
+        let footprint = Region::Footprint {
+            include,
+            margin: CROP_MARGIN,
+        };
+        let settings = RenderSettings {
+            region: footprint,
+            ..RenderSettings::for_model(&model)
+        };
+        let background = vec![0.3f32; (w * h * 3) as usize];
+        let (out, _) = cpu.forward(&model, &view.camera, &settings, &background)?;
+        let share = out.region.pixels() as f64 / (w * h) as f64;
+        let budget = Duration::from_secs(5);
+        let whole = device_view_rate(gpu, &model, view.clone(), Region::Full, budget)?;
+        let cropped = device_view_rate(gpu, &model, view, footprint, budget)?;
+        println!(
+            "| {faces} | {w}×{h} | {:.0} % | {whole:.2} | {cropped:.2} | {:.2}× |",
+            100.0 * share,
+            cropped / whole
+        );
+    }
+    Ok(())
 }
 
 fn training_table(
@@ -291,8 +405,13 @@ fn main() -> anyhow::Result<()> {
     println!("{why}; float atomics: {}", ctx.float_atomics);
     let gpu = WgpuBackend::new(ctx)?;
     let cpu = CpuBackend::new(2);
+    if args.iter().any(|a| a == "--object") {
+        return object_table(&gpu, &cpu);
+    }
     if args.iter().any(|a| a == "--train") {
-        return training_table(&gpu, &cpu, &cases, with_cpu);
+        training_table(&gpu, &cpu, &cases, with_cpu)?;
+        println!();
+        return object_table(&gpu, &cpu);
     }
     println!("| faces | image | wgpu it/s | cpu(2) it/s | wgpu / cpu |");
     println!("|---|---|---|---|---|");

@@ -309,6 +309,77 @@ pub fn read_buffers(ctx: &GpuContext, sources: &[(&wgpu::Buffer, u64)]) -> Resul
         .collect()
 }
 
+/// A readback buffer kept between readbacks (grown, never shrunk): several
+/// buffers come back with one submission, one wait and no new buffer once it
+/// has grown to the largest readback.
+#[derive(Default)]
+pub struct Readback {
+    staging: Option<wgpu::Buffer>,
+    /// Buffers it created (for the pooling checks).
+    pub created: u64,
+}
+
+impl Readback {
+    /// Copies `bytes` bytes of each source (from offset 0; `COPY_SRC` usage)
+    /// back to the host.
+    pub fn read(
+        &mut self,
+        ctx: &GpuContext,
+        sources: &[(&wgpu::Buffer, u64)],
+    ) -> Result<Vec<Vec<u8>>> {
+        let align = wgpu::COPY_BUFFER_ALIGNMENT;
+        let mut offsets = Vec::with_capacity(sources.len());
+        let mut total = 0u64;
+        for &(source, bytes) in sources {
+            let size = bytes.div_ceil(align) * align;
+            if size > source.size() {
+                bail!(
+                    "readback of {bytes} bytes from a buffer of {} bytes",
+                    source.size()
+                );
+            }
+            offsets.push(total);
+            total += size;
+        }
+        if total == 0 {
+            return Ok(vec![Vec::new(); sources.len()]);
+        }
+        if self.staging.as_ref().is_none_or(|b| b.size() < total) {
+            self.created += 1;
+            self.staging = Some(ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("readback"),
+                size: (total + total / 4).div_ceil(align) * align,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }));
+        }
+        let Some(staging) = &self.staging else {
+            unreachable!("the staging buffer was created above");
+        };
+        let mut encoder = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        for (&(source, bytes), &at) in sources.iter().zip(&offsets) {
+            if bytes > 0 {
+                encoder.copy_buffer_to_buffer(
+                    source,
+                    0,
+                    staging,
+                    at,
+                    bytes.div_ceil(align) * align,
+                );
+            }
+        }
+        ctx.queue.submit([encoder.finish()]);
+        let all = map_and_copy(ctx, staging, total)?;
+        Ok(sources
+            .iter()
+            .zip(&offsets)
+            .map(|(&(_, bytes), &at)| all[at as usize..(at + bytes) as usize].to_vec())
+            .collect())
+    }
+}
+
 /// Maps a `MAP_READ` buffer (after the work writing it was submitted) and copies it out.
 pub fn map_and_copy(ctx: &GpuContext, staging: &wgpu::Buffer, bytes: u64) -> Result<Vec<u8>> {
     if bytes == 0 {

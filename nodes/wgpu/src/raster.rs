@@ -9,15 +9,29 @@
 //! (depth, slot) key does) → tile ranges → per-tile compositing. Backward:
 //! per-tile back-to-front walk with workgroup-reduced per-face partials →
 //! per-face geometry backward → per-vertex projection/SH/opacity backward.
+//!
+//! Regions ([`RenderSettings::region`]): `face_pre` reduces the drawn faces'
+//! pixel boxes with atomics, and `frame_region` turns them (with `include`
+//! and the margin) into the rendered rectangle, rounded out to whole tiles, in
+//! the frame record that comes back with the tile-entry count (one readback).
+//! Binning stays in the whole image's tile grid, so every tile's entry list
+//! and every pixel's fragment order is the full render's: pixels inside the
+//! region are bit-identical to a full render. Compositing, the backward pass
+//! and the outputs cover the region's tiles and pixels only.
+//!
+//! Buffers live in pools ([`RasterPool`], [`GradPool`]) that grow to the
+//! largest model and image seen; the training loop keeps its own across steps.
 
 use crate::atomics::{FloatAtomics, accumulator_wgsl};
 use crate::device::{GpuContext, map_and_copy, read_buffers};
-use crate::kernels::{Kernel, groups_for, shader, storage, storage_from, uniform};
-use crate::scan::GpuScan;
-use crate::sort::{GpuSort, SortBuffers, key_bits};
+use crate::kernels::{
+    Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage, storage_from,
+};
+use crate::scan::{GpuScan, ScanScratch};
+use crate::sort::{GpuSort, SortBuffers, SortScratch, key_bits};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::Camera;
-use objectsplat_raster::backend::check_buffer;
+use objectsplat_raster::backend::{PixelRect, Region, check_buffer};
 use objectsplat_raster::cpu::preprocess::CameraParams;
 use objectsplat_raster::{
     Model, ModelGrads, OutputGrads, RenderBackend, RenderOutput, RenderSettings, SH_COEFFS,
@@ -162,6 +176,15 @@ struct RasterParams {
     alpha_min: f32,
     transmittance_min: f32,
     opacity_floor: f32,
+    include_x0: u32,
+    include_y0: u32,
+    include_x1: u32,
+    include_y1: u32,
+    margin: u32,
+    region_mode: u32,
+    uniform_background: u32,
+    _pad: u32,
+    background_color: [f32; 4],
 }
 
 struct RasterKernels {
@@ -170,7 +193,9 @@ struct RasterKernels {
     vertex_pre: Kernel,
     face_pre: Kernel,
     tile_counts: Kernel,
+    frame_region: Kernel,
     emit_entries: Kernel,
+    pad_entries: Kernel,
     gather_tiles: Kernel,
     tile_ranges: Kernel,
     forward: Kernel,
@@ -198,6 +223,7 @@ impl std::fmt::Debug for WgpuBackend {
 
 /// A model's parameters on the device, in the kernels' layout: positions
 /// (3 per vertex), SH (16×3 per vertex), opacity logits, face indices.
+/// The buffers may be larger than the model (pooled); the counts say how much is used.
 #[derive(Clone)]
 pub(crate) struct ModelBuffers {
     pub positions: wgpu::Buffer,
@@ -209,29 +235,234 @@ pub(crate) struct ModelBuffers {
     pub opacity_floor: f32,
 }
 
-/// What the forward pass leaves on the device: its image and face statistics,
-/// and everything the backward pass reads.
-pub(crate) struct WgpuSaved {
-    params: RasterParams,
-    model: ModelBuffers,
-    background: wgpu::Buffer,
-    vertices: wgpu::Buffer,
-    faces: wgpu::Buffer,
-    entries: wgpu::Buffer,
-    tile_ranges: wgpu::Buffer,
-    pixel_state: wgpu::Buffer,
-    /// Per pixel: colour, alpha, depth, median depth (stride 6).
-    pub image: wgpu::Buffer,
-    /// Per face: max blending weight (f32 bits), pixel count.
-    face_stats: wgpu::Buffer,
+/// Words of the frame record that come back to the host (raster_common.wgsl's
+/// FRAME_*: entry count, region), and the record's size on the device.
+const FRAME_READ_WORDS: usize = 5;
+const FRAME_BYTES: u64 = 64;
+
+/// The background the faces are composited over.
+#[derive(Debug, Clone, Copy)]
+pub(crate) enum BackgroundSource<'a> {
+    /// One colour for every pixel (no per-pixel buffer).
+    Uniform([f32; 3]),
+    /// Per pixel of the whole image (H×W×3) on the host; the region's part is uploaded.
+    Image(&'a [f32]),
 }
 
-/// The backward pass's gradients on the device, in [`ModelBuffers`]' layout.
-pub(crate) struct GradBuffers {
-    pub positions: wgpu::Buffer,
-    pub sh: wgpu::Buffer,
-    pub opacity_logits: wgpu::Buffer,
-    background: wgpu::Buffer,
+/// What a render read back and left on the device for its backward pass.
+#[derive(Clone)]
+pub(crate) struct Rendered {
+    params: RasterParams,
+    model: ModelBuffers,
+    /// The pixels rendered; images and per-pixel state cover them, row-major.
+    pub region: PixelRect,
+}
+
+/// Every device buffer of a render, kept from render to render and grown
+/// (never shrunk) to the largest model, entry count and region seen, so a
+/// training loop renders without creating buffers once they have grown.
+pub(crate) struct RasterPool {
+    vertices: Pooled,
+    faces: Pooled,
+    order_keys: Pooled,
+    order_faces: Pooled,
+    order_scratch_keys: Pooled,
+    order_scratch_faces: Pooled,
+    entry_offsets: Pooled,
+    /// Per face: max blending weight (f32 bits), pixel count.
+    face_stats: Pooled,
+    depth_keys: Pooled,
+    entry_ids: Pooled,
+    entry_tiles: Pooled,
+    entry_faces: Pooled,
+    tile_keys: Pooled,
+    entries: Pooled,
+    scratch_a: Pooled,
+    scratch_b: Pooled,
+    tile_ranges: Pooled,
+    /// Per pixel of the region: colour, alpha, depth, median depth (stride 6).
+    image: Pooled,
+    pixel_state: Pooled,
+    /// The region's background when it is given per pixel.
+    background: Pooled,
+    frame: wgpu::Buffer,
+    staging: wgpu::Buffer,
+    sort: SortScratch,
+    scan: ScanScratch,
+    last: Option<Rendered>,
+    created: u64,
+    /// Host waits for the device so far (one per render that reads its frame record back).
+    pub syncs: u64,
+}
+
+impl RasterPool {
+    pub fn new(ctx: &GpuContext) -> Self {
+        let mut created = 0;
+        let mut pooled = |label| Pooled::new(ctx, label, &mut created);
+        let mut pool = RasterPool {
+            vertices: pooled("vertices"),
+            faces: pooled("faces"),
+            order_keys: pooled("order keys"),
+            order_faces: pooled("order faces"),
+            order_scratch_keys: pooled("order scratch keys"),
+            order_scratch_faces: pooled("order scratch faces"),
+            entry_offsets: pooled("entry offsets"),
+            face_stats: pooled("face stats"),
+            depth_keys: pooled("entry depth keys"),
+            entry_ids: pooled("entry ids"),
+            entry_tiles: pooled("entry tiles"),
+            entry_faces: pooled("entry faces"),
+            tile_keys: pooled("sorted tile keys"),
+            entries: pooled("sorted entries"),
+            scratch_a: pooled("sort scratch a"),
+            scratch_b: pooled("sort scratch b"),
+            tile_ranges: pooled("tile ranges"),
+            image: pooled("image"),
+            pixel_state: pooled("pixel state"),
+            background: pooled("background"),
+            frame: storage(ctx, "frame record", FRAME_BYTES),
+            staging: ctx.device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("frame record readback"),
+                size: FRAME_BYTES,
+                usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+                mapped_at_creation: false,
+            }),
+            sort: SortScratch::new(ctx),
+            scan: ScanScratch::new(ctx),
+            last: None,
+            created,
+            syncs: 0,
+        };
+        pool.created += 2;
+        pool
+    }
+
+    /// Buffers this pool has created (the pooling checks).
+    pub fn created(&self) -> u64 {
+        self.created + self.sort.created() + self.scan.created
+    }
+
+    /// The last render that read its frame record back (None after one that did not).
+    pub fn last(&self) -> Option<&Rendered> {
+        self.last.as_ref()
+    }
+
+    pub fn image(&self) -> &wgpu::Buffer {
+        self.image.buffer()
+    }
+
+    pub fn face_stats(&self) -> &wgpu::Buffer {
+        self.face_stats.buffer()
+    }
+
+    /// The frame record (entry count at word 0, region at words 1–4).
+    pub fn frame(&self) -> &wgpu::Buffer {
+        &self.frame
+    }
+
+    /// Tile entries a render may have without reading its count back.
+    pub fn entry_capacity(&self) -> usize {
+        [
+            &self.depth_keys,
+            &self.entry_ids,
+            &self.entry_tiles,
+            &self.entry_faces,
+            &self.tile_keys,
+            &self.entries,
+            &self.scratch_a,
+            &self.scratch_b,
+        ]
+        .iter()
+        .map(|b| b.buffer().size() as usize / 4)
+        .min()
+        .unwrap_or(0) // the array is not empty
+    }
+
+    fn ensure_model(&mut self, ctx: &GpuContext, nv: usize, nf: usize) {
+        let c = &mut self.created;
+        self.vertices.ensure(ctx, nv as u64 * VERTEX_BYTES, c);
+        self.faces.ensure(ctx, nf as u64 * FACE_BYTES, c);
+        for b in [
+            &mut self.order_keys,
+            &mut self.order_faces,
+            &mut self.order_scratch_keys,
+            &mut self.order_scratch_faces,
+        ] {
+            b.ensure(ctx, nf as u64 * 4, c);
+        }
+        self.entry_offsets.ensure(ctx, (nf as u64 + 1) * 4, c);
+        self.face_stats.ensure(ctx, nf as u64 * 8, c);
+    }
+
+    /// Makes the entry buffers hold at least `n` entries.
+    pub fn ensure_entries(&mut self, ctx: &GpuContext, n: usize) {
+        let c = &mut self.created;
+        for b in [
+            &mut self.depth_keys,
+            &mut self.entry_ids,
+            &mut self.entry_tiles,
+            &mut self.entry_faces,
+            &mut self.tile_keys,
+            &mut self.entries,
+            &mut self.scratch_a,
+            &mut self.scratch_b,
+        ] {
+            b.ensure(ctx, n as u64 * 4, c);
+        }
+    }
+
+    fn ensure_pixels(&mut self, ctx: &GpuContext, pixels: usize, tiles: usize) {
+        let c = &mut self.created;
+        self.image
+            .ensure(ctx, (pixels * IMAGE_STRIDE * 4) as u64, c);
+        self.pixel_state
+            .ensure(ctx, (pixels * STATE_STRIDE * 4) as u64, c);
+        self.tile_ranges.ensure(ctx, tiles as u64 * 8, c);
+    }
+}
+
+/// The backward pass's buffers, pooled like [`RasterPool`]'s. The gradients
+/// are in [`ModelBuffers`]' layout; the background's covers the region.
+pub(crate) struct GradPool {
+    background: Pooled,
+    face_grads: Pooled,
+    vertex_grads: Pooled,
+    positions: Pooled,
+    sh: Pooled,
+    opacity_logits: Pooled,
+    created: u64,
+}
+
+impl GradPool {
+    pub fn new(ctx: &GpuContext) -> Self {
+        let mut created = 0;
+        let mut pooled = |label| Pooled::new(ctx, label, &mut created);
+        GradPool {
+            background: pooled("background gradient"),
+            face_grads: pooled("face partials"),
+            vertex_grads: pooled("vertex accumulators"),
+            positions: pooled("position gradient"),
+            sh: pooled("sh gradient"),
+            opacity_logits: pooled("logit gradient"),
+            created,
+        }
+    }
+
+    pub fn created(&self) -> u64 {
+        self.created
+    }
+
+    pub fn positions(&self) -> &wgpu::Buffer {
+        self.positions.buffer()
+    }
+
+    pub fn sh(&self) -> &wgpu::Buffer {
+        self.sh.buffer()
+    }
+
+    pub fn opacity_logits(&self) -> &wgpu::Buffer {
+        self.opacity_logits.buffer()
+    }
 }
 
 impl WgpuBackend {
@@ -270,7 +501,9 @@ impl WgpuBackend {
             vertex_pre: Kernel::new(&ctx, &pre, "vertex_pre"),
             face_pre: Kernel::new(&ctx, &pre, "face_pre"),
             tile_counts: Kernel::new(&ctx, &pre, "tile_counts"),
+            frame_region: Kernel::new(&ctx, &pre, "frame_region"),
             emit_entries: Kernel::new(&ctx, &pre, "emit_entries"),
+            pad_entries: Kernel::new(&ctx, &pre, "pad_entries"),
             gather_tiles: Kernel::new(&ctx, &pre, "gather_tiles"),
             tile_ranges: Kernel::new(&ctx, &pre, "tile_ranges"),
             forward: Kernel::new(&ctx, &fwd, "forward"),
@@ -298,14 +531,8 @@ impl WgpuBackend {
         self.config
     }
 
-    fn encoder(&self) -> wgpu::CommandEncoder {
-        self.ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default())
-    }
-
     /// An error naming the buffer when it exceeds the device's storage binding limit.
-    fn check_binding_size(&self, what: &str, bytes: u64) -> Result<()> {
+    pub(crate) fn check_binding_size(&self, what: &str, bytes: u64) -> Result<()> {
         let limit = self.ctx.device.limits().max_storage_buffer_binding_size;
         if bytes > limit {
             bail!(
@@ -316,24 +543,19 @@ impl WgpuBackend {
         Ok(())
     }
 
-    fn staging(&self, bytes: u64) -> wgpu::Buffer {
-        self.ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("staging"),
-            size: bytes.max(4).div_ceil(4) * 4,
-            usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        })
-    }
-
-    /// Uploads a validated model's parameters.
-    pub(crate) fn upload_model(&self, model: &Model<f32>) -> Result<ModelBuffers> {
+    fn check_model(&self, model: &Model<f32>) -> Result<()> {
         model.validate().context("invalid model")?;
         let (nv, nf) = (model.vertex_count(), model.face_count());
         if nf >= u32::MAX as usize / 2 {
             bail!("model has {nf} faces, too many for the wgpu backend");
         }
         self.check_binding_size("face records", nf as u64 * FACE_BYTES)?;
-        self.check_binding_size("SH coefficients", (nv * SH_COEFFS * 3 * 4) as u64)?;
+        self.check_binding_size("SH coefficients", (nv * SH_COEFFS * 3 * 4) as u64)
+    }
+
+    /// Uploads a validated model's parameters into new buffers.
+    pub(crate) fn upload_model(&self, model: &Model<f32>) -> Result<ModelBuffers> {
+        self.check_model(model)?;
         let ctx = &self.ctx;
         let positions: Vec<f32> = model.vertices.iter().flatten().copied().collect();
         let face_idx: Vec<u32> = model.faces.iter().flatten().copied().collect();
@@ -343,55 +565,74 @@ impl WgpuBackend {
             sh: storage_from(ctx, "sh", &sh),
             opacity_logits: storage_from(ctx, "opacity logits", &model.opacity_logits),
             face_indices: storage_from(ctx, "face indices", &face_idx),
-            vertex_count: nv,
-            face_count: nf,
+            vertex_count: model.vertex_count(),
+            face_count: model.face_count(),
             opacity_floor: model.opacity_floor as f32,
         })
     }
 
-    fn forward_impl(
+    /// Writes a validated model's parameters into pooled buffers (grown when
+    /// too small) and describes them; `created` counts new buffers.
+    pub(crate) fn upload_model_into(
         &self,
         model: &Model<f32>,
-        camera: &Camera,
-        settings: &RenderSettings,
-        background: &[f32],
-    ) -> Result<(RenderOutput<f32>, WgpuSaved)> {
-        let pixels = camera.width as usize * camera.height as usize;
-        check_buffer("background", background, pixels * 3)?;
-        let buffers = self.upload_model(model)?;
-        let background = storage_from(&self.ctx, "background", background);
-        let saved = self.render_on(&buffers, camera, settings, &background)?;
-        let out = self.read_output(&saved)?;
-        if !out.all_finite() {
-            bail!("the wgpu forward pass produced non-finite values");
-        }
-        Ok((out, saved))
+        pool: &mut [Pooled; 4],
+        created: &mut u64,
+    ) -> Result<ModelBuffers> {
+        self.check_model(model)?;
+        let ctx = &self.ctx;
+        let positions: Vec<f32> = model.vertices.iter().flatten().copied().collect();
+        let face_idx: Vec<u32> = model.faces.iter().flatten().copied().collect();
+        let sh: Vec<f32> = model.sh.iter().flatten().flatten().copied().collect();
+        let [p, s, o, f] = pool;
+        p.write(ctx, &positions, created);
+        s.write(ctx, &sh, created);
+        o.write(ctx, &model.opacity_logits, created);
+        f.write(ctx, &face_idx, created);
+        Ok(ModelBuffers {
+            positions: p.buffer().clone(),
+            sh: s.buffer().clone(),
+            opacity_logits: o.buffer().clone(),
+            face_indices: f.buffer().clone(),
+            vertex_count: model.vertex_count(),
+            face_count: model.face_count(),
+            opacity_floor: model.opacity_floor as f32,
+        })
     }
 
-    /// The forward pass of resident parameters into device buffers. The one
-    /// host round trip is the tile-entry count, which sizes the entry buffers.
-    pub(crate) fn render_on(
+    /// The uniform block of a render (entry count 0: preprocessing).
+    fn raster_params(
         &self,
         model: &ModelBuffers,
         camera: &Camera,
         settings: &RenderSettings,
-        background: &wgpu::Buffer,
-    ) -> Result<WgpuSaved> {
+        background: BackgroundSource<'_>,
+    ) -> Result<RasterParams> {
         camera
             .validate()
             .map_err(anyhow::Error::msg)
             .context("invalid camera")?;
         settings.validate()?;
-        let (w, h) = (camera.width as usize, camera.height as usize);
-        let pixels = w * h;
-        let (nv, nf) = (model.vertex_count, model.face_count);
-        let ctx = &self.ctx;
-        let k = &self.kernels;
+        let pixels = camera.width as usize * camera.height as usize;
         self.check_binding_size("image", (pixels * IMAGE_STRIDE * 4) as u64)?;
+        let (uniform_background, background_color) = match background {
+            BackgroundSource::Uniform(c) => {
+                if c.iter().any(|v| !v.is_finite()) {
+                    bail!("background colour {c:?} is not finite");
+                }
+                (1, [c[0], c[1], c[2], 0.0])
+            }
+            BackgroundSource::Image(b) => {
+                check_buffer("background", b, pixels * 3)?;
+                (0, [0.0; 4])
+            }
+        };
+        let (region_mode, include, margin) = match settings.region {
+            Region::Full => (0, PixelRect::default(), 0),
+            Region::Footprint { include, margin } => (1, include, margin),
+        };
         let cam = CameraParams::<f32>::new(camera);
-        let (tiles_x, tiles_y) = (camera.width.div_ceil(TILE), camera.height.div_ceil(TILE));
-        let tiles = (tiles_x * tiles_y) as usize;
-        let mut params = RasterParams {
+        Ok(RasterParams {
             rot: [0, 1, 2].map(|i| {
                 [
                     cam.rotation[i][0],
@@ -407,10 +648,10 @@ impl WgpuBackend {
             cy: cam.cy,
             width: camera.width,
             height: camera.height,
-            tiles_x,
-            tiles_y,
-            vertex_count: nv as u32,
-            face_count: nf as u32,
+            tiles_x: camera.width.div_ceil(TILE),
+            tiles_y: camera.height.div_ceil(TILE),
+            vertex_count: model.vertex_count as u32,
+            face_count: model.face_count as u32,
             sh_degree: settings.sh_degree,
             entry_count: 0,
             sigma: settings.sigma as f32,
@@ -425,206 +666,321 @@ impl WgpuBackend {
             alpha_min: settings.alpha_min as f32,
             transmittance_min: settings.transmittance_min as f32,
             opacity_floor: model.opacity_floor,
-        };
-        let vertices = storage(ctx, "vertices", nv as u64 * VERTEX_BYTES);
-        let faces = storage(ctx, "faces", nf as u64 * FACE_BYTES);
-        let order_keys = storage(ctx, "order keys", nf as u64 * 4);
-        let order_faces = storage(ctx, "order faces", nf as u64 * 4);
-        let order_scratch_keys = storage(ctx, "order scratch keys", nf as u64 * 4);
-        let order_scratch_faces = storage(ctx, "order scratch faces", nf as u64 * 4);
-        let entry_offsets = storage(ctx, "entry offsets", (nf as u64 + 1) * 4);
-
-        // Stage 1: preprocessing, slot order, entry offsets; the entry total comes back.
-        let uniform_params = uniform(ctx, "raster params", &params);
-        let mut enc = self.encoder();
-        k.vertex_pre.dispatch(
-            ctx,
-            &mut enc,
-            &[
-                (0, &uniform_params),
-                (1, &model.positions),
-                (3, &model.sh),
-                (4, &model.opacity_logits),
-                (5, &vertices),
-            ],
-            groups_for(nv, THREADS_1D),
-        );
-        k.face_pre.dispatch(
-            ctx,
-            &mut enc,
-            &[
-                (0, &uniform_params),
-                (2, &model.face_indices),
-                (5, &vertices),
-                (6, &faces),
-                (7, &order_keys),
-                (8, &order_faces),
-            ],
-            groups_for(nf, THREADS_1D),
-        );
-        k.sort.encode(
-            ctx,
-            &k.scan,
-            &mut enc,
-            &SortBuffers {
-                keys: &order_keys,
-                values: &order_faces,
-                scratch_keys: &order_scratch_keys,
-                scratch_values: &order_scratch_faces,
-            },
-            nf,
-            key_bits(tiles as u32),
-        );
-        k.tile_counts.dispatch(
-            ctx,
-            &mut enc,
-            &[
-                (0, &uniform_params),
-                (6, &faces),
-                (8, &order_faces),
-                (9, &entry_offsets),
-            ],
-            groups_for(nf + 1, THREADS_1D),
-        );
-        k.scan.encode(ctx, &mut enc, &entry_offsets, nf + 1);
-        let total_staging = self.staging(4);
-        enc.copy_buffer_to_buffer(&entry_offsets, nf as u64 * 4, &total_staging, 0, 4);
-        ctx.queue.submit([enc.finish()]);
-        let total: Vec<u32> = bytemuck::pod_collect_to_vec(&map_and_copy(ctx, &total_staging, 4)?);
-        let entry_count = total[0] as usize;
-        self.check_binding_size("tile entries", entry_count as u64 * 4)?;
-
-        // Stage 2: entries, the two sorts, tile ranges, compositing.
-        params.entry_count = entry_count as u32;
-        let uniform_params = uniform(ctx, "raster params", &params);
-        let e_bytes = entry_count as u64 * 4;
-        let depth_keys = storage(ctx, "entry depth keys", e_bytes);
-        let entry_ids = storage(ctx, "entry ids", e_bytes);
-        let entry_tiles = storage(ctx, "entry tiles", e_bytes);
-        let entry_faces = storage(ctx, "entry faces", e_bytes);
-        let tile_keys = storage(ctx, "sorted tile keys", e_bytes);
-        let entries = storage(ctx, "sorted entries", e_bytes);
-        let scratch_a = storage(ctx, "sort scratch a", e_bytes);
-        let scratch_b = storage(ctx, "sort scratch b", e_bytes);
-        let tile_ranges = storage(ctx, "tile ranges", tiles as u64 * 8);
-        let image = storage(ctx, "image", (pixels * IMAGE_STRIDE * 4) as u64);
-        let pixel_state = storage(ctx, "pixel state", (pixels * STATE_STRIDE * 4) as u64);
-        let face_stats = storage(ctx, "face stats", nf as u64 * 8);
-        let mut enc = self.encoder();
-        enc.clear_buffer(&tile_ranges, 0, None);
-        enc.clear_buffer(&face_stats, 0, None);
-        k.emit_entries.dispatch(
-            ctx,
-            &mut enc,
-            &[
-                (0, &uniform_params),
-                (6, &faces),
-                (8, &order_faces),
-                (9, &entry_offsets),
-                (10, &depth_keys),
-                (11, &entry_ids),
-                (12, &entry_tiles),
-                (13, &entry_faces),
-            ],
-            groups_for(nf, THREADS_1D),
-        );
-        k.sort.encode(
-            ctx,
-            &k.scan,
-            &mut enc,
-            &SortBuffers {
-                keys: &depth_keys,
-                values: &entry_ids,
-                scratch_keys: &scratch_a,
-                scratch_values: &scratch_b,
-            },
-            entry_count,
-            32,
-        );
-        k.gather_tiles.dispatch(
-            ctx,
-            &mut enc,
-            &[
-                (0, &uniform_params),
-                (11, &entry_ids),
-                (12, &entry_tiles),
-                (13, &entry_faces),
-                (14, &tile_keys),
-                (15, &entries),
-            ],
-            groups_for(entry_count, THREADS_1D),
-        );
-        k.sort.encode(
-            ctx,
-            &k.scan,
-            &mut enc,
-            &SortBuffers {
-                keys: &tile_keys,
-                values: &entries,
-                scratch_keys: &scratch_a,
-                scratch_values: &scratch_b,
-            },
-            entry_count,
-            key_bits(tiles.saturating_sub(1) as u32),
-        );
-        k.tile_ranges.dispatch(
-            ctx,
-            &mut enc,
-            &[(0, &uniform_params), (14, &tile_keys), (16, &tile_ranges)],
-            groups_for(entry_count, THREADS_1D),
-        );
-        k.forward.dispatch(
-            ctx,
-            &mut enc,
-            &[
-                (0, &uniform_params),
-                (1, &tile_ranges),
-                (2, &entries),
-                (3, &faces),
-                (4, background),
-                (5, &image),
-                (6, &pixel_state),
-                (7, &face_stats),
-            ],
-            tiles as u32,
-        );
-        ctx.queue.submit([enc.finish()]);
-        ctx.check_errors("the wgpu forward pass")?;
-        Ok(WgpuSaved {
-            params,
-            model: model.clone(),
-            background: background.clone(),
-            vertices,
-            faces,
-            entries,
-            tile_ranges,
-            pixel_state,
-            image,
-            face_stats,
+            include_x0: include.x0,
+            include_y0: include.y0,
+            include_x1: include.x1,
+            include_y1: include.y1,
+            margin,
+            region_mode,
+            uniform_background,
+            _pad: 0,
+            background_color,
         })
     }
 
+    /// Records projection, culling, the faces' slot order, the entry offsets
+    /// and the frame record (entry count, region).
+    fn encode_preprocess(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &mut RasterPool,
+        model: &ModelBuffers,
+        params: &RasterParams,
+    ) {
+        let k = &self.kernels;
+        let (nv, nf) = (model.vertex_count, model.face_count);
+        let tiles = params.tiles_x * params.tiles_y;
+        rec.enc.clear_buffer(&pool.frame, 0, None);
+        rec.dispatch(
+            &k.vertex_pre,
+            params,
+            &[
+                (1, &model.positions),
+                (3, &model.sh),
+                (4, &model.opacity_logits),
+                (5, pool.vertices.buffer()),
+            ],
+            groups_for(nv, THREADS_1D),
+        );
+        rec.dispatch(
+            &k.face_pre,
+            params,
+            &[
+                (2, &model.face_indices),
+                (5, pool.vertices.buffer()),
+                (6, pool.faces.buffer()),
+                (7, pool.order_keys.buffer()),
+                (8, pool.order_faces.buffer()),
+                (17, &pool.frame),
+            ],
+            groups_for(nf, THREADS_1D),
+        );
+        k.sort.encode(
+            rec,
+            &k.scan,
+            &SortBuffers {
+                keys: pool.order_keys.buffer(),
+                values: pool.order_faces.buffer(),
+                scratch_keys: pool.order_scratch_keys.buffer(),
+                scratch_values: pool.order_scratch_faces.buffer(),
+            },
+            nf,
+            key_bits(tiles),
+            &mut pool.sort,
+        );
+        rec.dispatch(
+            &k.tile_counts,
+            params,
+            &[
+                (6, pool.faces.buffer()),
+                (8, pool.order_faces.buffer()),
+                (9, pool.entry_offsets.buffer()),
+            ],
+            groups_for(nf + 1, THREADS_1D),
+        );
+        k.scan
+            .encode(rec, pool.entry_offsets.buffer(), nf + 1, &mut pool.scan);
+        rec.dispatch(
+            &k.frame_region,
+            params,
+            &[(9, pool.entry_offsets.buffer()), (17, &pool.frame)],
+            1,
+        );
+    }
+
+    /// Records the tile entries (`params.entry_count` of them sorted: the real
+    /// count, or the buffers' capacity with `pad`), their two sorts, the tile
+    /// ranges and the compositing over `tile_groups` workgroups.
+    fn encode_composite(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &mut RasterPool,
+        params: &RasterParams,
+        pad: bool,
+        tile_groups: u32,
+    ) {
+        let k = &self.kernels;
+        let nf = params.face_count as usize;
+        let n = params.entry_count as usize;
+        let tiles = params.tiles_x * params.tiles_y;
+        rec.enc.clear_buffer(pool.tile_ranges.buffer(), 0, None);
+        rec.enc.clear_buffer(pool.face_stats.buffer(), 0, None);
+        rec.dispatch(
+            &k.emit_entries,
+            params,
+            &[
+                (6, pool.faces.buffer()),
+                (8, pool.order_faces.buffer()),
+                (9, pool.entry_offsets.buffer()),
+                (10, pool.depth_keys.buffer()),
+                (11, pool.entry_ids.buffer()),
+                (12, pool.entry_tiles.buffer()),
+                (13, pool.entry_faces.buffer()),
+            ],
+            groups_for(nf, THREADS_1D),
+        );
+        if pad {
+            rec.dispatch(
+                &k.pad_entries,
+                params,
+                &[
+                    (10, pool.depth_keys.buffer()),
+                    (11, pool.entry_ids.buffer()),
+                    (12, pool.entry_tiles.buffer()),
+                    (13, pool.entry_faces.buffer()),
+                    (17, &pool.frame),
+                ],
+                groups_for(n, THREADS_1D),
+            );
+        }
+        k.sort.encode(
+            rec,
+            &k.scan,
+            &SortBuffers {
+                keys: pool.depth_keys.buffer(),
+                values: pool.entry_ids.buffer(),
+                scratch_keys: pool.scratch_a.buffer(),
+                scratch_values: pool.scratch_b.buffer(),
+            },
+            n,
+            32,
+            &mut pool.sort,
+        );
+        rec.dispatch(
+            &k.gather_tiles,
+            params,
+            &[
+                (11, pool.entry_ids.buffer()),
+                (12, pool.entry_tiles.buffer()),
+                (13, pool.entry_faces.buffer()),
+                (14, pool.tile_keys.buffer()),
+                (15, pool.entries.buffer()),
+            ],
+            groups_for(n, THREADS_1D),
+        );
+        // Keys up to `tiles` inclusive: padding sorts after the last tile.
+        k.sort.encode(
+            rec,
+            &k.scan,
+            &SortBuffers {
+                keys: pool.tile_keys.buffer(),
+                values: pool.entries.buffer(),
+                scratch_keys: pool.scratch_a.buffer(),
+                scratch_values: pool.scratch_b.buffer(),
+            },
+            n,
+            key_bits(tiles),
+            &mut pool.sort,
+        );
+        rec.dispatch(
+            &k.tile_ranges,
+            params,
+            &[
+                (14, pool.tile_keys.buffer()),
+                (16, pool.tile_ranges.buffer()),
+            ],
+            groups_for(n, THREADS_1D),
+        );
+        rec.dispatch(
+            &k.forward,
+            params,
+            &[
+                (1, pool.tile_ranges.buffer()),
+                (2, pool.entries.buffer()),
+                (3, pool.faces.buffer()),
+                (4, pool.background.buffer()),
+                (5, pool.image.buffer()),
+                (6, pool.pixel_state.buffer()),
+                (7, pool.face_stats.buffer()),
+                (8, &pool.frame),
+            ],
+            tile_groups,
+        );
+    }
+
+    /// Renders resident parameters into `pool`'s buffers, over the region
+    /// `settings.region` asks for. The one host round trip reads the frame
+    /// record back (tile-entry count and region), which sizes the entry
+    /// buffers and the dispatches.
+    pub(crate) fn render_on<'p>(
+        &self,
+        pool: &'p mut RasterPool,
+        uniforms: &mut UniformArena,
+        model: &ModelBuffers,
+        camera: &Camera,
+        settings: &RenderSettings,
+        background: BackgroundSource<'_>,
+    ) -> Result<&'p Rendered> {
+        let ctx = &*self.ctx;
+        let mut params = self.raster_params(model, camera, settings, background)?;
+        pool.last = None;
+        pool.ensure_model(ctx, model.vertex_count, model.face_count);
+        let mut rec = Recorder::new(ctx, uniforms);
+        self.encode_preprocess(&mut rec, pool, model, &params);
+        rec.enc
+            .copy_buffer_to_buffer(&pool.frame, 0, &pool.staging, 0, FRAME_BYTES);
+        rec.submit();
+        let frame: Vec<u32> = bytemuck::pod_collect_to_vec(&map_and_copy(
+            ctx,
+            &pool.staging,
+            (FRAME_READ_WORDS * 4) as u64,
+        )?);
+        pool.syncs += 1;
+        let entry_count = frame[0] as usize;
+        let region = PixelRect {
+            x0: frame[1],
+            y0: frame[2],
+            x1: frame[3],
+            y1: frame[4],
+        };
+        self.check_binding_size("tile entries", entry_count as u64 * 4)?;
+        pool.ensure_entries(ctx, entry_count);
+        pool.ensure_pixels(
+            ctx,
+            region.pixels(),
+            (params.tiles_x * params.tiles_y) as usize,
+        );
+        if let BackgroundSource::Image(full) = background {
+            let w = camera.width as usize;
+            let mut part = Vec::with_capacity(region.pixels() * 3);
+            for y in region.y0 as usize..region.y1 as usize {
+                part.extend_from_slice(
+                    &full[3 * (y * w + region.x0 as usize)..3 * (y * w + region.x1 as usize)],
+                );
+            }
+            pool.background.write(ctx, &part, &mut pool.created);
+        }
+        params.entry_count = entry_count as u32;
+        let mut rec = Recorder::new(ctx, uniforms);
+        self.encode_composite(&mut rec, pool, &params, false, region_tiles(region));
+        rec.submit();
+        ctx.check_errors("the wgpu forward pass")?;
+        Ok(pool.last.insert(Rendered {
+            params,
+            model: model.clone(),
+            region,
+        }))
+    }
+
+    /// Records a render of resident parameters over a uniform `background`
+    /// without reading anything back: the entry buffers are sorted at their
+    /// capacity (`pool.entry_capacity()`, at least 1), padded past the real
+    /// count, and every tile of the image gets a workgroup (those outside the
+    /// region return at once). The frame record's entry count tells the caller
+    /// afterwards whether the capacity sufficed; if not, the render is wrong
+    /// and must be redone with larger buffers. Pixels of a render that fits are
+    /// bit-identical to [`WgpuBackend::render_on`]'s.
+    pub(crate) fn encode_render(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &mut RasterPool,
+        model: &ModelBuffers,
+        camera: &Camera,
+        settings: &RenderSettings,
+        background: [f32; 3],
+    ) -> Result<()> {
+        let ctx = rec.ctx();
+        let mut params = self.raster_params(
+            model,
+            camera,
+            settings,
+            BackgroundSource::Uniform(background),
+        )?;
+        pool.last = None;
+        pool.ensure_model(ctx, model.vertex_count, model.face_count);
+        let tiles = params.tiles_x * params.tiles_y;
+        let pixels = camera.width as usize * camera.height as usize;
+        pool.ensure_pixels(ctx, pixels, tiles as usize);
+        pool.ensure_entries(ctx, 1);
+        self.encode_preprocess(rec, pool, model, &params);
+        params.entry_count = pool.entry_capacity() as u32;
+        self.encode_composite(rec, pool, &params, true, tiles);
+        Ok(())
+    }
+
     /// Reads a forward pass's image and face statistics back to the host.
-    fn read_output(&self, saved: &WgpuSaved) -> Result<RenderOutput<f32>> {
-        let p = &saved.params;
-        let pixels = p.width as usize * p.height as usize;
-        let nf = saved.model.face_count;
+    fn read_output(&self, pool: &RasterPool) -> Result<RenderOutput<f32>> {
+        let Some(r) = pool.last() else {
+            bail!("no render to read back");
+        };
+        let p = &r.params;
+        let pixels = r.region.pixels();
+        let nf = r.model.face_count;
         let [image, stats]: [Vec<u8>; 2] = read_buffers(
             &self.ctx,
             &[
-                (&saved.image, (pixels * IMAGE_STRIDE * 4) as u64),
-                (&saved.face_stats, (nf * 2 * 4) as u64),
+                (pool.image(), (pixels * IMAGE_STRIDE * 4) as u64),
+                (pool.face_stats(), (nf * 2 * 4) as u64),
             ],
         )?
         .try_into()
         .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
         let image: Vec<f32> = bytemuck::pod_collect_to_vec(&image);
         let stats: Vec<u32> = bytemuck::pod_collect_to_vec(&stats);
-        // Regions are not cropped on this backend yet: every pass covers the whole image.
         let mut out = RenderOutput {
             width: p.width,
             height: p.height,
-            region: objectsplat_raster::backend::PixelRect::full(p.width, p.height),
+            region: r.region,
             color: vec![0.0; pixels * 3],
             alpha: vec![0.0; pixels],
             depth: vec![0.0; pixels],
@@ -645,13 +1001,43 @@ impl WgpuBackend {
         Ok(out)
     }
 
+    fn forward_impl(
+        &self,
+        model: &Model<f32>,
+        camera: &Camera,
+        settings: &RenderSettings,
+        background: &[f32],
+    ) -> Result<(RenderOutput<f32>, WgpuSaved)> {
+        let pixels = camera.width as usize * camera.height as usize;
+        check_buffer("background", background, pixels * 3)?;
+        let buffers = self.upload_model(model)?;
+        let mut pool = RasterPool::new(&self.ctx);
+        let mut uniforms = UniformArena::default();
+        self.render_on(
+            &mut pool,
+            &mut uniforms,
+            &buffers,
+            camera,
+            settings,
+            BackgroundSource::Image(background),
+        )?;
+        let out = self.read_output(&pool)?;
+        if !out.all_finite() {
+            bail!("the wgpu forward pass produced non-finite values");
+        }
+        Ok((out, WgpuSaved { pool }))
+    }
+
     fn backward_impl(
         &self,
         model: &Model<f32>,
         saved: &WgpuSaved,
         grads: &OutputGrads<'_, f32>,
     ) -> Result<ModelGrads<f32>> {
-        let (nv, nf) = (saved.model.vertex_count, saved.model.face_count);
+        let Some(rendered) = saved.pool.last() else {
+            bail!("backward pass before a forward pass");
+        };
+        let (nv, nf) = (rendered.model.vertex_count, rendered.model.face_count);
         if model.vertex_count() != nv || model.face_count() != nf {
             bail!(
                 "backward got a model with {} vertices / {} faces, but the forward pass rendered {nv} / {nf}",
@@ -659,8 +1045,7 @@ impl WgpuBackend {
                 model.face_count(),
             );
         }
-        let p = &saved.params;
-        let pixels = p.width as usize * p.height as usize;
+        let pixels = rendered.region.pixels();
         grads.validate(pixels)?;
         let mut upstream = vec![0f32; pixels * IMAGE_STRIDE];
         for i in 0..pixels {
@@ -670,16 +1055,18 @@ impl WgpuBackend {
             u[4] = grads.depth.map_or(0.0, |d| d[i]);
             u[5] = grads.median_depth.map_or(0.0, |m| m[i]);
         }
-        let upstream = storage_from(&self.ctx, "upstream gradients", &upstream);
-        let on_device = self.backward_on(saved, &upstream)?;
         let ctx = &self.ctx;
+        let upstream = storage_from(ctx, "upstream gradients", &upstream);
+        let mut pool = GradPool::new(ctx);
+        let mut uniforms = UniformArena::default();
+        self.backward_on(&saved.pool, &mut pool, &mut uniforms, &upstream)?;
         let [positions, sh, logits, background]: [Vec<u8>; 4] = read_buffers(
             ctx,
             &[
-                (&on_device.positions, (nv * 3 * 4) as u64),
-                (&on_device.sh, (nv * SH_COEFFS * 3 * 4) as u64),
-                (&on_device.opacity_logits, (nv * 4) as u64),
-                (&on_device.background, (pixels * 3 * 4) as u64),
+                (pool.positions(), (nv * 3 * 4) as u64),
+                (pool.sh(), (nv * SH_COEFFS * 3 * 4) as u64),
+                (pool.opacity_logits(), (nv * 4) as u64),
+                (pool.background.buffer(), (pixels * 3 * 4) as u64),
             ],
         )?
         .try_into()
@@ -704,85 +1091,98 @@ impl WgpuBackend {
         Ok(result)
     }
 
-    /// The backward pass on the device from `upstream`: per pixel the loss's
-    /// gradient with respect to colour, alpha, depth and median depth (stride 6).
+    /// The backward pass on the device of `pool`'s last render from
+    /// `upstream`: per pixel of its region, the loss's gradient with respect
+    /// to colour, alpha, depth and median depth (stride 6). The gradients land
+    /// in `grads`.
     pub(crate) fn backward_on(
         &self,
-        saved: &WgpuSaved,
+        pool: &RasterPool,
+        grads: &mut GradPool,
+        uniforms: &mut UniformArena,
         upstream: &wgpu::Buffer,
-    ) -> Result<GradBuffers> {
-        let p = &saved.params;
-        let pixels = p.width as usize * p.height as usize;
-        let (nv, nf) = (saved.model.vertex_count, saved.model.face_count);
-        let tiles = (p.tiles_x * p.tiles_y) as usize;
-        let ctx = &self.ctx;
+    ) -> Result<()> {
+        let Some(rendered) = pool.last() else {
+            bail!("backward pass before a forward pass that read its region back");
+        };
+        let p = &rendered.params;
+        let model = &rendered.model;
+        let pixels = rendered.region.pixels();
+        let (nv, nf) = (model.vertex_count, model.face_count);
+        let ctx = &*self.ctx;
         let k = &self.kernels;
-        let uniform_params = uniform(ctx, "raster params", p);
-        let background_grad = storage(ctx, "background gradient", (pixels * 3 * 4) as u64);
-        let face_grads = storage(ctx, "face partials", (nf * PARTIAL * 4) as u64);
-        let vertex_grads = storage(
-            ctx,
-            "vertex accumulators",
-            (nv * VERTEX_ACCUMULATORS * 4) as u64,
-        );
-        let position_grad = storage(ctx, "position gradient", (nv * 3 * 4) as u64);
-        let sh_grad = storage(ctx, "sh gradient", (nv * SH_COEFFS * 3 * 4) as u64);
-        let logit_grad = storage(ctx, "logit gradient", (nv * 4) as u64);
-        let mut enc = self.encoder();
-        enc.clear_buffer(&face_grads, 0, None);
-        enc.clear_buffer(&vertex_grads, 0, None);
-        k.backward.dispatch(
-            ctx,
-            &mut enc,
+        let c = &mut grads.created;
+        grads.background.ensure(ctx, (pixels * 3 * 4) as u64, c);
+        let face_bytes = (nf * PARTIAL * 4) as u64;
+        let vertex_bytes = (nv * VERTEX_ACCUMULATORS * 4) as u64;
+        grads.face_grads.ensure(ctx, face_bytes, c);
+        grads.vertex_grads.ensure(ctx, vertex_bytes, c);
+        grads.positions.ensure(ctx, (nv * 3 * 4) as u64, c);
+        grads.sh.ensure(ctx, (nv * SH_COEFFS * 3 * 4) as u64, c);
+        grads.opacity_logits.ensure(ctx, (nv * 4) as u64, c);
+        let mut rec = Recorder::new(ctx, uniforms);
+        if face_bytes > 0 {
+            rec.enc
+                .clear_buffer(grads.face_grads.buffer(), 0, Some(face_bytes));
+        }
+        if vertex_bytes > 0 {
+            rec.enc
+                .clear_buffer(grads.vertex_grads.buffer(), 0, Some(vertex_bytes));
+        }
+        rec.dispatch(
+            &k.backward,
+            p,
             &[
-                (0, &uniform_params),
-                (1, &saved.tile_ranges),
-                (2, &saved.entries),
-                (3, &saved.faces),
-                (4, &saved.pixel_state),
+                (1, pool.tile_ranges.buffer()),
+                (2, pool.entries.buffer()),
+                (3, pool.faces.buffer()),
+                (4, pool.pixel_state.buffer()),
                 (5, upstream),
-                (6, &saved.background),
-                (7, &background_grad),
-                (8, &face_grads),
+                (6, pool.background.buffer()),
+                (7, grads.background.buffer()),
+                (8, grads.face_grads.buffer()),
+                (9, &pool.frame),
             ],
-            tiles as u32,
+            region_tiles(rendered.region),
         );
-        k.face_backward.dispatch(
-            ctx,
-            &mut enc,
+        rec.dispatch(
+            &k.face_backward,
+            p,
             &[
-                (0, &uniform_params),
-                (1, &saved.faces),
-                (2, &saved.model.face_indices),
-                (9, &face_grads),
-                (10, &vertex_grads),
+                (1, pool.faces.buffer()),
+                (2, &model.face_indices),
+                (9, grads.face_grads.buffer()),
+                (10, grads.vertex_grads.buffer()),
             ],
             groups_for(nf, THREADS_1D),
         );
-        k.vertex_backward.dispatch(
-            ctx,
-            &mut enc,
+        rec.dispatch(
+            &k.vertex_backward,
+            p,
             &[
-                (0, &uniform_params),
-                (3, &saved.vertices),
-                (4, &saved.model.sh),
-                (5, &saved.model.opacity_logits),
-                (6, &position_grad),
-                (7, &sh_grad),
-                (8, &logit_grad),
-                (10, &vertex_grads),
+                (3, pool.vertices.buffer()),
+                (4, &model.sh),
+                (5, &model.opacity_logits),
+                (6, grads.positions.buffer()),
+                (7, grads.sh.buffer()),
+                (8, grads.opacity_logits.buffer()),
+                (10, grads.vertex_grads.buffer()),
             ],
             groups_for(nv, THREADS_1D),
         );
-        ctx.queue.submit([enc.finish()]);
-        ctx.check_errors("the wgpu backward pass")?;
-        Ok(GradBuffers {
-            positions: position_grad,
-            sh: sh_grad,
-            opacity_logits: logit_grad,
-            background: background_grad,
-        })
+        rec.submit();
+        ctx.check_errors("the wgpu backward pass")
     }
+}
+
+/// Tiles of a tile-aligned region (the forward and backward workgroups).
+fn region_tiles(region: PixelRect) -> u32 {
+    region.width().div_ceil(TILE) * region.height().div_ceil(TILE)
+}
+
+/// What the trait's forward pass saves: its pool, holding the render.
+struct WgpuSaved {
+    pool: RasterPool,
 }
 
 impl RenderBackend<f32> for WgpuBackend {
@@ -860,7 +1260,16 @@ mod tests {
             alpha_max,
             alpha_min,
             transmittance_min,
-            opacity_floor
+            opacity_floor,
+            include_x0,
+            include_y0,
+            include_x1,
+            include_y1,
+            margin,
+            region_mode,
+            uniform_background,
+            _pad,
+            background_color
         ));
         check_mirrors_wgsl(
             &compiled_source(),

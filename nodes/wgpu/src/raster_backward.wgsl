@@ -7,7 +7,9 @@
 // alpha_max < 1). Each entry's per-pixel partials are summed in workgroup
 // memory, then added once per face to the global accumulator with
 // `add_face_grad` (native float atomics or a compare-exchange loop; prepended
-// by the host, which also declares `face_grads` at binding 8).
+// by the host, which also declares `face_grads` at binding 8). Workgroups,
+// per-pixel state, upstream gradients and the background cover the frame
+// record's region, as in the forward pass.
 
 @group(0) @binding(0) var<uniform> params: RasterParams;
 @group(0) @binding(1) var<storage, read> tile_ranges: array<u32>;
@@ -18,6 +20,7 @@
 @group(0) @binding(5) var<storage, read> upstream: array<f32>;
 @group(0) @binding(6) var<storage, read> background: array<f32>;
 @group(0) @binding(7) var<storage, read_write> background_grad: array<f32>;
+@group(0) @binding(9) var<storage, read> frame: array<u32>;
 
 var<workgroup> reduce_in: array<f32, PARTIAL * THREADS>;
 var<workgroup> reduce_mid: array<f32, 92>; // PARTIAL × 4
@@ -27,10 +30,19 @@ var<workgroup> max_processed_snapshot: u32;
 @compute @workgroup_size(THREADS)
 fn backward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
             @builtin(local_invocation_index) lid: u32) {
-    let tile = wid.y * groups.x + wid.x;
-    if (tile >= params.tiles_x * params.tiles_y) {
+    let r = wid.y * groups.x + wid.x;
+    let rx0 = frame[FRAME_X0];
+    let ry0 = frame[FRAME_Y0];
+    let rx1 = frame[FRAME_X1];
+    let ry1 = frame[FRAME_Y1];
+    let region_tiles_x = (rx1 - rx0 + TILE - 1u) / TILE;
+    let region_tiles_y = (ry1 - ry0 + TILE - 1u) / TILE;
+    if (r >= region_tiles_x * region_tiles_y) {
         return;
     }
+    let tx = rx0 / TILE + r % region_tiles_x;
+    let ty = ry0 / TILE + r / region_tiles_x;
+    let tile = ty * params.tiles_x + tx;
     let start = tile_ranges[2u * tile];
     var xs: array<u32, PIXELS_PER_THREAD>;
     var ys: array<u32, PIXELS_PER_THREAD>;
@@ -48,14 +60,14 @@ fn backward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) grou
     workgroupBarrier();
     for (var h = 0u; h < PIXELS_PER_THREAD; h++) {
         let local = lid + h * THREADS;
-        xs[h] = (tile % params.tiles_x) * TILE + local % TILE;
-        ys[h] = (tile / params.tiles_x) * TILE + local / TILE;
-        inside[h] = xs[h] < params.width && ys[h] < params.height;
+        xs[h] = tx * TILE + local % TILE;
+        ys[h] = ty * TILE + local / TILE;
+        inside[h] = xs[h] < rx1 && ys[h] < ry1;
         processed[h] = 0u;
         if (!inside[h]) {
             continue;
         }
-        let pix = ys[h] * params.width + xs[h];
+        let pix = (ys[h] - ry0) * (rx1 - rx0) + xs[h] - rx0;
         let s = STATE_STRIDE * pix;
         t[h] = bitcast<f32>(pixel_state[s]);
         processed[h] = pixel_state[s + 1u];
@@ -65,7 +77,10 @@ fn backward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) grou
         let ga = upstream[u + 3u];
         gd[h] = upstream[u + 4u];
         gm[h] = upstream[u + 5u];
-        let bg = vec3<f32>(background[3u * pix], background[3u * pix + 1u], background[3u * pix + 2u]);
+        var bg = params.background_color.xyz;
+        if (params.uniform_background == 0u) {
+            bg = vec3<f32>(background[3u * pix], background[3u * pix + 1u], background[3u * pix + 2u]);
+        }
         background_grad[3u * pix] = gc[h].x * t[h];
         background_grad[3u * pix + 1u] = gc[h].y * t[h];
         background_grad[3u * pix + 2u] = gc[h].z * t[h];

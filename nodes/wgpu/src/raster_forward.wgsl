@@ -4,6 +4,8 @@
 // owning FWD_PIXELS pixels; faces in the tile's sorted order. Face data is
 // staged per batch of 64 entries in workgroup memory, and per-face max weight
 // and pixel count are gathered there before one global atomic per entry.
+// Workgroups cover the tiles of the frame record's region (row-major); images
+// and the per-pixel state cover the region's pixels, row-major.
 
 @group(0) @binding(0) var<uniform> params: RasterParams;
 @group(0) @binding(1) var<storage, read> tile_ranges: array<u32>;
@@ -14,6 +16,7 @@
 @group(0) @binding(6) var<storage, read_write> pixel_state: array<u32>;
 // Per face: max weight (f32 bits; non-negative floats order like their bits), pixel count.
 @group(0) @binding(7) var<storage, read_write> face_stats: array<atomic<u32>>;
+@group(0) @binding(8) var<storage, read> frame: array<u32>;
 
 const BATCH: u32 = 64u;
 
@@ -26,10 +29,19 @@ var<workgroup> alive_snapshot: u32;
 @compute @workgroup_size(FWD_THREADS)
 fn forward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
            @builtin(local_invocation_index) lid: u32) {
-    let tile = wid.y * groups.x + wid.x;
-    if (tile >= params.tiles_x * params.tiles_y) {
+    let r = wid.y * groups.x + wid.x;
+    let rx0 = frame[FRAME_X0];
+    let ry0 = frame[FRAME_Y0];
+    let rx1 = frame[FRAME_X1];
+    let ry1 = frame[FRAME_Y1];
+    let region_tiles_x = (rx1 - rx0 + TILE - 1u) / TILE;
+    let region_tiles_y = (ry1 - ry0 + TILE - 1u) / TILE;
+    if (r >= region_tiles_x * region_tiles_y) {
         return;
     }
+    let tx = rx0 / TILE + r % region_tiles_x;
+    let ty = ry0 / TILE + r / region_tiles_x;
+    let tile = ty * params.tiles_x + tx;
     let start = tile_ranges[2u * tile];
     let end = tile_ranges[2u * tile + 1u];
     var xs: array<u32, FWD_PIXELS>;
@@ -48,9 +60,9 @@ fn forward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) group
     workgroupBarrier();
     for (var h = 0u; h < FWD_PIXELS; h++) {
         let local = lid + h * FWD_THREADS;
-        xs[h] = (tile % params.tiles_x) * TILE + local % TILE;
-        ys[h] = (tile / params.tiles_x) * TILE + local / TILE;
-        inside[h] = xs[h] < params.width && ys[h] < params.height;
+        xs[h] = tx * TILE + local % TILE;
+        ys[h] = ty * TILE + local / TILE;
+        inside[h] = xs[h] < rx1 && ys[h] < ry1;
         t[h] = 1.0;
         color[h] = vec3<f32>(0.0);
         depth[h] = 0.0;
@@ -123,9 +135,8 @@ fn forward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) group
         if (!inside[h]) {
             continue;
         }
-        let pix = ys[h] * params.width + xs[h];
-        let bg = vec3<f32>(background[3u * pix], background[3u * pix + 1u], background[3u * pix + 2u]);
-        let c = color[h] + t[h] * bg;
+        let pix = (ys[h] - ry0) * (rx1 - rx0) + xs[h] - rx0;
+        let c = color[h] + t[h] * background_at(pix);
         let o = IMAGE_STRIDE * pix;
         image[o] = c.x;
         image[o + 1u] = c.y;
@@ -138,4 +149,11 @@ fn forward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) group
         pixel_state[s + 1u] = processed[h];
         pixel_state[s + 2u] = median_entry[h];
     }
+}
+
+fn background_at(pix: u32) -> vec3<f32> {
+    if (params.uniform_background != 0u) {
+        return params.background_color.xyz;
+    }
+    return vec3<f32>(background[3u * pix], background[3u * pix + 1u], background[3u * pix + 2u]);
 }

@@ -1,7 +1,11 @@
 // Projection, culling, tile binning: `vertex_pre`, `face_pre` (every culling
-// rule of cpu/preprocess.rs), then after the host sorts faces by the tile of
-// their top-left corner, `tile_counts` → scan → `emit_entries`; after the
-// depth sort, `gather_tiles`; after the tile sort, `tile_ranges`.
+// rule of cpu/preprocess.rs; it also reduces the drawn faces' pixel boxes into
+// the frame record), then after the faces are sorted by the tile of their
+// top-left corner, `tile_counts` → scan → `frame_region` (entry count and
+// rendered region) → `emit_entries` (→ `pad_entries` when the entry buffers
+// were sized without reading the count back); after the depth sort,
+// `gather_tiles`; after the tile sort, `tile_ranges`. Tiles are those of the
+// whole image: the region only decides which of them are composited.
 // Dispatches are 2D over groups of 256 threads: i = (wid.y·groups.x + wid.x)·256 + lid.
 
 @group(0) @binding(0) var<uniform> params: RasterParams;
@@ -21,6 +25,7 @@
 @group(0) @binding(14) var<storage, read_write> sorted_tile_keys: array<u32>;
 @group(0) @binding(15) var<storage, read_write> sorted_faces: array<u32>;
 @group(0) @binding(16) var<storage, read_write> tile_ranges_out: array<u32>;
+@group(0) @binding(17) var<storage, read_write> frame: array<atomic<u32>>;
 
 fn thread_index(wid: vec3<u32>, groups: vec3<u32>, lid: u32) -> u32 {
     return (wid.y * groups.x + wid.x) * 256u + lid;
@@ -214,6 +219,79 @@ fn face_pre(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) grou
     f.tile_key = (u32(y0) / TILE) * params.tiles_x + u32(x0) / TILE;
     faces[fi] = f;
     order_keys[fi] = f.tile_key;
+    atomicMax(&frame[FRAME_FOOTPRINT], ~u32(x0));
+    atomicMax(&frame[FRAME_FOOTPRINT + 1u], ~u32(y0));
+    atomicMax(&frame[FRAME_FOOTPRINT + 2u], u32(x1) + 1u);
+    atomicMax(&frame[FRAME_FOOTPRINT + 3u], u32(y1) + 1u);
+}
+
+fn saturating_sub(a: u32, b: u32) -> u32 {
+    return select(0u, a - b, a > b);
+}
+
+fn saturating_add(a: u32, b: u32) -> u32 {
+    return select(0xffffffffu, a + b, a <= 0xffffffffu - b);
+}
+
+// One thread, after the scan: the entry count, and the rendered region as
+// objectsplat_raster's `Region` defines it: the whole image, or the drawn
+// faces' pixel box ∪ include (`PixelRect::union`), grown by the margin and
+// rounded out to whole tiles (`PixelRect::grown_to_tiles`).
+@compute @workgroup_size(1)
+fn frame_region() {
+    atomicStore(&frame[FRAME_ENTRIES], entry_offsets[params.face_count]);
+    let w = params.width;
+    let h = params.height;
+    var x0 = 0u;
+    var y0 = 0u;
+    var x1 = w;
+    var y1 = h;
+    if (params.region_mode == 1u) {
+        var empty = true;
+        let fx1 = atomicLoad(&frame[FRAME_FOOTPRINT + 2u]);
+        if (fx1 != 0u) {
+            x0 = ~atomicLoad(&frame[FRAME_FOOTPRINT]);
+            y0 = ~atomicLoad(&frame[FRAME_FOOTPRINT + 1u]);
+            x1 = fx1;
+            y1 = atomicLoad(&frame[FRAME_FOOTPRINT + 3u]);
+            empty = false;
+        }
+        let include_empty = params.include_x0 >= params.include_x1 || params.include_y0 >= params.include_y1;
+        if (!include_empty) {
+            if (empty) {
+                x0 = params.include_x0;
+                y0 = params.include_y0;
+                x1 = params.include_x1;
+                y1 = params.include_y1;
+                empty = false;
+            } else {
+                x0 = min(x0, params.include_x0);
+                y0 = min(y0, params.include_y0);
+                x1 = max(x1, params.include_x1);
+                y1 = max(y1, params.include_y1);
+            }
+        }
+        if (empty) {
+            x0 = 0u;
+            y0 = 0u;
+            x1 = 0u;
+            y1 = 0u;
+        } else {
+            let m = params.margin;
+            let gx0 = saturating_sub(x0, m) / TILE * TILE;
+            let gy0 = saturating_sub(y0, m) / TILE * TILE;
+            let gx1 = (min(saturating_add(x1, m), w) + TILE - 1u) / TILE * TILE;
+            let gy1 = (min(saturating_add(y1, m), h) + TILE - 1u) / TILE * TILE;
+            x0 = min(gx0, w);
+            y0 = min(gy0, h);
+            x1 = min(gx1, w);
+            y1 = min(gy1, h);
+        }
+    }
+    atomicStore(&frame[FRAME_X0], x0);
+    atomicStore(&frame[FRAME_Y0], y0);
+    atomicStore(&frame[FRAME_X1], x1);
+    atomicStore(&frame[FRAME_Y1], y1);
 }
 
 // Tiles covered by the face in slot s (0 when culled); entry_offsets has face_count + 1 slots.
@@ -252,13 +330,31 @@ fn emit_entries(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
     var at = entry_offsets[s];
     for (var ty = f.pixels[1] / TILE; ty <= f.pixels[3] / TILE; ty++) {
         for (var tx = f.pixels[0] / TILE; tx <= f.pixels[2] / TILE; tx++) {
-            entry_depth_keys[at] = depth_key;
-            entry_ids[at] = at;
-            entry_tiles[at] = ty * params.tiles_x + tx;
-            entry_faces[at] = fi;
+            // Past the buffers' capacity (a render that did not read the count
+            // back): dropped, and the caller discards the render.
+            if (at < params.entry_count) {
+                entry_depth_keys[at] = depth_key;
+                entry_ids[at] = at;
+                entry_tiles[at] = ty * params.tiles_x + tx;
+                entry_faces[at] = fi;
+            }
             at++;
         }
     }
+}
+
+// Entries past the real count up to the sorted count (the buffers' capacity)
+// sort after every real one: largest depth key, tile key one past the last tile.
+@compute @workgroup_size(256)
+fn pad_entries(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
+    let i = thread_index(wid, groups, lid);
+    if (i >= params.entry_count || i < atomicLoad(&frame[FRAME_ENTRIES])) {
+        return;
+    }
+    entry_depth_keys[i] = 0xffffffffu;
+    entry_ids[i] = i;
+    entry_tiles[i] = params.tiles_x * params.tiles_y;
+    entry_faces[i] = 0u;
 }
 
 // After the depth sort: the tile and face of each entry in depth order.
@@ -282,6 +378,10 @@ fn tile_ranges(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) g
         return;
     }
     let t = sorted_tile_keys[i];
+    if (t >= params.tiles_x * params.tiles_y) {
+        // Padding (see pad_entries).
+        return;
+    }
     if (i == 0u || sorted_tile_keys[i - 1u] != t) {
         tile_ranges_out[2u * t] = i;
     }

@@ -3,7 +3,7 @@
 //! recursively, offsets added back.
 
 use crate::device::{GpuContext, read_values};
-use crate::kernels::{Kernel, groups_for, shader, storage, storage_from, uniform};
+use crate::kernels::{Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage_from};
 use anyhow::Result;
 
 pub const SCAN_WGSL: &str = include_str!("scan.wgsl");
@@ -31,41 +31,54 @@ impl GpuScan {
         }
     }
 
-    /// Records an in-place exclusive scan of the first `n` u32 of `data`.
+    /// Records an in-place exclusive scan of the first `n` u32 of `data`,
+    /// with the block sums in `scratch` (grown as needed).
     pub fn encode(
         &self,
-        ctx: &GpuContext,
-        encoder: &mut wgpu::CommandEncoder,
+        rec: &mut Recorder<'_>,
         data: &wgpu::Buffer,
         n: usize,
+        scratch: &mut ScanScratch,
+    ) {
+        self.encode_level(rec, data, n, &mut scratch.levels, &mut scratch.created);
+    }
+
+    fn encode_level(
+        &self,
+        rec: &mut Recorder<'_>,
+        data: &wgpu::Buffer,
+        n: usize,
+        levels: &mut [Pooled],
+        created: &mut u64,
     ) {
         if n == 0 {
             return;
         }
         let blocks = n.div_ceil(BLOCK);
-        let params = uniform(
-            ctx,
-            "scan params",
-            &ScanParams {
-                n: n as u32,
-                _pad: [0; 3],
-            },
-        );
-        let sums = storage(ctx, "scan block sums", (blocks * 4) as u64);
-        self.scan_blocks.dispatch(
-            ctx,
-            encoder,
-            &[(0, &params), (1, data), (2, &sums)],
+        let params = ScanParams {
+            n: n as u32,
+            _pad: [0; 3],
+        };
+        let Some((sums, deeper)) = levels.split_first_mut() else {
+            // ScanScratch holds more levels than any u32 count needs (checked there).
+            unreachable!("prefix sum deeper than its scratch levels");
+        };
+        sums.ensure(rec.ctx(), (blocks * 4) as u64, created);
+        let sums = &*sums;
+        rec.dispatch(
+            &self.scan_blocks,
+            &params,
+            &[(1, data), (2, sums.buffer())],
             groups_for(n, BLOCK),
         );
         if blocks == 1 {
             return;
         }
-        self.encode(ctx, encoder, &sums, blocks);
-        self.add_block_offsets.dispatch(
-            ctx,
-            encoder,
-            &[(0, &params), (1, data), (2, &sums)],
+        self.encode_level(rec, sums.buffer(), blocks, deeper, created);
+        rec.dispatch(
+            &self.add_block_offsets,
+            &params,
+            &[(1, data), (2, sums.buffer())],
             groups_for(n, BLOCK),
         );
     }
@@ -73,12 +86,29 @@ impl GpuScan {
     /// Uploads `values`, scans them and reads the result back (tests, tools).
     pub fn exclusive_scan(&self, ctx: &GpuContext, values: &[u32]) -> Result<Vec<u32>> {
         let data = storage_from(ctx, "scan data", values);
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        self.encode(ctx, &mut encoder, &data, values.len());
-        ctx.queue.submit([encoder.finish()]);
+        let mut uniforms = UniformArena::default();
+        let mut scratch = ScanScratch::new(ctx);
+        let mut rec = Recorder::new(ctx, &mut uniforms);
+        self.encode(&mut rec, &data, values.len(), &mut scratch);
+        rec.submit();
         ctx.check_errors("prefix sum")?;
         read_values(ctx, &data, values.len())
+    }
+}
+
+/// The block sums of every level of a prefix sum, kept between scans.
+pub struct ScanScratch {
+    levels: Vec<Pooled>,
+    pub created: u64,
+}
+
+impl ScanScratch {
+    pub fn new(ctx: &GpuContext) -> Self {
+        let mut created = 0;
+        // Each level divides the count by 1024: four levels cover any u32 count.
+        let levels = (0..4)
+            .map(|_| Pooled::new(ctx, "scan block sums", &mut created))
+            .collect();
+        ScanScratch { levels, created }
     }
 }

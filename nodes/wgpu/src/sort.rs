@@ -2,8 +2,10 @@
 //! only over the key bits the caller says are in use.
 
 use crate::device::{GpuContext, read_values};
-use crate::kernels::{Kernel, groups_for, shader, storage, storage_from, uniform};
-use crate::scan::GpuScan;
+use crate::kernels::{
+    Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage, storage_from,
+};
+use crate::scan::{GpuScan, ScanScratch};
 use anyhow::{Result, bail};
 
 pub const SORT_WGSL: &str = include_str!("sort.wgsl");
@@ -50,21 +52,25 @@ impl GpuSort {
     }
 
     /// Records a stable sort of the first `n` pairs by the low `bits` key bits
-    /// (higher bits must be zero, or they are ignored).
+    /// (higher bits must be zero, or they are ignored), with its histogram and
+    /// scan sums in `scratch`.
+    #[allow(clippy::too_many_arguments)]
     pub fn encode(
         &self,
-        ctx: &GpuContext,
+        rec: &mut Recorder<'_>,
         scan: &GpuScan,
-        encoder: &mut wgpu::CommandEncoder,
         buffers: &SortBuffers<'_>,
         n: usize,
         bits: u32,
+        scratch: &mut SortScratch,
     ) {
         if n <= 1 || bits == 0 {
             return;
         }
         let blocks = n.div_ceil(BLOCK);
-        let histogram = storage(ctx, "sort histogram", (blocks * RADIX * 4) as u64);
+        scratch
+            .histogram
+            .ensure(rec.ctx(), (blocks * RADIX * 4) as u64, &mut scratch.created);
         let passes = bits.min(32).div_ceil(BITS_PER_PASS);
         let pairs = [
             (buffers.keys, buffers.values),
@@ -72,41 +78,40 @@ impl GpuSort {
         ];
         for pass in 0..passes {
             let (src, dst) = (pairs[pass as usize % 2], pairs[(pass as usize + 1) % 2]);
-            let params = uniform(
-                ctx,
-                "sort params",
-                &SortParams {
-                    n: n as u32,
-                    shift: pass * BITS_PER_PASS,
-                    blocks: blocks as u32,
-                    _pad: 0,
-                },
-            );
-            self.count_digits.dispatch(
-                ctx,
-                encoder,
-                &[(0, &params), (1, src.0), (5, &histogram)],
+            let params = SortParams {
+                n: n as u32,
+                shift: pass * BITS_PER_PASS,
+                blocks: blocks as u32,
+                _pad: 0,
+            };
+            let histogram = scratch.histogram.buffer();
+            rec.dispatch(
+                &self.count_digits,
+                &params,
+                &[(1, src.0), (5, histogram)],
                 groups_for(n, BLOCK),
             );
-            scan.encode(ctx, encoder, &histogram, blocks * RADIX);
-            self.scatter.dispatch(
-                ctx,
-                encoder,
+            scan.encode(rec, histogram, blocks * RADIX, &mut scratch.scan);
+            let histogram = scratch.histogram.buffer();
+            rec.dispatch(
+                &self.scatter,
+                &params,
                 &[
-                    (0, &params),
                     (1, src.0),
                     (2, src.1),
                     (3, dst.0),
                     (4, dst.1),
-                    (5, &histogram),
+                    (5, histogram),
                 ],
                 groups_for(n, BLOCK),
             );
         }
         if passes % 2 == 1 {
             let bytes = (n * 4) as u64;
-            encoder.copy_buffer_to_buffer(buffers.scratch_keys, 0, buffers.keys, 0, bytes);
-            encoder.copy_buffer_to_buffer(buffers.scratch_values, 0, buffers.values, 0, bytes);
+            rec.enc
+                .copy_buffer_to_buffer(buffers.scratch_keys, 0, buffers.keys, 0, bytes);
+            rec.enc
+                .copy_buffer_to_buffer(buffers.scratch_values, 0, buffers.values, 0, bytes);
         }
     }
 
@@ -127,18 +132,41 @@ impl GpuSort {
         let v = storage_from(ctx, "sort values", values);
         let sk = storage(ctx, "sort scratch keys", (n * 4) as u64);
         let sv = storage(ctx, "sort scratch values", (n * 4) as u64);
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
         let buffers = SortBuffers {
             keys: &k,
             values: &v,
             scratch_keys: &sk,
             scratch_values: &sv,
         };
-        self.encode(ctx, scan, &mut encoder, &buffers, n, bits);
-        ctx.queue.submit([encoder.finish()]);
+        let mut uniforms = UniformArena::default();
+        let mut scratch = SortScratch::new(ctx);
+        let mut rec = Recorder::new(ctx, &mut uniforms);
+        self.encode(&mut rec, scan, &buffers, n, bits, &mut scratch);
+        rec.submit();
         ctx.check_errors("radix sort")?;
         Ok((read_values(ctx, &k, n)?, read_values(ctx, &v, n)?))
+    }
+}
+
+/// A sort's digit histogram and the scan's block sums, kept between sorts.
+pub struct SortScratch {
+    histogram: Pooled,
+    scan: ScanScratch,
+    created: u64,
+}
+
+impl SortScratch {
+    pub fn new(ctx: &GpuContext) -> Self {
+        let mut created = 0;
+        SortScratch {
+            histogram: Pooled::new(ctx, "sort histogram", &mut created),
+            scan: ScanScratch::new(ctx),
+            created,
+        }
+    }
+
+    /// Buffers created so far (the pooling checks).
+    pub fn created(&self) -> u64 {
+        self.created + self.scan.created
     }
 }

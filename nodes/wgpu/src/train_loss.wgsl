@@ -1,22 +1,36 @@
 // The training loss on the device: (1 − λ)·L1 + λ·(1 − SSIM) of the rendered
 // colour against a view's target, weighted per pixel, with the gradient of
-// objectsplat_raster::loss::photometric (same taps, same summation order of
-// the separable blurs). The gradient is written as the backward pass's
+// objectsplat_raster::loss::PhotometricLoss (same taps, same summation order
+// of the separable blurs). The gradient is written as the backward pass's
 // upstream buffer (stride 6: colour, alpha, depth, median depth).
 //
-// Per step: `fill_background` (the background image the forward composites
-// over) → forward → `ssim_rows` → `ssim_maps` (SSIM and its partials, the
-// per-workgroup sums) → `ssim_grad_rows` → `loss_grad` → `loss_total`.
-// Dispatches are 2D over groups of 256 threads: i = (wid.y·groups.x + wid.x)·256 + lid.
+// Every kernel covers the render's region (the frame record's rectangle;
+// the rendered image, the scratch planes and the gradient are region-sized,
+// row-major) and treats it as a crop: the blurs are zero-padded at its border,
+// as objectsplat_raster::loss does for a crop. Targets and weights are those
+// of the whole view. Outside the region render and target agree, so there
+// L1 adds 0 and the SSIM map is exactly 1: with u = w/(3·Σ_view w),
+// 1 − SSIM = Σ_region Σ_c u·(1 − S), and the pixels outside need no sum at
+// all (the crop normalization of PhotometricLoss, whose outside weight
+// cancels in 1 − SSIM).
+//
+// Per step, after the forward pass: `ssim_rows` → `ssim_maps` (SSIM, its
+// partials when a gradient is wanted, per-workgroup sums) → `ssim_grad_rows`
+// → `loss_grad` → `loss_total`; an evaluation runs `ssim_rows`, `ssim_maps`
+// and `loss_total` only. Dispatches are 2D over groups of 256 threads:
+// i = (wid.y·groups.x + wid.x)·256 + lid; threads past the region's pixels do
+// nothing (an evaluation dispatches for the whole image, not knowing the region).
 
 struct LossParams {
+    // Width of the view's image (targets are indexed in it).
     width: u32,
-    height: u32,
-    // Entry of `losses`/`status` this step writes.
+    // Entry of `results`/`status` this pass writes.
     slot: u32,
     partial_count: u32,
+    // 0: the value only (no partial maps).
+    gradient: u32,
     background: vec4<f32>,
-    // 1 / (3·Σ weights); 0 when no pixel is supervised.
+    // 1 / (3·Σ weights of the whole view); 0 when no pixel is supervised.
     norm: f32,
     l1_weight: f32,
     ssim_weight: f32,
@@ -32,22 +46,31 @@ const C1: f32 = 0.0001;
 const C2: f32 = 0.0009;
 const STATUS_RENDER: u32 = 1u;
 const STATUS_LOSS: u32 = 2u;
+// Words of the frame record (raster_common.wgsl).
+const FRAME_ENTRIES: u32 = 0u;
+const FRAME_X0: u32 = 1u;
+const FRAME_Y0: u32 = 2u;
+const FRAME_X1: u32 = 3u;
+const FRAME_Y1: u32 = 4u;
 
 @group(0) @binding(0) var<uniform> params: LossParams;
+// The region's render, stride 6.
 @group(0) @binding(1) var<storage, read> image: array<f32>;
-// Per pixel: target colour and weight (0 = not supervised).
+// Per pixel of the view: target colour and weight (0 = not supervised).
 @group(0) @binding(2) var<storage, read> targets: array<vec4<f32>>;
-// Per pixel: 1 where the target is the step's background colour.
+// Per pixel of the view: 1 where the target is the step's background colour.
 @group(0) @binding(3) var<storage, read> from_background: array<u32>;
 @group(0) @binding(4) var<storage, read_write> rows: array<f32>;
 @group(0) @binding(5) var<storage, read_write> maps: array<f32>;
 @group(0) @binding(6) var<storage, read_write> upstream: array<f32>;
-@group(0) @binding(7) var<storage, read_write> partials: array<f32>;
-@group(0) @binding(8) var<storage, read_write> losses: array<f32>;
+// Per workgroup: Σ u·|x − y|, Σ u·(1 − S), Σ w·(x − y)² (supervised pixels).
+@group(0) @binding(7) var<storage, read_write> partials: array<vec4<f32>>;
+// Per slot: loss and weighted squared error (f32 bits), the render's tile entries, 0.
+@group(0) @binding(8) var<storage, read_write> results: array<vec4<u32>>;
 @group(0) @binding(9) var<storage, read_write> status: array<atomic<u32>>;
-@group(0) @binding(10) var<storage, read_write> background_image: array<f32>;
+@group(0) @binding(10) var<storage, read> frame: array<u32>;
 
-var<workgroup> sums: array<vec2<f32>, 256>;
+var<workgroup> sums: array<vec4<f32>, 256>;
 
 fn thread_index(wid: vec3<u32>, groups: vec3<u32>, lid: u32) -> u32 {
     return (wid.y * groups.x + wid.x) * 256u + lid;
@@ -63,44 +86,59 @@ fn is_finite(x: f32) -> bool {
     return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
 }
 
-fn target_color(p: u32) -> vec3<f32> {
-    if (from_background[p] != 0u) {
-        return params.background.xyz;
-    }
-    return targets[p].xyz;
+// The frame record's region, read once per invocation.
+struct Region {
+    x0: u32,
+    y0: u32,
+    width: u32,
+    height: u32,
+    pixels: u32,
 }
 
-// Scratch maps are stored plane by plane (value k of pixel p at k·pixels + p),
-// so neighbouring threads read neighbouring words.
-fn plane(k: u32, p: u32) -> u32 {
-    return k * params.width * params.height + p;
+fn region() -> Region {
+    var r: Region;
+    r.x0 = frame[FRAME_X0];
+    r.y0 = frame[FRAME_Y0];
+    r.width = frame[FRAME_X1] - r.x0;
+    r.height = frame[FRAME_Y1] - r.y0;
+    r.pixels = r.width * r.height;
+    return r;
+}
+
+// The view's pixel index of the region's pixel (x, y) (region coordinates).
+fn view_pixel(r: Region, x: u32, y: u32) -> u32 {
+    return (r.y0 + y) * params.width + r.x0 + x;
+}
+
+fn target_color(q: u32) -> vec3<f32> {
+    if (from_background[q] != 0u) {
+        return params.background.xyz;
+    }
+    return targets[q].xyz;
+}
+
+// Scratch maps are stored plane by plane (value k of region pixel p at
+// k·pixels + p), so neighbouring threads read neighbouring words.
+fn plane(k: u32, p: u32, pixels: u32) -> u32 {
+    return k * pixels + p;
 }
 
 fn rendered(p: u32, c: u32) -> f32 {
     return image[p * IMAGE_STRIDE + c];
 }
 
-@compute @workgroup_size(256)
-fn fill_background(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let p = thread_index(wid, groups, lid);
-    if (p >= params.width * params.height) {
-        return;
-    }
-    for (var c = 0u; c < 3u; c++) {
-        background_image[3u * p + c] = params.background[c];
-    }
-}
-
 // Horizontal blur of x, y, x², y², xy per channel.
 @compute @workgroup_size(256)
 fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let p = thread_index(wid, groups, lid);
-    let w = i32(params.width);
-    if (p >= params.width * params.height) {
+    let r = region();
+    if (p >= r.pixels) {
         return;
     }
-    let x = i32(p % params.width);
+    let w = i32(r.width);
+    let x = i32(p % r.width);
     let row = p - u32(x);
+    let view_row = view_pixel(r, 0u, p / r.width);
     let lo = max(x - HALF, 0);
     let hi = min(x + HALF, w - 1);
     for (var c = 0u; c < 3u; c++) {
@@ -109,7 +147,7 @@ fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
             let t = tap(xx + HALF - x);
             let q = row + u32(xx);
             let vx = rendered(q, c);
-            let vy = target_color(q)[c];
+            let vy = target_color(view_row + u32(xx))[c];
             acc[0] += t * vx;
             acc[1] += t * vy;
             acc[2] += t * (vx * vx);
@@ -117,21 +155,23 @@ fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
             acc[4] += t * (vx * vy);
         }
         for (var k = 0u; k < 5u; k++) {
-            rows[plane(5u * c + k, p)] = acc[k];
+            rows[plane(5u * c + k, p, r.pixels)] = acc[k];
         }
     }
 }
 
-// Vertical blur, then per channel the SSIM map and its partials with respect
-// to the blurred moments; per workgroup the weighted L1 and SSIM sums.
+// Vertical blur, then per channel the SSIM map and (for a gradient) its
+// partials with respect to the blurred moments; per workgroup the sums.
 @compute @workgroup_size(256)
 fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let p = thread_index(wid, groups, lid);
-    var contribution = vec2<f32>(0.0, 0.0);
-    if (p < params.width * params.height) {
-        let h = i32(params.height);
-        let x = p % params.width;
-        let y = i32(p / params.width);
+    let r = region();
+    var contribution = vec4<f32>(0.0);
+    if (p < r.pixels) {
+        let h = i32(r.height);
+        let rw = r.width;
+        let x = p % rw;
+        let y = i32(p / rw);
         let lo = max(y - HALF, 0);
         let hi = min(y + HALF, h - 1);
         var finite = true;
@@ -141,15 +181,17 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
         if (!finite) {
             atomicOr(&status[params.slot], STATUS_RENDER);
         }
-        let u = targets[p].w * params.norm;
-        let goal = target_color(p);
+        let q = view_pixel(r, x, u32(y));
+        let weight = targets[q].w;
+        let u = weight * params.norm;
+        let goal = target_color(q);
         for (var c = 0u; c < 3u; c++) {
             var m = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
             for (var yy = lo; yy <= hi; yy++) {
                 let t = tap(yy + HALF - y);
-                let q = u32(yy) * params.width + x;
+                let above = u32(yy) * rw + x;
                 for (var k = 0u; k < 5u; k++) {
-                    m[k] += t * rows[plane(5u * c + k, q)];
+                    m[k] += t * rows[plane(5u * c + k, above, r.pixels)];
                 }
             }
             let mux = m[0];
@@ -162,14 +204,21 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
             let b1 = mux * mux + muy * muy + C1;
             let b2 = vx + vy + C2;
             let s = a1 * a2 / (b1 * b2);
-            let ds_dmux = 2.0 * muy * a2 / (b1 * b2) - 2.0 * mux * s / b1;
-            let ds_dvx = -s / b2;
-            let ds_dcxy = 2.0 * a1 / (b1 * b2);
-            // μx also enters σx² = E[x²] − μx² and σxy = E[xy] − μx·μy.
-            maps[plane(3u * c, p)] = u * (ds_dmux - 2.0 * mux * ds_dvx - muy * ds_dcxy);
-            maps[plane(3u * c + 1u, p)] = u * ds_dvx;
-            maps[plane(3u * c + 2u, p)] = u * ds_dcxy;
-            contribution += vec2<f32>(u * abs(rendered(p, c) - goal[c]), u * s);
+            if (params.gradient != 0u) {
+                let ds_dmux = 2.0 * muy * a2 / (b1 * b2) - 2.0 * mux * s / b1;
+                let ds_dvx = -s / b2;
+                let ds_dcxy = 2.0 * a1 / (b1 * b2);
+                // μx also enters σx² = E[x²] − μx² and σxy = E[xy] − μx·μy.
+                maps[plane(3u * c, p, r.pixels)] = u * (ds_dmux - 2.0 * mux * ds_dvx - muy * ds_dcxy);
+                maps[plane(3u * c + 1u, p, r.pixels)] = u * ds_dvx;
+                maps[plane(3u * c + 2u, p, r.pixels)] = u * ds_dcxy;
+            }
+            let d = rendered(p, c) - goal[c];
+            var squared = 0.0;
+            if (weight > 0.0) {
+                squared = weight * d * d;
+            }
+            contribution += vec4<f32>(u * abs(d), u * (1.0 - s), squared, 0.0);
         }
     }
     sums[lid] = contribution;
@@ -181,9 +230,7 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
         workgroupBarrier();
     }
     if (lid == 0u) {
-        let g = wid.y * groups.x + wid.x;
-        partials[2u * g] = sums[0].x;
-        partials[2u * g + 1u] = sums[0].y;
+        partials[wid.y * groups.x + wid.x] = sums[0];
     }
 }
 
@@ -191,11 +238,12 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
 @compute @workgroup_size(256)
 fn ssim_grad_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let p = thread_index(wid, groups, lid);
-    let w = i32(params.width);
-    if (p >= params.width * params.height) {
+    let r = region();
+    if (p >= r.pixels) {
         return;
     }
-    let x = i32(p % params.width);
+    let w = i32(r.width);
+    let x = i32(p % r.width);
     let row = p - u32(x);
     let lo = max(x - HALF, 0);
     let hi = min(x + HALF, w - 1);
@@ -204,11 +252,11 @@ fn ssim_grad_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
         let t = tap(xx + HALF - x);
         let q = row + u32(xx);
         for (var k = 0u; k < MAP_COUNT; k++) {
-            acc[k] += t * maps[plane(k, q)];
+            acc[k] += t * maps[plane(k, q, r.pixels)];
         }
     }
     for (var k = 0u; k < MAP_COUNT; k++) {
-        rows[plane(k, p)] = acc[k];
+        rows[plane(k, p, r.pixels)] = acc[k];
     }
 }
 
@@ -216,24 +264,27 @@ fn ssim_grad_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
 @compute @workgroup_size(256)
 fn loss_grad(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
     let p = thread_index(wid, groups, lid);
-    if (p >= params.width * params.height) {
+    let r = region();
+    if (p >= r.pixels) {
         return;
     }
-    let h = i32(params.height);
-    let x = p % params.width;
-    let y = i32(p / params.width);
+    let h = i32(r.height);
+    let rw = r.width;
+    let x = p % rw;
+    let y = i32(p / rw);
     let lo = max(y - HALF, 0);
     let hi = min(y + HALF, h - 1);
     var b = array<f32, 9>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     for (var yy = lo; yy <= hi; yy++) {
         let t = tap(yy + HALF - y);
-        let q = u32(yy) * params.width + x;
+        let above = u32(yy) * rw + x;
         for (var k = 0u; k < MAP_COUNT; k++) {
-            b[k] += t * rows[plane(k, q)];
+            b[k] += t * rows[plane(k, above, r.pixels)];
         }
     }
-    let u = targets[p].w * params.norm;
-    let goal = target_color(p);
+    let q = view_pixel(r, x, u32(y));
+    let u = targets[q].w * params.norm;
+    let goal = target_color(q);
     for (var c = 0u; c < 3u; c++) {
         let xv = rendered(p, c);
         let d = xv - goal[c];
@@ -251,13 +302,14 @@ fn loss_grad(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
     }
 }
 
-// One workgroup: the step's loss from the per-workgroup sums, in a fixed order
-// (so the value does not depend on scheduling).
+// One workgroup: the loss from the per-workgroup sums, in a fixed order (so
+// the value does not depend on scheduling), with the weighted squared error
+// and the render's entry count.
 @compute @workgroup_size(256)
 fn loss_total(@builtin(local_invocation_index) lid: u32) {
-    var acc = vec2<f32>(0.0, 0.0);
+    var acc = vec4<f32>(0.0);
     for (var g = lid; g < params.partial_count; g += 256u) {
-        acc += vec2<f32>(partials[2u * g], partials[2u * g + 1u]);
+        acc += partials[g];
     }
     sums[lid] = acc;
     workgroupBarrier();
@@ -270,9 +322,9 @@ fn loss_total(@builtin(local_invocation_index) lid: u32) {
     if (lid == 0u) {
         var value = 0.0;
         if (params.supervised != 0u) {
-            value = params.l1_weight * sums[0].x + params.ssim_weight * (1.0 - sums[0].y);
+            value = params.l1_weight * sums[0].x + params.ssim_weight * sums[0].y;
         }
-        losses[params.slot] = value;
+        results[params.slot] = vec4<u32>(bitcast<u32>(value), bitcast<u32>(sums[0].z), frame[FRAME_ENTRIES], 0u);
         if (!is_finite(value)) {
             atomicOr(&status[params.slot], STATUS_LOSS);
         }

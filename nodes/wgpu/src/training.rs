@@ -1,24 +1,39 @@
-//! [`DeviceTrainer`]: training iterations that stay on the device. The
-//! parameters, Adam's moments and every training view's target live in device
-//! buffers; one step renders (the forward of [`WgpuBackend`]), computes the
-//! photometric loss and its image gradient (`train_loss.wgsl`), runs the
-//! backward pass and applies Adam (`train_adam.wgsl`), with no image or
-//! gradient crossing to the host. Per step the host sends a few uniforms and
-//! reads back one number, the tile-entry count that sizes the entry buffers.
-//! Losses and divergence flags collect in device slots and come back in
-//! batches ([`DeviceTrainer::results`]); the parameters come back only when
-//! the host needs the model ([`DeviceTrainer::store`]).
+//! [`DeviceTrainer`]: training iterations and evaluations that stay on the
+//! device. The parameters, Adam's moments, the per-face weight statistics and
+//! every view's target live in device buffers; one step renders (the forward
+//! of [`WgpuBackend`]), computes the photometric loss and its image gradient
+//! (`train_loss.wgsl`), runs the backward pass and applies Adam
+//! (`train_adam.wgsl`), with no image or gradient crossing to the host.
+//!
+//! A step whose settings ask for [`Region::Footprint`] renders, scores and
+//! back-propagates only the footprint of the drawn faces and of the view's
+//! own supervision (the pixels whose target is not the background colour),
+//! grown by the loss's crop margin: the loss and the gradient equal the whole
+//! frame's (see train_loss.wgsl).
+//!
+//! Per step the host writes a few uniform blocks and reads back one record,
+//! the tile-entry count and the rendered region, which size the entry buffers
+//! and the dispatches. Every buffer is pooled: once the pools have grown to
+//! the model and the images, a step creates none. Losses and divergence flags
+//! collect in device slots and come back in batches
+//! ([`DeviceTrainer::results`]); the parameters come back only when the host
+//! needs the model ([`DeviceTrainer::store`]). An evaluation
+//! ([`DeviceTrainer::evaluate`]) renders and scores several views with one
+//! readback, and the running per-face weight maxima
+//! ([`DeviceTrainer::face_weights`]) come back only when asked for.
 
-use crate::device::{read_buffers, read_values};
-use crate::kernels::{Kernel, groups_for, shader, storage, storage_from, uniform};
-use crate::raster::{ModelBuffers, WgpuBackend};
+use crate::device::{Readback, read_values};
+use crate::kernels::{Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage};
+use crate::raster::{BackgroundSource, GradPool, ModelBuffers, RasterPool, WgpuBackend};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::Camera;
-use objectsplat_raster::loss::{SSIM_SIGMA, SSIM_WINDOW};
+use objectsplat_raster::backend::{PixelRect, Region};
+use objectsplat_raster::loss::{CROP_MARGIN, SSIM_SIGMA, SSIM_WINDOW};
 use objectsplat_raster::{Model, RenderSettings, SH_COEFFS};
 
 pub const TRAIN_LOSS_WGSL: &str = include_str!("train_loss.wgsl");
 pub const TRAIN_ADAM_WGSL: &str = include_str!("train_adam.wgsl");
+pub const TRAIN_FACES_WGSL: &str = include_str!("train_faces.wgsl");
 
 const THREADS_1D: usize = 256;
 /// Steps whose losses and flags the device holds before the host collects them.
@@ -112,6 +127,9 @@ pub struct LearningRates {
 }
 
 /// One iteration: which view, over which background colour, rendered how.
+/// With `render.region` = [`Region::Footprint`], the view's own supervision
+/// rectangle is added to `include` and the margin must be at least
+/// [`CROP_MARGIN`] (what keeps the cropped loss equal to the whole frame's).
 #[derive(Debug, Clone)]
 pub struct Step {
     pub view: usize,
@@ -131,14 +149,29 @@ pub struct StepResult {
     pub non_finite: Vec<&'static str>,
 }
 
+/// Per face, the running maximum of the blending weight over the training
+/// renders of the current epoch and of the previous one.
+pub type FaceWeightArrays = (Vec<f32>, Vec<f32>);
+
+/// A view's score in an evaluation (over a black background, no gradient).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ViewScore {
+    /// `(1 − λ)·L1 + λ·(1 − SSIM)` over the whole view (0 when nothing is supervised).
+    pub loss: f64,
+    /// `Σ w·(rendered − target)²` over the supervised pixels and channels.
+    pub squared_error: f64,
+    /// `Σ w` over the whole view.
+    pub total_weight: f64,
+}
+
 /// `LossParams` of train_loss.wgsl.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 struct LossParams {
     width: u32,
-    height: u32,
     slot: u32,
     partial_count: u32,
+    gradient: u32,
     background: [f32; 4],
     norm: f32,
     l1_weight: f32,
@@ -168,6 +201,14 @@ struct AdamParams {
     pad: [u32; 2],
 }
 
+/// `FaceParams` of train_faces.wgsl.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+struct FaceParams {
+    face_count: u32,
+    pad: [u32; 3],
+}
+
 struct ViewBuffers {
     camera: Camera,
     targets: wgpu::Buffer,
@@ -175,8 +216,13 @@ struct ViewBuffers {
     /// 1 / (3·Σ weights), 0 without supervised pixels.
     norm: f32,
     supervised: bool,
+    /// `Σ` weights over the view.
+    total_weight: f64,
+    /// Bounding box of the pixels whose target is not the background colour.
+    include: PixelRect,
 }
 
+/// The parameters and Adam's moments on the device (pooled buffers, grown to the largest model).
 struct Resident {
     params: ModelBuffers,
     first: [wgpu::Buffer; 3],
@@ -185,13 +231,26 @@ struct Resident {
 }
 
 struct Kernels {
-    fill_background: Kernel,
     ssim_rows: Kernel,
     ssim_maps: Kernel,
     ssim_grad_rows: Kernel,
     loss_grad: Kernel,
     loss_total: Kernel,
     adam: Kernel,
+    fold_face_weights: Kernel,
+}
+
+/// Grow-only storage of the trainer beyond the raster pools.
+struct TrainerPools {
+    /// Positions, SH, opacity logits, face indices.
+    model: [Pooled; 4],
+    first: [Pooled; 3],
+    second: [Pooled; 3],
+    /// Running per-face maxima of the blending weight: current and previous epoch.
+    face_weights: [Pooled; 2],
+    eval_results: Pooled,
+    eval_status: Pooled,
+    created: u64,
 }
 
 /// Training steps on the device (see the module documentation).
@@ -202,15 +261,26 @@ pub struct DeviceTrainer {
     taps: [f32; 12],
     views: Vec<ViewBuffers>,
     resident: Option<Resident>,
-    background_image: wgpu::Buffer,
+    uniforms: UniformArena,
+    raster: RasterPool,
+    grads: GradPool,
+    pools: TrainerPools,
+    /// Faces the face-weight arrays describe (those of the loaded model).
+    face_weight_faces: usize,
     rows: wgpu::Buffer,
     maps: wgpu::Buffer,
     upstream: wgpu::Buffer,
     partials: wgpu::Buffer,
-    losses: wgpu::Buffer,
+    results: wgpu::Buffer,
     status: wgpu::Buffer,
+    readback: Readback,
     pending: usize,
     collected: Vec<StepResult>,
+    /// View and region of the last step (for [`DeviceTrainer::last_image_gradient`]).
+    last_step: Option<(usize, PixelRect)>,
+    /// Host waits for the device outside the raster pool's.
+    syncs: u64,
+    created: u64,
 }
 
 /// The SSIM window's taps as objectsplat_raster::loss computes them (in f64,
@@ -257,6 +327,28 @@ impl TrainingView {
         }
         Ok(())
     }
+
+    /// Bounding box of the pixels whose target is not the background colour
+    /// (the supervision a crop must keep; `ViewSummary::include` of the trainer).
+    pub fn include(&self) -> PixelRect {
+        let w = self.camera.width as usize;
+        let mut include = PixelRect::default();
+        for (p, _) in self
+            .from_background
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| !**b)
+        {
+            let (x, y) = ((p % w) as u32, (p / w) as u32);
+            include = include.union(PixelRect {
+                x0: x,
+                y0: y,
+                x1: x + 1,
+                y1: y + 1,
+            });
+        }
+        include
+    }
 }
 
 impl Moments {
@@ -273,7 +365,7 @@ impl Moments {
 }
 
 impl DeviceTrainer {
-    /// Uploads the training views and compiles the kernels.
+    /// Uploads the views (training and held-out alike) and compiles the kernels.
     pub fn new(
         backend: &WgpuBackend,
         views: &[TrainingView],
@@ -295,14 +387,15 @@ impl DeviceTrainer {
         ctx.check_errors("setup before compiling the training kernels")?;
         let loss = shader(&ctx, "train_loss.wgsl", TRAIN_LOSS_WGSL);
         let adam_module = shader(&ctx, "train_adam.wgsl", TRAIN_ADAM_WGSL);
+        let faces_module = shader(&ctx, "train_faces.wgsl", TRAIN_FACES_WGSL);
         let kernels = Kernels {
-            fill_background: Kernel::new(&ctx, &loss, "fill_background"),
             ssim_rows: Kernel::new(&ctx, &loss, "ssim_rows"),
             ssim_maps: Kernel::new(&ctx, &loss, "ssim_maps"),
             ssim_grad_rows: Kernel::new(&ctx, &loss, "ssim_grad_rows"),
             loss_grad: Kernel::new(&ctx, &loss, "loss_grad"),
             loss_total: Kernel::new(&ctx, &loss, "loss_total"),
             adam: Kernel::new(&ctx, &adam_module, "adam_step"),
+            fold_face_weights: Kernel::new(&ctx, &faces_module, "fold_face_weights"),
         };
         ctx.check_errors("compiling the training kernels")?;
         let mut buffers = Vec::with_capacity(views.len());
@@ -315,18 +408,20 @@ impl DeviceTrainer {
                 .map(|(rgb, &w)| [rgb[0], rgb[1], rgb[2], w])
                 .collect();
             let flags: Vec<u32> = view.from_background.iter().map(|&b| b as u32).collect();
-            let weight_sum: f32 = view.weights.iter().sum();
-            let supervised = weight_sum > 0.0;
+            let total_weight: f64 = view.weights.iter().map(|&w| w as f64).sum();
+            let supervised = total_weight > 0.0;
             buffers.push(ViewBuffers {
                 camera: view.camera,
-                targets: storage_from(&ctx, "training targets", &targets),
-                from_background: storage_from(&ctx, "background flags", &flags),
+                targets: crate::kernels::storage_from(&ctx, "view targets", &targets),
+                from_background: crate::kernels::storage_from(&ctx, "background flags", &flags),
                 norm: if supervised {
-                    1.0 / (weight_sum * 3.0)
+                    (1.0 / (3.0 * total_weight)) as f32
                 } else {
                     0.0
                 },
                 supervised,
+                total_weight,
+                include: view.include(),
             });
         }
         let pixels = views
@@ -334,53 +429,251 @@ impl DeviceTrainer {
             .map(|v| v.camera.width as usize * v.camera.height as usize)
             .max()
             .unwrap_or(0); // views is not empty (checked above)
+        backend.check_binding_size("SSIM planes", (pixels * ROW_MAPS * 4) as u64)?;
         let bytes = |n: usize| (n * 4) as u64;
-        let losses = storage(&ctx, "step losses", bytes(SLOTS));
+        let mut created = 0;
+        let mut pooled = |label| Pooled::new(&ctx, label, &mut created);
+        let pools = TrainerPools {
+            model: [
+                pooled("positions"),
+                pooled("sh"),
+                pooled("opacity logits"),
+                pooled("face indices"),
+            ],
+            first: [
+                pooled("adam first moment"),
+                pooled("adam first moment"),
+                pooled("adam first moment"),
+            ],
+            second: [
+                pooled("adam second moment"),
+                pooled("adam second moment"),
+                pooled("adam second moment"),
+            ],
+            face_weights: [
+                pooled("face weights (current epoch)"),
+                pooled("face weights (previous epoch)"),
+            ],
+            eval_results: pooled("evaluation results"),
+            eval_status: pooled("evaluation status"),
+            created: 0,
+        };
+        let results = storage(&ctx, "step results", bytes(4 * SLOTS));
         let status = storage(&ctx, "step status", bytes(SLOTS));
         let mut enc = ctx
             .device
             .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
         enc.clear_buffer(&status, 0, None);
         ctx.queue.submit([enc.finish()]);
-        Ok(DeviceTrainer {
+        let trainer = DeviceTrainer {
             backend: backend.clone(),
             kernels,
             adam,
             taps: gaussian_taps(),
             views: buffers,
             resident: None,
-            background_image: storage(&ctx, "background image", bytes(pixels * 3)),
+            uniforms: UniformArena::default(),
+            raster: RasterPool::new(&ctx),
+            grads: GradPool::new(&ctx),
+            pools,
+            face_weight_faces: 0,
             rows: storage(&ctx, "ssim rows", bytes(pixels * ROW_MAPS)),
             maps: storage(&ctx, "ssim partial maps", bytes(pixels * PARTIAL_MAPS)),
             upstream: storage(&ctx, "loss gradient", bytes(pixels * IMAGE_STRIDE)),
             partials: storage(
                 &ctx,
                 "loss partial sums",
-                bytes(2 * groups_for(pixels, THREADS_1D) as usize),
+                bytes(4 * groups_for(pixels, THREADS_1D) as usize),
             ),
-            losses,
+            results,
             status,
+            readback: Readback::default(),
             pending: 0,
             collected: Vec::new(),
-        })
+            last_step: None,
+            syncs: 0,
+            created: created + 6,
+        };
+        Ok(trainer)
     }
 
-    /// Puts `model` and its Adam state on the device, replacing what was there.
+    /// Buffers created since [`DeviceTrainer::new`] began, pools included: it
+    /// stops growing once the pools fit the model and the images.
+    pub fn buffers_created(&self) -> u64 {
+        self.created
+            + self.pools.created
+            + self.uniforms.created
+            + self.readback.created
+            + self.raster.created()
+            + self.grads.created()
+    }
+
+    /// Pixels of view `view`'s frame (0 for a view that does not exist).
+    pub fn view_pixels(&self, view: usize) -> usize {
+        self.views
+            .get(view)
+            .map_or(0, |v| v.camera.width as usize * v.camera.height as usize)
+    }
+
+    /// The region the last step rendered (None before any step).
+    pub fn last_region(&self) -> Option<PixelRect> {
+        self.last_step.map(|(_, region)| region)
+    }
+
+    /// Times the host has waited for the device (readbacks) so far.
+    pub fn host_syncs(&self) -> u64 {
+        self.syncs + self.raster.syncs
+    }
+
+    /// Puts `model` and its Adam state on the device, replacing what was
+    /// there; the per-face weight statistics start at zero for its faces.
     pub fn load(&mut self, model: &Model<f32>, state: &OptimizerState) -> Result<()> {
         let nv = model.vertex_count();
         state.positions.check("vertex positions", nv * 3)?;
         state.sh.check("SH coefficients", nv * SH_VALUES)?;
         state.opacity_logits.check("opacity logits", nv)?;
-        let params = self.backend.upload_model(model)?;
-        let ctx = self.backend.context();
+        let ctx = self.backend.context().clone();
+        let c = &mut self.pools.created;
+        let params = self
+            .backend
+            .upload_model_into(model, &mut self.pools.model, c)?;
         let tensors = [&state.positions, &state.sh, &state.opacity_logits];
+        for (t, m) in tensors.iter().enumerate() {
+            self.pools.first[t].write(&ctx, &m.first, c);
+            self.pools.second[t].write(&ctx, &m.second, c);
+        }
+        let nf = model.face_count();
+        for w in &mut self.pools.face_weights {
+            w.ensure(&ctx, (nf * 4) as u64, c);
+        }
+        if nf > 0 {
+            let mut enc = ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+            for w in &self.pools.face_weights {
+                enc.clear_buffer(w.buffer(), 0, Some((nf * 4) as u64));
+            }
+            ctx.queue.submit([enc.finish()]);
+        }
+        self.face_weight_faces = nf;
         self.resident = Some(Resident {
             params,
-            first: tensors.map(|t| storage_from(ctx, "adam first moment", &t.first)),
-            second: tensors.map(|t| storage_from(ctx, "adam second moment", &t.second)),
+            first: std::array::from_fn(|t| self.pools.first[t].buffer().clone()),
+            second: std::array::from_fn(|t| self.pools.second[t].buffer().clone()),
             steps: tensors.map(|t| t.steps),
         });
         Ok(())
+    }
+
+    /// The settings a pass over view `view` renders with: a footprint region
+    /// keeps the view's own supervision and the loss's margin.
+    fn pass_settings(&self, view: usize, render: &RenderSettings) -> Result<RenderSettings> {
+        let region = match render.region {
+            Region::Full => Region::Full,
+            Region::Footprint { include, margin } => {
+                if margin < CROP_MARGIN {
+                    bail!(
+                        "a cropped pass needs a margin of at least {CROP_MARGIN} px (the SSIM window's reach) for an exact loss, not {margin}"
+                    );
+                }
+                Region::Footprint {
+                    include: include.union(self.views[view].include),
+                    margin,
+                }
+            }
+        };
+        Ok(RenderSettings {
+            region,
+            ..render.clone()
+        })
+    }
+
+    /// Records the loss kernels of a pass over view `view` whose render is in
+    /// the raster pool: into result slot `slot` of `results`/`status`, over
+    /// `groups` workgroups of pixels, with the image gradient when `gradient`.
+    #[allow(clippy::too_many_arguments)]
+    fn encode_loss(
+        &self,
+        rec: &mut Recorder<'_>,
+        view: usize,
+        background: [f32; 3],
+        lambda_dssim: f64,
+        slot: u32,
+        groups: u32,
+        gradient: bool,
+        targets: (&wgpu::Buffer, &wgpu::Buffer),
+    ) {
+        let k = &self.kernels;
+        let v = &self.views[view];
+        let params = LossParams {
+            width: v.camera.width,
+            slot,
+            partial_count: groups,
+            gradient: gradient as u32,
+            background: [background[0], background[1], background[2], 0.0],
+            norm: v.norm,
+            l1_weight: (1.0 - lambda_dssim) as f32,
+            ssim_weight: lambda_dssim as f32,
+            supervised: v.supervised as u32,
+            taps: self.taps,
+        };
+        let (results, status) = targets;
+        let image = self.raster.image();
+        let frame = self.raster.frame();
+        rec.dispatch(
+            &k.ssim_rows,
+            &params,
+            &[
+                (1, image),
+                (2, &v.targets),
+                (3, &v.from_background),
+                (4, &self.rows),
+                (10, frame),
+            ],
+            groups,
+        );
+        rec.dispatch(
+            &k.ssim_maps,
+            &params,
+            &[
+                (1, image),
+                (2, &v.targets),
+                (3, &v.from_background),
+                (4, &self.rows),
+                (5, &self.maps),
+                (7, &self.partials),
+                (9, status),
+                (10, frame),
+            ],
+            groups,
+        );
+        if gradient {
+            rec.dispatch(
+                &k.ssim_grad_rows,
+                &params,
+                &[(4, &self.rows), (5, &self.maps), (10, frame)],
+                groups,
+            );
+            rec.dispatch(
+                &k.loss_grad,
+                &params,
+                &[
+                    (1, image),
+                    (2, &v.targets),
+                    (3, &v.from_background),
+                    (4, &self.rows),
+                    (6, &self.upstream),
+                    (10, frame),
+                ],
+                groups,
+            );
+        }
+        rec.dispatch(
+            &k.loss_total,
+            &params,
+            &[(7, &self.partials), (8, results), (9, status), (10, frame)],
+            1,
+        );
     }
 
     /// Queues one training iteration on the loaded model.
@@ -409,125 +702,65 @@ impl DeviceTrainer {
                 bail!("learning rate of the {name} is {v} (expected finite and ≥ 0)");
             }
         }
+        let settings = self.pass_settings(step.view, &step.render)?;
         if self.pending == SLOTS {
             self.collect()?;
         }
-        let view = &self.views[step.view];
-        let Some(resident) = self.resident.as_mut() else {
+        let Some(resident) = self.resident.as_ref() else {
             bail!("device training step before a model was loaded");
         };
         let ctx = self.backend.context().clone();
-        let k = &self.kernels;
+        let camera = self.views[step.view].camera;
+        let region = self
+            .backend
+            .render_on(
+                &mut self.raster,
+                &mut self.uniforms,
+                &resident.params,
+                &camera,
+                &settings,
+                BackgroundSource::Uniform(step.background),
+            )?
+            .region;
         let slot = self.pending as u32;
-        let (w, h) = (view.camera.width, view.camera.height);
-        let pixels = w as usize * h as usize;
-        let groups = groups_for(pixels, THREADS_1D);
-        let loss_params = uniform(
-            &ctx,
-            "loss params",
-            &LossParams {
-                width: w,
-                height: h,
-                slot,
-                partial_count: groups,
-                background: [
-                    step.background[0],
-                    step.background[1],
-                    step.background[2],
-                    0.0,
-                ],
-                norm: view.norm,
-                l1_weight: (1.0 - step.lambda_dssim) as f32,
-                ssim_weight: step.lambda_dssim as f32,
-                supervised: view.supervised as u32,
-                taps: self.taps,
+        let groups = groups_for(region.pixels(), THREADS_1D);
+        let nf = resident.params.face_count;
+        let mut uniforms = std::mem::take(&mut self.uniforms);
+        let mut rec = Recorder::new(&ctx, &mut uniforms);
+        rec.dispatch(
+            &self.kernels.fold_face_weights,
+            &FaceParams {
+                face_count: nf as u32,
+                pad: [0; 3],
             },
+            &[
+                (1, self.raster.face_stats()),
+                (2, self.pools.face_weights[0].buffer()),
+            ],
+            groups_for(nf, THREADS_1D),
         );
-        let encoder = || {
-            ctx.device
-                .create_command_encoder(&wgpu::CommandEncoderDescriptor::default())
+        self.encode_loss(
+            &mut rec,
+            step.view,
+            step.background,
+            step.lambda_dssim,
+            slot,
+            groups,
+            true,
+            (&self.results, &self.status),
+        );
+        rec.submit();
+        self.backend
+            .backward_on(&self.raster, &mut self.grads, &mut uniforms, &self.upstream)?;
+
+        let Some(resident) = self.resident.as_mut() else {
+            bail!("device training step before a model was loaded");
         };
-        let mut enc = encoder();
-        k.fill_background.dispatch(
-            &ctx,
-            &mut enc,
-            &[(0, &loss_params), (10, &self.background_image)],
-            groups,
-        );
-        ctx.queue.submit([enc.finish()]);
-        let saved = self.backend.render_on(
-            &resident.params,
-            &view.camera,
-            &step.render,
-            &self.background_image,
-        )?;
-
-        let mut enc = encoder();
-        k.ssim_rows.dispatch(
-            &ctx,
-            &mut enc,
-            &[
-                (0, &loss_params),
-                (1, &saved.image),
-                (2, &view.targets),
-                (3, &view.from_background),
-                (4, &self.rows),
-            ],
-            groups,
-        );
-        k.ssim_maps.dispatch(
-            &ctx,
-            &mut enc,
-            &[
-                (0, &loss_params),
-                (1, &saved.image),
-                (2, &view.targets),
-                (3, &view.from_background),
-                (4, &self.rows),
-                (5, &self.maps),
-                (7, &self.partials),
-                (9, &self.status),
-            ],
-            groups,
-        );
-        k.ssim_grad_rows.dispatch(
-            &ctx,
-            &mut enc,
-            &[(0, &loss_params), (4, &self.rows), (5, &self.maps)],
-            groups,
-        );
-        k.loss_grad.dispatch(
-            &ctx,
-            &mut enc,
-            &[
-                (0, &loss_params),
-                (1, &saved.image),
-                (2, &view.targets),
-                (3, &view.from_background),
-                (4, &self.rows),
-                (6, &self.upstream),
-            ],
-            groups,
-        );
-        k.loss_total.dispatch(
-            &ctx,
-            &mut enc,
-            &[
-                (0, &loss_params),
-                (7, &self.partials),
-                (8, &self.losses),
-                (9, &self.status),
-            ],
-            1,
-        );
-        ctx.queue.submit([enc.finish()]);
-        let grads = self.backend.backward_on(&saved, &self.upstream)?;
-
         let nv = resident.params.vertex_count;
         let tensors = [
             (
                 &resident.params.positions,
-                &grads.positions,
+                self.grads.positions(),
                 nv * 3,
                 3,
                 3,
@@ -537,7 +770,7 @@ impl DeviceTrainer {
             ),
             (
                 &resident.params.sh,
-                &grads.sh,
+                self.grads.sh(),
                 nv * SH_VALUES,
                 SH_VALUES,
                 3,
@@ -547,7 +780,7 @@ impl DeviceTrainer {
             ),
             (
                 &resident.params.opacity_logits,
-                &grads.opacity_logits,
+                self.grads.opacity_logits(),
                 nv,
                 1,
                 1,
@@ -557,38 +790,33 @@ impl DeviceTrainer {
             ),
         ];
         let a = self.adam;
-        let mut enc = encoder();
+        let mut rec = Recorder::new(&ctx, &mut uniforms);
         for (t, (values, grad, count, row_width, split, lr_first, lr_rest, grad_bit)) in
             tensors.into_iter().enumerate()
         {
             resident.steps[t] += 1;
             let steps = i32::try_from(resident.steps[t]).unwrap_or(i32::MAX);
-            let params = uniform(
-                &ctx,
-                "adam params",
-                &AdamParams {
-                    count: count as u32,
-                    row_width: row_width as u32,
-                    split,
-                    grad_bit,
-                    lr_first: lr_first as f32,
-                    lr_rest: lr_rest as f32,
-                    beta1: a.beta1 as f32,
-                    beta2: a.beta2 as f32,
-                    complement1: (1.0 - a.beta1) as f32,
-                    complement2: (1.0 - a.beta2) as f32,
-                    eps: a.eps as f32,
-                    bias1: (1.0 - a.beta1.powi(steps)) as f32,
-                    bias2: (1.0 - a.beta2.powi(steps)) as f32,
-                    slot,
-                    pad: [0; 2],
-                },
-            );
-            k.adam.dispatch(
-                &ctx,
-                &mut enc,
+            let params = AdamParams {
+                count: count as u32,
+                row_width: row_width as u32,
+                split,
+                grad_bit,
+                lr_first: lr_first as f32,
+                lr_rest: lr_rest as f32,
+                beta1: a.beta1 as f32,
+                beta2: a.beta2 as f32,
+                complement1: (1.0 - a.beta1) as f32,
+                complement2: (1.0 - a.beta2) as f32,
+                eps: a.eps as f32,
+                bias1: (1.0 - a.beta1.powi(steps)) as f32,
+                bias2: (1.0 - a.beta2.powi(steps)) as f32,
+                slot,
+                pad: [0; 2],
+            };
+            rec.dispatch(
+                &self.kernels.adam,
+                &params,
                 &[
-                    (0, &params),
                     (1, values),
                     (2, grad),
                     (3, &resident.first[t]),
@@ -598,9 +826,11 @@ impl DeviceTrainer {
                 groups_for(count, THREADS_1D),
             );
         }
-        ctx.queue.submit([enc.finish()]);
+        rec.submit();
+        self.uniforms = uniforms;
         ctx.check_errors("a device training step")?;
         self.pending += 1;
+        self.last_step = Some((step.view, region));
         Ok(())
     }
 
@@ -609,22 +839,32 @@ impl DeviceTrainer {
         if self.pending == 0 {
             return Ok(());
         }
-        let ctx = self.backend.context();
-        let losses: Vec<f32> = read_values(ctx, &self.losses, self.pending)?;
-        let status: Vec<u32> = read_values(ctx, &self.status, self.pending)?;
-        for (loss, bits) in losses.into_iter().zip(status) {
+        let ctx = self.backend.context().clone();
+        let n = self.pending as u64;
+        let [results, status]: [Vec<u8>; 2] = self
+            .readback
+            .read(&ctx, &[(&self.results, 16 * n), (&self.status, 4 * n)])?
+            .try_into()
+            .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
+        let mut enc = ctx
+            .device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+        enc.clear_buffer(&self.status, 0, Some(4 * n));
+        ctx.queue.submit([enc.finish()]);
+        let results: Vec<u32> = bytemuck::pod_collect_to_vec(&results);
+        let status: Vec<u32> = bytemuck::pod_collect_to_vec(&status);
+        self.syncs += 1;
+        for (result, &bits) in results.chunks_exact(4).zip(&status) {
             let non_finite = STATUS_BITS
                 .iter()
                 .filter(|(bit, _)| bits & bit != 0)
                 .map(|(_, what)| *what)
                 .collect();
-            self.collected.push(StepResult { loss, non_finite });
+            self.collected.push(StepResult {
+                loss: f32::from_bits(result[0]),
+                non_finite,
+            });
         }
-        let mut enc = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
-        enc.clear_buffer(&self.status, 0, None);
-        ctx.queue.submit([enc.finish()]);
         self.pending = 0;
         Ok(())
     }
@@ -636,26 +876,48 @@ impl DeviceTrainer {
     }
 
     /// The last step's loss gradient with respect to the rendered colour (RGB
-    /// per pixel of that step's view), read back for checks and diagnostics.
-    pub fn last_image_gradient(&self, view: usize) -> Result<Vec<f32>> {
+    /// per pixel of that step's view, 0 outside the rendered region), read
+    /// back for checks and diagnostics.
+    pub fn last_image_gradient(&mut self, view: usize) -> Result<Vec<f32>> {
         let Some(v) = self.views.get(view) else {
             bail!("no training view {view} (there are {})", self.views.len());
         };
-        let pixels = v.camera.width as usize * v.camera.height as usize;
+        let Some((last_view, region)) = self.last_step else {
+            bail!("no training step was taken yet");
+        };
+        if last_view != view {
+            bail!("the last step was on view {last_view}, not {view}");
+        }
         let upstream: Vec<f32> = read_values(
             self.backend.context(),
             &self.upstream,
-            pixels * IMAGE_STRIDE,
+            region.pixels() * IMAGE_STRIDE,
         )?;
-        Ok(upstream
-            .chunks_exact(IMAGE_STRIDE)
-            .flat_map(|u| u[..3].iter().copied())
-            .collect())
+        self.syncs += 1;
+        let w = v.camera.width as usize;
+        let mut full = vec![0.0; w * v.camera.height as usize * 3];
+        for (i, u) in upstream.chunks_exact(IMAGE_STRIDE).enumerate() {
+            let (x, y) = (
+                region.x0 as usize + i % region.width() as usize,
+                region.y0 as usize + i / region.width() as usize,
+            );
+            full[3 * (y * w + x)..3 * (y * w + x) + 3].copy_from_slice(&u[..3]);
+        }
+        Ok(full)
     }
 
     /// Writes the device's parameters into `model` (which must have the loaded
     /// model's shape) and returns Adam's state.
-    pub fn store(&self, model: &mut Model<f32>) -> Result<OptimizerState> {
+    pub fn store(&mut self, model: &mut Model<f32>) -> Result<OptimizerState> {
+        Ok(self.store_with_face_weights(model)?.0)
+    }
+
+    /// As [`DeviceTrainer::store`], with the running per-face maxima of
+    /// [`DeviceTrainer::face_weights`] in the same readback.
+    pub fn store_with_face_weights(
+        &mut self,
+        model: &mut Model<f32>,
+    ) -> Result<(OptimizerState, FaceWeightArrays)> {
         let Some(resident) = &self.resident else {
             bail!("no model on the device to store");
         };
@@ -668,7 +930,8 @@ impl DeviceTrainer {
                 model.face_count()
             );
         }
-        // One submission for all nine tensors: parameters, then first and second moments.
+        // One readback for all eleven arrays: parameters, first and second
+        // moments, then the face statistics.
         let bytes = [nv * 3, nv * SH_VALUES, nv].map(|n| (n * 4) as u64);
         let params = &resident.params;
         let mut sources = vec![
@@ -678,13 +941,22 @@ impl DeviceTrainer {
         ];
         sources.extend((0..3).map(|t| (&resident.first[t], bytes[t])));
         sources.extend((0..3).map(|t| (&resident.second[t], bytes[t])));
-        let mut values = read_buffers(self.backend.context(), &sources)?
+        let face_bytes = (self.face_weight_faces * 4) as u64;
+        sources.extend(
+            self.pools
+                .face_weights
+                .iter()
+                .map(|w| (w.buffer(), face_bytes)),
+        );
+        let mut values = self
+            .readback
+            .read(self.backend.context(), &sources)?
             .into_iter()
             .map(|b| bytemuck::pod_collect_to_vec::<u8, f32>(&b));
         let mut next = || {
             values
                 .next()
-                .expect("read_buffers returns one result per buffer, and nine were asked for")
+                .expect("a readback returns one result per buffer, and eleven were asked for")
         };
         let (positions, sh) = (next(), next());
         model.opacity_logits = next();
@@ -703,11 +975,205 @@ impl DeviceTrainer {
             second,
             steps: resident.steps[t],
         };
-        Ok(OptimizerState {
+        let state = OptimizerState {
             positions: moments(f0, s0, 0),
             sh: moments(f1, s1, 1),
             opacity_logits: moments(f2, s2, 2),
-        })
+        };
+        let faces = (next(), next());
+        self.syncs += 1;
+        Ok((state, faces))
+    }
+
+    /// Scores the loaded model on `views` over a black background, no
+    /// gradient, each pass over the region `render.region` asks for (a
+    /// footprint keeps each view's supervision, as in [`DeviceTrainer::step`]).
+    /// All views are rendered and scored before one readback; a view that
+    /// needs more tile entries than any render before it had makes the
+    /// buffers grow and the evaluation run once more (a second readback).
+    pub fn evaluate(
+        &mut self,
+        views: &[usize],
+        render: &RenderSettings,
+        lambda_dssim: f64,
+    ) -> Result<Vec<ViewScore>> {
+        if !(0.0..=1.0).contains(&lambda_dssim) {
+            bail!("lambda_dssim = {lambda_dssim} must lie in [0, 1]");
+        }
+        if let Some(&v) = views.iter().find(|&&v| v >= self.views.len()) {
+            bail!("evaluation of view {v} of {}", self.views.len());
+        }
+        if self.resident.is_none() {
+            bail!("device evaluation before a model was loaded");
+        }
+        if views.is_empty() {
+            return Ok(Vec::new());
+        }
+        let settings = views
+            .iter()
+            .map(|&v| self.pass_settings(v, render))
+            .collect::<Result<Vec<_>>>()?;
+        let ctx = self.backend.context().clone();
+        let n = views.len();
+        let c = &mut self.pools.created;
+        self.pools.eval_results.ensure(&ctx, (16 * n) as u64, c);
+        self.pools.eval_status.ensure(&ctx, (4 * n) as u64, c);
+        for attempt in 0..2 {
+            let capacity = self.raster.entry_capacity();
+            let mut uniforms = std::mem::take(&mut self.uniforms);
+            for (k, &v) in views.iter().enumerate() {
+                let Some(resident) = self.resident.as_ref() else {
+                    bail!("device evaluation before a model was loaded");
+                };
+                let camera = self.views[v].camera;
+                let mut rec = Recorder::new(&ctx, &mut uniforms);
+                if k == 0 {
+                    rec.enc
+                        .clear_buffer(self.pools.eval_status.buffer(), 0, Some((4 * n) as u64));
+                }
+                self.backend.encode_render(
+                    &mut rec,
+                    &mut self.raster,
+                    &resident.params,
+                    &camera,
+                    &settings[k],
+                    [0.0; 3],
+                )?;
+                let pixels = camera.width as usize * camera.height as usize;
+                self.encode_loss(
+                    &mut rec,
+                    v,
+                    [0.0; 3],
+                    lambda_dssim,
+                    k as u32,
+                    groups_for(pixels, THREADS_1D),
+                    false,
+                    (
+                        self.pools.eval_results.buffer(),
+                        self.pools.eval_status.buffer(),
+                    ),
+                );
+                rec.submit();
+            }
+            self.uniforms = uniforms;
+            let [results, status]: [Vec<u8>; 2] = self
+                .readback
+                .read(
+                    &ctx,
+                    &[
+                        (self.pools.eval_results.buffer(), (16 * n) as u64),
+                        (self.pools.eval_status.buffer(), (4 * n) as u64),
+                    ],
+                )?
+                .try_into()
+                .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
+            self.syncs += 1;
+            ctx.check_errors("a device evaluation")?;
+            let results: Vec<u32> = bytemuck::pod_collect_to_vec(&results);
+            let status: Vec<u32> = bytemuck::pod_collect_to_vec(&status);
+            let entries = results
+                .chunks_exact(4)
+                .map(|r| r[2] as usize)
+                .max()
+                .unwrap_or(0); // views is not empty
+            if entries > capacity {
+                if attempt > 0 {
+                    bail!(
+                        "a device evaluation needed {entries} tile entries after its buffers grew to {capacity}"
+                    );
+                }
+                self.backend
+                    .check_binding_size("tile entries", entries as u64 * 4)?;
+                self.raster.ensure_entries(&ctx, entries);
+                continue;
+            }
+            if let Some(k) = status.iter().position(|&s| s != 0) {
+                bail!(
+                    "the evaluation render of view {} is not finite (parameters overflowed)",
+                    views[k]
+                );
+            }
+            return Ok(results
+                .chunks_exact(4)
+                .zip(views)
+                .map(|(r, &v)| ViewScore {
+                    loss: f32::from_bits(r[0]) as f64,
+                    squared_error: f32::from_bits(r[1]) as f64,
+                    total_weight: self.views[v].total_weight,
+                })
+                .collect());
+        }
+        // Both attempts either returned or continued once; the second cannot continue.
+        unreachable!("the evaluation loop returns by its second attempt")
+    }
+
+    /// The running per-face maxima of the blending weight over this epoch's
+    /// and the previous epoch's training renders (one readback).
+    pub fn face_weights(&mut self) -> Result<FaceWeightArrays> {
+        if self.resident.is_none() {
+            bail!("no model on the device for face statistics");
+        }
+        let bytes = (self.face_weight_faces * 4) as u64;
+        let [current, previous]: [Vec<u8>; 2] = self
+            .readback
+            .read(
+                self.backend.context(),
+                &[
+                    (self.pools.face_weights[0].buffer(), bytes),
+                    (self.pools.face_weights[1].buffer(), bytes),
+                ],
+            )?
+            .try_into()
+            .map_err(|_| anyhow::anyhow!("two readbacks were asked for"))?;
+        self.syncs += 1;
+        Ok((
+            bytemuck::pod_collect_to_vec(&current),
+            bytemuck::pod_collect_to_vec(&previous),
+        ))
+    }
+
+    /// Replaces the running per-face maxima (after the host remapped them
+    /// through a topology edit); one value per face of the loaded model.
+    pub fn set_face_weights(&mut self, current: &[f32], previous: &[f32]) -> Result<()> {
+        let Some(resident) = &self.resident else {
+            bail!("no model on the device for face statistics");
+        };
+        let nf = resident.params.face_count;
+        if current.len() != nf || previous.len() != nf {
+            bail!(
+                "face weights for {} and {} faces, but the loaded model has {nf}",
+                current.len(),
+                previous.len()
+            );
+        }
+        if let Some(w) = current
+            .iter()
+            .chain(previous)
+            .find(|w| !(w.is_finite() && **w >= 0.0))
+        {
+            bail!("face weight {w} is not finite and ≥ 0");
+        }
+        let ctx = self.backend.context().clone();
+        let c = &mut self.pools.created;
+        let [now, before] = &mut self.pools.face_weights;
+        now.write(&ctx, current, c);
+        before.write(&ctx, previous, c);
+        Ok(())
+    }
+
+    /// Every training view has been rendered once more: this epoch's maxima
+    /// become the previous epoch's, and the current ones start at zero.
+    pub fn end_epoch(&mut self) {
+        self.pools.face_weights.swap(0, 1);
+        let bytes = (self.face_weight_faces * 4) as u64;
+        if bytes > 0 {
+            let ctx = self.backend.context();
+            let mut enc = ctx
+                .device
+                .create_command_encoder(&wgpu::CommandEncoderDescriptor::default());
+            enc.clear_buffer(self.pools.face_weights[0].buffer(), 0, Some(bytes));
+            ctx.queue.submit([enc.finish()]);
+        }
     }
 }
 
@@ -723,7 +1189,7 @@ mod tests {
 
     #[test]
     fn loss_params_mirror_the_wgsl_struct() {
-        let rust = same_names!(LossParams; width, height, slot, partial_count, background,
+        let rust = same_names!(LossParams; width, slot, partial_count, gradient, background,
             norm, l1_weight, ssim_weight, supervised, taps);
         check_mirrors_wgsl(
             TRAIN_LOSS_WGSL,
@@ -745,6 +1211,20 @@ mod tests {
             TRAIN_ADAM_WGSL,
             "AdamParams",
             size_of::<AdamParams>(),
+            &rust,
+        )
+        .unwrap();
+    }
+
+    #[test]
+    fn face_params_mirror_the_wgsl_struct() {
+        let pad = offset_of!(FaceParams, pad);
+        let mut rust = same_names!(FaceParams; face_count).to_vec();
+        rust.extend([("_pad0", pad), ("_pad1", pad + 4), ("_pad2", pad + 8)]);
+        check_mirrors_wgsl(
+            TRAIN_FACES_WGSL,
+            "FaceParams",
+            size_of::<FaceParams>(),
             &rust,
         )
         .unwrap();

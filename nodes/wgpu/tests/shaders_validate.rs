@@ -18,6 +18,11 @@ fn every_shader_validates() {
         objectsplat_wgpu::training::TRAIN_ADAM_WGSL,
     )
     .unwrap();
+    validate_wgsl(
+        "train_faces.wgsl",
+        objectsplat_wgpu::training::TRAIN_FACES_WGSL,
+    )
+    .unwrap();
     for mode in [FloatAtomics::Native, FloatAtomics::CompareExchange] {
         for threads in [32, 64, 128, 256] {
             for (name, source) in raster_sources(mode, threads, threads) {

@@ -145,5 +145,7 @@ pub fn short_run_settings(
         checkpoint: Default::default(),
         crop: true,
         select_on: Default::default(),
+        resume_dir: None,
+        save_seconds: 60.0,
     }
 }

@@ -286,3 +286,56 @@ pub fn step_at(scene: &Scene, lr: f64) -> Step {
         lambda_dssim: DEFAULT_LAMBDA_DSSIM,
     }
 }
+
+use objectsplat_raster::backend::{PixelRect, Region};
+use objectsplat_raster::loss::CROP_MARGIN;
+
+/// A small object in a wider frame: `faces` random triangles around
+/// (0.1, −0.12, 0), seen at 128×96 (about a tenth of the frame).
+pub fn small_object_scene(faces: usize, seed: u64) -> Scene {
+    let mut rng = Rng(seed);
+    let mut m = empty_model(2);
+    for _ in 0..faces {
+        let c = [0.1, -0.12, 0.0].map(|o| o + rng.uniform(-0.3, 0.3));
+        let r = rng.uniform(0.1, 0.25);
+        let corners = [0, 1, 2].map(|_| [0, 1, 2].map(|a| c[a] + rng.uniform(-r, r)));
+        let logits = [0, 1, 2].map(|_| rng.uniform(-1.0, 4.0));
+        push_triangle(&mut m, &mut rng, corners, logits);
+    }
+    let camera = camera(128, 96);
+    scene("small object", m, camera, &mut rng)
+}
+
+/// The object's view: the pixels of `own` keep a random target, every other
+/// pixel is supervised toward the step's background colour, except a band
+/// of unsupervised (weight 0) pixels, as an object component's views are.
+pub fn object_view(scene: &Scene, own: PixelRect, seed: u64) -> TrainingView {
+    let mut rng = Rng(seed);
+    let (w, h) = (scene.camera.width, scene.camera.height);
+    let pixels = (w * h) as usize;
+    let mut view = TrainingView {
+        camera: scene.camera,
+        target: (0..pixels * 3)
+            .map(|_| rng.uniform(0.0, 1.0) as f32)
+            .collect(),
+        weights: vec![1.0; pixels],
+        from_background: vec![true; pixels],
+    };
+    for p in 0..pixels {
+        let (x, y) = (p as u32 % w, p as u32 / w);
+        if x >= own.x0 && x < own.x1 && y >= own.y0 && y < own.y1 {
+            view.from_background[p] = false;
+        } else if y % 11 == 3 {
+            view.weights[p] = 0.0;
+        }
+    }
+    view
+}
+
+/// The footprint region a trainer crops to: the view's own supervision, the loss's margin.
+pub fn footprint() -> Region {
+    Region::Footprint {
+        include: PixelRect::default(),
+        margin: CROP_MARGIN,
+    }
+}
