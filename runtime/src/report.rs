@@ -135,6 +135,9 @@ impl RunReport {
             for (k, v) in &n.notes {
                 s.push_str(&format!("  {:<w$}    {k}: {v}\n", ""));
             }
+            if let Some(line) = slurm_summary(n) {
+                s.push_str(&format!("  {:<w$}    {line}\n", ""));
+            }
             for i in n
                 .items
                 .iter()
@@ -161,6 +164,45 @@ impl RunReport {
         ));
         s
     }
+}
+
+/// One line on where a node's work ran on Slurm in this run (every item's job and
+/// host is in `--json`): how many jobs, in which arrays, on which hosts.
+fn slurm_summary(n: &NodeReport) -> Option<String> {
+    let mut jobs: Vec<(&str, Option<&str>)> = n
+        .items
+        .iter()
+        .filter(|i| i.status != Status::Cached)
+        .filter(|i| i.executor.as_deref() == Some("slurm"))
+        .filter_map(|i| Some((i.job_id.as_deref()?, i.host.as_deref())))
+        .collect();
+    if n.items.is_empty() && n.status != Status::Cached && n.executor.as_deref() == Some("slurm") {
+        jobs.extend(n.job_id.as_deref().map(|j| (j, n.host.as_deref())));
+    }
+    if jobs.is_empty() {
+        return None;
+    }
+    let mut arrays: Vec<&str> = jobs
+        .iter()
+        .map(|(j, _)| j.split('_').next().unwrap_or(j))
+        .collect();
+    arrays.sort_unstable();
+    arrays.dedup();
+    let mut hosts: Vec<&str> = jobs.iter().filter_map(|(_, h)| *h).collect();
+    hosts.sort_unstable();
+    hosts.dedup();
+    Some(format!(
+        "slurm: {} job{} (array{} {}) on {}",
+        jobs.len(),
+        if jobs.len() == 1 { "" } else { "s" },
+        if arrays.len() == 1 { "" } else { "s" },
+        arrays.join(", "),
+        if hosts.is_empty() {
+            "an unknown node".to_string()
+        } else {
+            hosts.join(", ")
+        }
+    ))
 }
 
 fn first_line(s: &str) -> &str {

@@ -88,6 +88,8 @@ struct Tracker<'a> {
     cfg: &'a SlurmConfig,
     results: Sender<JobOutcome>,
     run_id: String,
+    /// The cache's absolute path.
+    cache: PathBuf,
     run_dir: PathBuf,
     claims: Claims,
     arrays: Vec<Array>,
@@ -126,14 +128,17 @@ pub(crate) fn track(
             .duration_since(std::time::UNIX_EPOCH)
             .map_or(0, |d| d.as_nanos() % 1_000_000_000_000)
     );
+    // Jobs start elsewhere (`--chdir`, another machine): every path they get is absolute.
+    let cache = std::path::absolute(store.root()).unwrap_or_else(|_| store.root().to_path_buf());
     let mut t = Tracker {
         plan,
         store,
         opts,
         cfg,
         results,
-        run_dir: store.root().join("slurm").join("runs").join(&run_id),
-        claims: Claims::new(store.root(), &run_id),
+        run_dir: cache.join("slurm").join("runs").join(&run_id),
+        claims: Claims::new(&cache, &run_id),
+        cache,
         run_id,
         arrays: Vec::new(),
         tasks: BTreeMap::new(),
@@ -320,7 +325,7 @@ impl Tracker<'_> {
             let spec = ActionSpec {
                 graph: graph.clone(),
                 plan: self.cfg.plan.clone(),
-                cache: self.store.root().to_path_buf(),
+                cache: self.cache.clone(),
                 node: node_id.clone(),
                 item: job.item.clone(),
                 inputs: job.inputs.clone(),

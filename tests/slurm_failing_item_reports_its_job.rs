@@ -1,0 +1,112 @@
+//! `--executor slurm`: an item that fails every time fails its node with the Slurm job
+//! id and the end of the job's stderr; the other items succeed, are cached, and a rerun
+//! submits only the failing item again (a cached item never gets a job).
+//!
+//! Needs the local cluster (`scripts/slurm-local-cluster.sh up`); CI starts it.
+
+mod support;
+
+use support::slurm::*;
+
+#[test]
+fn a_failing_item_names_its_job_and_stderr_and_spares_the_others() {
+    if !cluster_up("a_failing_item_names_its_job_and_stderr_and_spares_the_others") {
+        return;
+    }
+    let dir = test_dir("failing_item");
+    let log = dir.join("attempts.log");
+    let graph = fan_out_graph(
+        &format!(r#"fail_item: "obj_9_cup", log: "{}""#, log.display()),
+        "",
+        "",
+    );
+    std::fs::write(dir.join("g.ron"), graph).unwrap();
+    let args = [
+        "run",
+        "g.ron",
+        "--cache",
+        "cache",
+        "--json",
+        "run.json",
+        "--executor",
+        "slurm",
+        "--slurm-poll",
+        "1",
+        "--slurm-job-name",
+        "ostest-fail",
+    ];
+    let out = objectsplat(&args, &dir);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success(), "the run should fail:\n{stderr}");
+
+    let a = attempts(&log);
+    let cup: Vec<&Attempt> = a.iter().filter(|x| x.item == "obj_9_cup").collect();
+    assert_eq!(
+        cup.len(),
+        1,
+        "a failure is not a lost job: no retry: {a:#?}"
+    );
+    let job = &cup[0].job;
+    let report = read_json(&dir.join("run.json"));
+    let node = report["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|n| n["id"] == "items")
+        .unwrap();
+    assert_eq!(node["status"], "failed");
+    let all = items(&report, "items");
+    assert_eq!(all.len(), 7);
+    for item in &all {
+        assert_eq!(item["executor"], "slurm", "{item}");
+        assert!(
+            item["host"].as_str().is_some_and(|h| !h.is_empty()),
+            "{item}"
+        );
+        if item["name"] == "obj_9_cup" {
+            assert_eq!(item["status"], "failed");
+            assert_eq!(item["job_id"], job.as_str());
+            let reason = item["reason"].as_str().unwrap();
+            assert!(reason.contains(&format!("Slurm job {job}")), "{reason}");
+            // The plugin's own failure, and the line it wrote to stderr before it.
+            assert!(
+                reason.contains("injected failure: faulty_item refused item obj_9_cup"),
+                "{reason}"
+            );
+            assert!(reason.contains("end of the job's stderr"), "{reason}");
+            assert!(
+                reason.contains("obj_9_cup fails on purpose (stderr line for the report)"),
+                "{reason}"
+            );
+        } else {
+            assert_eq!(item["status"], "ran", "{item}");
+        }
+    }
+    assert!(
+        stderr.contains(&format!("Slurm job {job}")),
+        "the one-line cause names the job:\n{stderr}"
+    );
+
+    // Rerun: the six good items are cached, only the cup gets a job (and fails again).
+    let before = attempts(&log).len();
+    let out = objectsplat(&args, &dir);
+    assert!(!out.status.success());
+    let again: Vec<Attempt> = attempts(&log)[before..].to_vec();
+    assert_eq!(
+        again.len(),
+        1,
+        "only the failing item ran again: {again:#?}"
+    );
+    assert_eq!(again[0].item, "obj_9_cup");
+    let report = read_json(&dir.join("run.json"));
+    for item in items(&report, "items") {
+        let expected = if item["name"] == "obj_9_cup" {
+            "failed"
+        } else {
+            "cached"
+        };
+        assert_eq!(item["status"], expected, "{item}");
+        // A cache hit still says where it was computed.
+        assert_eq!(item["executor"], "slurm", "{item}");
+    }
+}

@@ -1,0 +1,135 @@
+//! `--executor slurm` computes what `--executor local` computes: the demo graph (at a
+//! small size and a short training budget, so that it takes seconds) run both ways into
+//! two caches gives the same output digest for every node and byte-identical
+//! materialized outputs — except the report page, whose run summary (times, where
+//! each item ran) is filled in after the run; its cached version is compared through
+//! the digests. The fan-out (`train`) runs as a Slurm job array.
+//!
+//! Needs the local cluster (`scripts/slurm-local-cluster.sh up`); CI starts it.
+
+mod support;
+
+use std::collections::BTreeMap;
+use std::path::Path;
+use support::plugin_build::workspace;
+use support::slurm::*;
+
+/// Every file under `root` (relative path → bytes), links read as their targets.
+fn files(root: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut out = BTreeMap::new();
+    let mut stack = vec![root.to_path_buf()];
+    while let Some(dir) = stack.pop() {
+        for e in std::fs::read_dir(&dir).unwrap() {
+            let path = e.unwrap().path();
+            if path.is_dir() {
+                stack.push(path);
+            } else {
+                let rel = path
+                    .strip_prefix(root)
+                    .unwrap()
+                    .to_string_lossy()
+                    .to_string();
+                out.insert(rel, std::fs::read(&path).unwrap());
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
+    if !cluster_up("the_demo_graph_on_slurm_gives_byte_identical_outputs") {
+        return;
+    }
+    let dir = test_dir("matches_local");
+    let demo = workspace().join("graphs/demo.ron");
+    let demo = demo.to_str().unwrap();
+    let small = [
+        "--set",
+        "scene.views=8",
+        "--set",
+        "scene.width=64",
+        "--set",
+        "scene.height=48",
+        "--set",
+        "scene.points=1500",
+        "--set",
+        "train.iterations=40",
+    ];
+    let run = |executor: &str| {
+        let mut args = vec!["run", demo, "--cache"];
+        let (cache, out, json) = (
+            format!("cache-{executor}"),
+            format!("out-{executor}"),
+            format!("{executor}.json"),
+        );
+        args.extend([
+            cache.as_str(),
+            "--out",
+            out.as_str(),
+            "--json",
+            json.as_str(),
+        ]);
+        args.extend(small);
+        args.extend(["--executor", executor]);
+        if executor == "slurm" {
+            args.extend(["--slurm-poll", "1", "--slurm-job-name", "ostest-demo"]);
+        }
+        let result = objectsplat(&args, &dir);
+        assert_ok(&result, &format!("the demo with --executor {executor}"));
+        read_json(&dir.join(json))
+    };
+    let (local, slurm) = (run("local"), run("slurm"));
+
+    let digests = |r: &serde_json::Value| -> BTreeMap<String, serde_json::Value> {
+        r["nodes"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|n| (n["id"].as_str().unwrap().to_string(), n["outputs"].clone()))
+            .collect()
+    };
+    assert_eq!(digests(&local), digests(&slurm));
+    assert!(
+        digests(&local)
+            .values()
+            .all(|o| o.as_object().is_some_and(|o| !o.is_empty()))
+    );
+
+    // Every training item ran as a job of one array; everything else in the coordinator.
+    let trained = items(&slurm, "train");
+    assert!(trained.len() >= 5, "{trained:?}");
+    let arrays: std::collections::BTreeSet<&str> = trained
+        .iter()
+        .map(|i| {
+            assert_eq!(i["status"], "ran", "{i}");
+            assert_eq!(i["executor"], "slurm", "{i}");
+            assert!(i["host"].as_str().is_some_and(|h| !h.is_empty()), "{i}");
+            i["job_id"].as_str().unwrap().split('_').next().unwrap()
+        })
+        .collect();
+    assert_eq!(
+        arrays.len(),
+        1,
+        "one job array for the fan-out: {trained:?}"
+    );
+    for i in items(&local, "train") {
+        assert_eq!(i["executor"], "local", "{i}");
+        assert_eq!(i["job_id"], serde_json::Value::Null, "{i}");
+    }
+
+    let (a, b) = (files(&dir.join("out-local")), files(&dir.join("out-slurm")));
+    assert_eq!(
+        a.keys().collect::<Vec<_>>(),
+        b.keys().collect::<Vec<_>>(),
+        "the same files"
+    );
+    let summary_page = "report/file/index.html";
+    assert!(a.contains_key(summary_page));
+    let differing: Vec<&String> = a
+        .keys()
+        .filter(|k| k.as_str() != summary_page && a[*k] != b[*k])
+        .collect();
+    assert!(differing.is_empty(), "files differ: {differing:?}");
+    assert!(a.keys().any(|k| k.ends_with(".glb")));
+}
