@@ -68,15 +68,19 @@ fn a_failing_item_names_its_job_and_stderr_and_spares_the_others() {
             assert_eq!(item["job_id"], job.as_str());
             let reason = item["reason"].as_str().unwrap();
             assert!(reason.contains(&format!("Slurm job {job}")), "{reason}");
-            // The plugin's own failure, and the line it wrote to stderr before it.
+            // The node's own failure, then the end of the job's stderr log (which the
+            // job starts with the line saying what it computes).
             assert!(
                 reason.contains("injected failure: faulty_item refused item obj_9_cup"),
                 "{reason}"
             );
-            assert!(reason.contains("end of the job's stderr"), "{reason}");
+            let tail = reason
+                .split_once("end of the job's stderr")
+                .unwrap_or_else(|| panic!("no stderr tail: {reason}"))
+                .1;
             assert!(
-                reason.contains("obj_9_cup fails on purpose (stderr line for the report)"),
-                "{reason}"
+                tail.contains("computing items[obj_9_cup]") && tail.contains(job.as_str()),
+                "{tail}"
             );
         } else {
             assert_eq!(item["status"], "ran", "{item}");

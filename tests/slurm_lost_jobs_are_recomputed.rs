@@ -73,9 +73,9 @@ fn killed_jobs_are_resubmitted_and_their_items_recomputed() {
 
     let a = attempts(&log);
     let done: Vec<&Attempt> = a.iter().filter(|x| x.event == "done").collect();
-    let items: BTreeSet<&str> = a.iter().map(|x| x.item.as_str()).collect();
-    assert_eq!(items.len(), 7, "seven components: {a:#?}");
-    for item in &items {
+    let names: BTreeSet<&str> = a.iter().map(|x| x.item.as_str()).collect();
+    assert_eq!(names.len(), 7, "seven components: {a:#?}");
+    for item in &names {
         let finished: Vec<&&Attempt> = done.iter().filter(|x| x.item == *item).collect();
         let starts = a
             .iter()

@@ -107,7 +107,6 @@ fn faulty_item(req: &mut Request) -> Result<Outcome> {
         std::thread::sleep(std::time::Duration::from_millis(20));
     }
     if req.param::<String>("fail_item")? == item {
-        eprintln!("faulty_item: {item} fails on purpose (stderr line for the report)");
         bail!("injected failure: faulty_item refused item {item}");
     }
     let info = std::fs::read(req.input("component")?.join("component.json"))
