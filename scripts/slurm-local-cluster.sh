@@ -93,6 +93,10 @@ GresTypes=gpu
 # Quick turnaround on one machine (the defaults are tuned for thousands of nodes).
 SchedulerParameters=batch_sched_delay=0,sched_min_interval=100000
 MessageTimeout=30
+# Room for a 10k-item fan-out: every array task is a job record, and finished ones are
+# kept MinJobAge seconds (the default MaxJobCount, 10000, makes sbatch wait at 10k).
+MaxJobCount=50000
+MinJobAge=300
 NodeName=$host NodeAddr=127.0.0.1 CPUs=$cpus RealMemory=$mem_mb Gres=gpu:1 State=UNKNOWN
 PartitionName=debug Nodes=$host Default=YES MaxTime=INFINITE State=UP
 EOF

@@ -135,7 +135,7 @@ fn run_graph(dir: &Path, n: usize, cache: &str, executor: &Executor) -> Result<(
 
 fn squeue_count() -> usize {
     Command::new("squeue")
-        .args(["-h", "-r", "-n", "osbench", "-o", "%i"])
+        .args(["-h", "-r", "-n", "osbench-touch", "-o", "%i"])
         .output()
         .map(|o| String::from_utf8_lossy(&o.stdout).lines().count())
         .unwrap_or(0)
@@ -194,9 +194,15 @@ fn main() -> Result<()> {
         "hold" => {
             let cpu0 = cpu_seconds();
             let t0 = Instant::now();
+            let done = Arc::new(std::sync::atomic::AtomicBool::new(false));
+            let run_ended = done.clone();
             let watcher = std::thread::spawn(move || -> (f64, f64, (f64, f64)) {
                 loop {
                     std::thread::sleep(Duration::from_millis(500));
+                    if run_ended.load(std::sync::atomic::Ordering::SeqCst) {
+                        // The run ended before all tasks were queued (sbatch refused some).
+                        return (f64::NAN, f64::NAN, cpu_seconds());
+                    }
                     let q0 = Instant::now();
                     if squeue_count() >= n {
                         let queued = t0.elapsed().as_secs_f64();
@@ -214,6 +220,7 @@ fn main() -> Result<()> {
                 "cache-hold",
                 &slurm(vec!["run-action"], true)?,
             );
+            done.store(true, std::sync::atomic::Ordering::SeqCst);
             let t_stop = t0.elapsed().as_secs_f64();
             let (queued, one_squeue, cpu_q) = watcher.join().expect("the watcher does not panic");
             let cpu1 = cpu_seconds();
