@@ -110,7 +110,7 @@ impl ExecutorArgs {
         cfg.plan = plan;
         cfg.retries = self.retries;
         cfg.poll = Duration::from_secs_f64(self.poll);
-        Ok(Executor::Slurm(cfg))
+        Ok(Executor::Slurm(Box::new(cfg)))
     }
 }
 

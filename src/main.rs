@@ -58,7 +58,7 @@ enum Command {
         #[arg(short = 'j', long = "jobs")]
         jobs: Option<usize>,
         #[command(flatten)]
-        executor: cluster::ExecutorArgs,
+        executor: Box<cluster::ExecutorArgs>,
     },
     /// Compute one action of a `run --executor slurm` (what its Slurm jobs run).
     #[command(hide = true)]

@@ -106,7 +106,7 @@ fn slurm(worker_args: Vec<&str>, hold: bool) -> Result<Executor> {
     if hold {
         cfg.settings.args.push("--hold".into());
     }
-    Ok(Executor::Slurm(cfg))
+    Ok(Executor::Slurm(Box::new(cfg)))
 }
 
 fn run_graph(dir: &Path, n: usize, cache: &str, executor: &Executor) -> Result<(RunReport, f64)> {

@@ -51,7 +51,7 @@ pub enum Executor {
     #[default]
     Local,
     /// Fan-out items, and nodes with a `slurm` field, as Slurm jobs; the rest here.
-    Slurm(SlurmConfig),
+    Slurm(Box<SlurmConfig>),
 }
 
 impl Executor {

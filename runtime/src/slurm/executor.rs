@@ -732,7 +732,7 @@ impl Tracker<'_> {
             Err(e) => {
                 // Nothing is concluded from a failed query; slurmctld may be busy.
                 self.squeue_failures += 1;
-                if self.squeue_failures == 1 || self.squeue_failures % 10 == 0 {
+                if self.squeue_failures == 1 || self.squeue_failures.is_multiple_of(10) {
                     self.warn(format!(
                         "warning: {e:#} ({} times in a row); still waiting for the jobs",
                         self.squeue_failures

@@ -104,8 +104,8 @@ impl SlurmSettings {
         node: Option<&str>,
     ) -> Result<SlurmSettings, Vec<Diagnostic>> {
         let whose = match node {
-            Some(id) => format!("node {id:?}: `slurm`"),
-            None => "`slurm`".to_string(),
+            Some(id) => format!("node {id:?}: slurm"),
+            None => "slurm".to_string(),
         };
         let fields = match &value.kind {
             SKind::Struct(_, f) => f.as_slice(),
