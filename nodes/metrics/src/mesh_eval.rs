@@ -129,21 +129,26 @@ pub fn evaluate_mesh(
             Some(points) => voxel_downsample(points, params.voxel)?,
             None => Vec::new(),
         };
+        // An id the scene has no member for (a label folded into the background,
+        // an object that was never trained) has no score of its own: the scene's
+        // F-score counts its surface, a 0 here would blame a member that does not exist.
         let pred = match pred_by_object.get(&id) {
-            Some(points) => voxel_downsample(points, params.voxel)
-                .with_context(|| format!("down-sampling the predicted points of object {id}"))?,
-            None => Vec::new(),
+            Some(points) => {
+                Some(voxel_downsample(points, params.voxel).with_context(|| {
+                    format!("down-sampling the predicted points of object {id}")
+                })?)
+            }
+            None => None,
         };
-        let score = if gt_points.is_empty() {
-            None
-        } else {
-            Some(fscore(&pred, &gt_points, params.tau)?)
+        let score = match &pred {
+            Some(pred) if !gt_points.is_empty() => Some(fscore(pred, &gt_points, params.tau)?),
+            _ => None,
         };
         objects.push(ObjectFScore {
             id,
             fscore: score,
             gt_points: gt_points.len(),
-            pred_points: pred.len(),
+            pred_points: pred.as_ref().map_or(0, Vec::len),
         });
     }
     Ok(MeshFScores { scene, objects })

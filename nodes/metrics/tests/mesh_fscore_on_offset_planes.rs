@@ -70,7 +70,15 @@ fn per_object_scores_use_the_faces_of_each_object() {
     let pts_1 = mesh_points(&pred_1, &p).unwrap();
     let pts_2 = mesh_points(&pred_2, &p).unwrap();
     let scene: Vec<[f64; 3]> = pts_1.iter().chain(&pts_2).copied().collect();
-    let r = evaluate_mesh(&gt, &scene, &[(1, pts_1), (2, pts_2)], &[1, 2, 3], &p, None).unwrap();
+    let r = evaluate_mesh(
+        &gt,
+        &scene,
+        &[(1, pts_1.clone()), (2, pts_2)],
+        &[1, 2, 3],
+        &p,
+        None,
+    )
+    .unwrap();
     let o1 = r.objects[0].fscore.unwrap();
     assert_eq!((o1.precision, o1.recall), (1.0, 1.0));
     let o2 = r.objects[1].fscore.unwrap();
@@ -85,5 +93,14 @@ fn per_object_scores_use_the_faces_of_each_object() {
     assert_eq!(
         r.objects[2].fscore, None,
         "object 3 has no ground-truth faces"
+    );
+    // An id with ground truth but no member in the scene (a label of the background
+    // component) has no score of its own; the scene's score counts its surface.
+    let r = evaluate_mesh(&gt, &pts_1, &[(1, pts_1.clone())], &[1, 2], &p, None).unwrap();
+    assert!(r.objects[0].fscore.is_some());
+    assert_eq!(r.objects[1].fscore, None);
+    assert!(
+        r.scene.recall < 0.6,
+        "object 2's surface still counts in the scene"
     );
 }

@@ -6,8 +6,12 @@
 //! (H×W, finite, ≥ 0; 0 = pixel not supervised) turn every mean into a
 //! weighted mean: `L1 = Σ_p w_p Σ_c |x − y| / (C·Σ_p w_p)` and
 //! `SSIM = Σ_p w_p Σ_c S_pc / (C·Σ_p w_p)` where `S` is the ordinary SSIM map
-//! (the window still sees unweighted neighbours; only the averaging of the
-//! map is weighted). With all weights zero both losses are 0 with zero gradient.
+//! (only the averaging of the map is weighted). A pixel of weight 0 enters
+//! the SSIM windows of its neighbours with its target value in place of the
+//! render, so nothing about it is learned: otherwise a supervised pixel's
+//! window would pull the unsupervised pixels within 5 px of it toward their
+//! targets (the background component learning the edges of the objects in
+//! front of it). With all weights zero both losses are 0 with zero gradient.
 //!
 //! [`PhotometricLoss`] evaluates the loss on a crop of a larger image whose
 //! pixels outside the crop render exactly their target (a trainer's view of
@@ -326,8 +330,13 @@ impl<R: Real> PhotometricLoss<R> {
                         for r in 0..rows_here {
                             let y = j * ROWS_PER_JOB + r;
                             for x in 0..w {
-                                xs[x] = rendered[(y * w + x) * nc + ch];
-                                ys[x] = target[(y * w + x) * nc + ch];
+                                let i = (y * w + x) * nc + ch;
+                                ys[x] = target[i];
+                                xs[x] = if weight(y * w + x) > R::zero() {
+                                    rendered[i]
+                                } else {
+                                    target[i]
+                                };
                             }
                             let row = r * w..(r + 1) * w;
                             blur_row(xs, &taps, &mut outs[0][row.clone()]);
@@ -455,6 +464,10 @@ impl<R: Real> PhotometricLoss<R> {
                             }
                             for x in 0..w {
                                 let p = y * w + x;
+                                // An unsupervised pixel's render is not in the windows.
+                                if weight(p) <= R::zero() {
+                                    continue;
+                                }
                                 let g = acc[0][x]
                                     + two * rendered[p * nc + ch] * acc[1][x]
                                     + target[p * nc + ch] * acc[2][x];

@@ -288,7 +288,7 @@ pub struct Evaluate;
 
 impl Node for Evaluate {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("evaluate", "2")
+        NodeSpec::new("evaluate", "3")
             .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id. Writes metrics.json and metrics.csv.")
             .input("images", "Images", "renders of the test frames (<frame stem>.png)")
             .input("frames", "Frames", "the capture; its test split is the ground truth")

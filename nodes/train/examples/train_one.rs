@@ -1,4 +1,5 @@
 //! Trains one component folder and prints where the time went: for profiling.
+//! ($MODEL and $RENDERS, below, keep the model and test renders.)
 //! Usage: cargo run --release -p objectsplat-train --example train_one -- COMPONENT_DIR POINTS_PLY ITERATIONS [last|best] [threads]
 
 use anyhow::{Context, Result};
@@ -21,8 +22,9 @@ fn main() -> Result<()> {
     };
     let threads: usize = args.get(4).map_or(Ok(1), |t| t.parse())?;
     let masks = ComponentMasks::read(&dir)?;
-    let points = masks.component_points(&points)?;
     let data = ComponentData::read(&dir)?;
+    // As the train node's default min_object_points.
+    let (points, _) = objectsplat_train::hull::initial_points(&masks, &data, &points, 300, 0)?;
     // Schedule overrides as a JSON object in $SCHEDULE, e.g. '{"lr_sh_dc": 0.03}'.
     let overrides: serde_json::Map<String, serde_json::Value> = match std::env::var("SCHEDULE") {
         Ok(text) => serde_json::from_str(&text).context("$SCHEDULE is not a JSON object")?,
@@ -51,6 +53,11 @@ fn main() -> Result<()> {
     );
     for n in &report.notes {
         println!("  {n}");
+    }
+    // $MODEL=folder: the trained model, for inspection with other tools.
+    if let Ok(out) = std::env::var("MODEL") {
+        std::fs::create_dir_all(&out)?;
+        objectsplat_raster::save_model(&report.model, &PathBuf::from(out))?;
     }
     // $RENDERS=folder: each test view of the trained model over grey, beside its image.
     if let Ok(out) = std::env::var("RENDERS") {

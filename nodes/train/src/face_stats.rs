@@ -5,9 +5,12 @@
 //! Views are visited in epochs (a shuffled pass over every training view), so
 //! the maximum over the current and the previous epoch covers every training
 //! view's latest render at least once: what a re-render of every view would
-//! report, up to two epochs of staleness. Until one epoch has passed since the
-//! faces last changed wholesale the statistics are incomplete, and the trainer
-//! renders the views instead.
+//! report, up to two epochs of staleness. Until one whole epoch has passed since
+//! the faces last changed wholesale the statistics are incomplete, and the
+//! trainer renders the views instead. A wholesale change (the connectivity step)
+//! lands mid-epoch, so the epoch it lands in does not count: the cleanup after
+//! the connectivity step once judged faces on the 12 of 19 views an object's
+//! partial epoch had left, and removed faces only the other 7 showed.
 
 use crate::densify::VertexEdit;
 
@@ -15,13 +18,22 @@ use crate::densify::VertexEdit;
 pub struct FaceWeights {
     current: Vec<f32>,
     previous: Vec<f32>,
-    /// Epochs finished since the last reset.
+    /// Epoch boundaries passed since the statistics (re)started, counting the
+    /// start of training as one: complete from 2 on (see [`FaceWeights::complete`]).
     epochs: u32,
 }
 
 impl FaceWeights {
     /// No statistics yet for `faces` faces.
+    /// At the start of training, which is also the start of an epoch.
     pub fn new(faces: usize) -> Self {
+        FaceWeights {
+            epochs: 1,
+            ..FaceWeights::restarted(faces)
+        }
+    }
+
+    fn restarted(faces: usize) -> Self {
         FaceWeights {
             current: vec![0.0; faces],
             previous: vec![0.0; faces],
@@ -50,7 +62,7 @@ impl FaceWeights {
         (&self.current, &self.previous)
     }
 
-    /// Epochs finished since the last reset.
+    /// Epoch boundaries passed since the statistics (re)started (for a saved state).
     pub fn epochs(&self) -> u32 {
         self.epochs
     }
@@ -78,9 +90,10 @@ impl FaceWeights {
         self.epochs += 1;
     }
 
-    /// Whether every training view has been seen since the last reset.
+    /// Whether every training view has been seen since the last reset: one
+    /// whole epoch has passed.
     pub fn complete(&self) -> bool {
-        self.epochs >= 1
+        self.epochs >= 2
     }
 
     /// Per face, the largest weight of the last one to two epochs.
@@ -113,8 +126,36 @@ impl FaceWeights {
         self.previous = remap(&self.previous);
     }
 
-    /// Forgets everything (the faces were replaced, e.g. by the connectivity step).
+    /// Forgets everything (the faces were replaced mid-epoch, e.g. by the
+    /// connectivity step): complete again after the next whole epoch.
     pub fn reset(&mut self, faces: usize) {
-        *self = FaceWeights::new(faces);
+        *self = FaceWeights::restarted(faces);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::FaceWeights;
+
+    #[test]
+    fn statistics_are_complete_after_one_whole_epoch() {
+        // From the start of training, the first epoch is whole.
+        let mut stats = FaceWeights::new(2);
+        stats.record(&[0.5, 0.0]);
+        assert!(!stats.complete());
+        stats.end_epoch();
+        assert!(stats.complete());
+        assert_eq!(stats.max_weight(), vec![0.5, 0.0]);
+
+        // A reset lands mid-epoch: the rest of that epoch is not a whole one.
+        stats.reset(2);
+        stats.record(&[0.0, 0.25]);
+        stats.end_epoch();
+        assert!(!stats.complete());
+        stats.record(&[0.125, 0.0]);
+        stats.end_epoch();
+        assert!(stats.complete());
+        // The last whole epoch (and the current one so far).
+        assert_eq!(stats.max_weight(), vec![0.125, 0.0]);
     }
 }

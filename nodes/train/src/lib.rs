@@ -18,6 +18,7 @@ pub mod densify;
 mod device_steps;
 pub mod face_stats;
 mod host_steps;
+pub mod hull;
 pub mod init;
 pub mod optim;
 pub mod schedule;

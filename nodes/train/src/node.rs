@@ -65,7 +65,7 @@ pub struct TrainNode;
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("train", "4")
+        NodeSpec::new("train", "5")
             .doc(
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
@@ -143,6 +143,14 @@ impl Node for TrainNode {
                  half-way resumes from the last save and ends with the same model (0: never save)",
             )
             .param(
+                "min_object_points",
+                ParamType::int_range(0, 1_000_000),
+                Some("300"),
+                "an object with fewer sparse points than this is seeded with points on the \
+                 visual hull of its masks up to this count (small objects get a handful of SfM \
+                 points, too few to grow a surface from); 0: never",
+            )
+            .param(
                 "world_scale",
                 ParamType::float_range(1e-9, 1e9),
                 Some("1.0"),
@@ -212,16 +220,31 @@ impl Node for TrainNode {
                 masks.info.name
             )));
         }
-        let points = masks.component_points(&all_points)?;
+        let min_object_points = ctx.param::<i64>("min_object_points")? as usize;
+        let mut data = ComponentData::read(&component_dir)?;
+        let (points, seeded) = crate::hull::initial_points(
+            &masks,
+            &data,
+            &all_points,
+            min_object_points,
+            seed as u64,
+        )?;
         ctx.note(
             "points",
-            format!(
-                "{} of {}",
-                points.positions.len(),
-                all_points.positions.len()
-            ),
+            if seeded > 0 {
+                format!(
+                    "{} of {} + {seeded} on the visual hull of its masks",
+                    points.positions.len() - seeded,
+                    all_points.positions.len()
+                )
+            } else {
+                format!(
+                    "{} of {}",
+                    points.positions.len(),
+                    all_points.positions.len()
+                )
+            },
         );
-        let mut data = ComponentData::read(&component_dir)?;
         if data.kind == ComponentKind::Background && !occluders.is_empty() {
             let models = occluders
                 .iter()

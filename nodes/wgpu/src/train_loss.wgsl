@@ -146,8 +146,12 @@ fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
         for (var xx = lo; xx <= hi; xx++) {
             let t = tap(xx + HALF - x);
             let q = row + u32(xx);
-            let vx = rendered(q, c);
             let vy = target_color(view_row + u32(xx))[c];
+            // An unsupervised pixel enters the windows with its target (as objectsplat_raster::loss).
+            var vx = vy;
+            if (targets[view_row + u32(xx)].w > 0.0) {
+                vx = rendered(q, c);
+            }
             acc[0] += t * vx;
             acc[1] += t * vy;
             acc[2] += t * (vx * vx);
@@ -294,7 +298,10 @@ fn loss_grad(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
         } else if (d < 0.0) {
             l1 = -u;
         }
-        let s = b[3u * c] + 2.0 * xv * b[3u * c + 1u] + goal[c] * b[3u * c + 2u];
+        var s = 0.0;
+        if (targets[q].w > 0.0) {
+            s = b[3u * c] + 2.0 * xv * b[3u * c + 1u] + goal[c] * b[3u * c + 2u];
+        }
         upstream[p * IMAGE_STRIDE + c] = params.l1_weight * l1 - params.ssim_weight * s;
     }
     for (var k = 3u; k < IMAGE_STRIDE; k++) {
