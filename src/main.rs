@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 use objectsplat_export::report::{
     GraphEdge, REPORT_FILE, RunSummary, read_run_summary, write_with_run_summary,
 };
+use objectsplat_runtime::check;
 use objectsplat_runtime::exec::{self, RunOptions};
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::{self, Override, Plan};
@@ -44,7 +45,9 @@ enum Command {
         /// Run only these nodes and their ancestors (repeatable).
         #[arg(long = "target")]
         targets: Vec<String>,
-        /// Override a param: NODE.PARAM=VALUE (RON syntax; part of the cache key).
+        /// Override a param: NODE.PARAM=VALUE (RON syntax; a bare word or text that is not
+        /// RON is taken as a string where the param takes one: `--set scene.split=dense`).
+        /// Part of the cache key.
         #[arg(long = "set")]
         sets: Vec<String>,
         /// Load a plugin library (repeatable).
@@ -66,13 +69,21 @@ enum Command {
         /// The action's spec, written by the coordinator.
         spec: PathBuf,
     },
-    /// Validate a graph without running it.
+    /// Validate a graph without running it: kinds, wiring, types, params (fields inside
+    /// nested params too), that input files exist, and params against upstream values
+    /// already in the cache (edit targets against the scene's labels).
     Check {
         graph: PathBuf,
         #[arg(long = "plugin")]
         plugins: Vec<PathBuf>,
         #[arg(long = "set")]
         sets: Vec<String>,
+        /// Cache folder whose values checks may read (it is not created or changed).
+        #[arg(long, default_value = ".objectsplat-cache")]
+        cache: PathBuf,
+        /// Do not require input files to exist (a graph template whose data is elsewhere).
+        #[arg(long)]
+        skip_input_files: bool,
     },
     /// Fill in the run summary (graph, node statuses and times) of a `report` node's page
     /// from a run report saved with `run --json`.
@@ -133,6 +144,15 @@ fn main() -> ExitCode {
     }
 }
 
+fn parse_overrides(sets: &[String]) -> Result<Vec<Override>> {
+    let overrides = sets
+        .iter()
+        .map(|s| Override::parse(s))
+        .collect::<Result<Vec<_>, _>>()
+        .map_err(|d| Diagnostics(vec![d]))?;
+    Ok(overrides)
+}
+
 fn registry_with(plugins: &[PathBuf]) -> Result<Registry> {
     let mut reg = objectsplat_nodes::builtin_registry();
     for p in plugins {
@@ -157,11 +177,7 @@ fn load_plan(
         }
     }
     let reg = registry_with(&libs)?;
-    let overrides = sets
-        .iter()
-        .map(|s| Override::parse(s))
-        .collect::<Result<Vec<_>, _>>()
-        .map_err(|d| Diagnostics(vec![d]))?;
+    let overrides = parse_overrides(sets)?;
     Ok(plan::build_plan(&source, &reg, &overrides, targets)?)
 }
 
@@ -250,8 +266,43 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             graph,
             plugins,
             sets,
+            cache,
+            skip_input_files,
         } => {
             let plan = load_plan(&graph, &plugins, &sets, &[])?;
+            let overrides = parse_overrides(&sets)?;
+            let mut problems = Vec::new();
+            if !skip_input_files {
+                problems.extend(check::missing_input_paths(&plan, &overrides));
+            }
+            if problems.is_empty() {
+                let found = if cache.is_dir() {
+                    check::with_cached_inputs(&plan, &Store::open(&cache)?, &overrides)?
+                } else {
+                    check::InputChecks::default()
+                };
+                problems.extend(found.errors);
+                for line in &found.not_checked {
+                    println!("note: {line}");
+                }
+                if !cache.is_dir() {
+                    for n in &plan.nodes {
+                        for w in n.reg.node.checked_inputs() {
+                            println!(
+                                "note: node `{}` ({}): {} not checked: no cache at {} to read its input `{}` from",
+                                n.id,
+                                n.kind,
+                                w.what,
+                                cache.display(),
+                                w.port
+                            );
+                        }
+                    }
+                }
+            }
+            if !problems.is_empty() {
+                return Err(Diagnostics(problems).into());
+            }
             println!(
                 "{}: ok ({} nodes, targets: {})",
                 graph.display(),

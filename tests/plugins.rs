@@ -481,6 +481,8 @@ fn libraries_that_are_not_valid_plugins_are_refused_with_a_clear_message() {
         "{}",
         stderr(&out)
     );
+    // `check` wants the graph's input file to exist.
+    std::fs::write(dir.join("x.png"), b"").unwrap();
     let out = objectsplat(&["check", "graph.ron"], &[], &dir);
     assert!(
         out.status.success(),

@@ -195,7 +195,9 @@ fn baseline_graph(args: &QualityArgs, w: u32, h: u32, seed: u64) -> String {
     )
 }
 
-fn run(binary: &Path, graph: &Path, dir: &Path, jobs: usize) -> Result<Value> {
+/// Runs `graph` with `binary` into a fresh `dir` (cache and outputs), with `-j jobs` and
+/// no GPU, and returns its `--json` run report.
+pub fn run_graph(binary: &Path, graph: &Path, dir: &Path, jobs: usize) -> Result<Value> {
     if dir.exists() {
         std::fs::remove_dir_all(dir)?;
     }
@@ -291,7 +293,7 @@ pub fn quality(args: &QualityArgs) -> Result<()> {
             std::fs::write(&graph, text)?;
             let dir = args.out.join("runs").join(&tag);
             let started = std::time::Instant::now();
-            let report = run(&bin, &graph, &dir, args.jobs)?;
+            let report = run_graph(&bin, &graph, &dir, args.jobs)?;
             let train_seconds: f64 = report["nodes"]
                 .as_array()
                 .into_iter()

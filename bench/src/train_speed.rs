@@ -11,10 +11,8 @@
 use anyhow::{Context, Result, bail};
 use objectsplat_raster::TrainingLog;
 use serde::Serialize;
-use serde_json::Value;
 use std::fmt::Write as _;
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::PathBuf;
 
 #[derive(clap::Args)]
 pub struct TrainSpeedArgs {
@@ -99,34 +97,6 @@ fn kind_of(component: &str) -> &'static str {
     }
 }
 
-fn run_one(binary: &Path, graph: &Path, run_dir: &Path) -> Result<Value> {
-    let json = run_dir.join("report.json");
-    let status = Command::new(binary)
-        .arg("run")
-        .arg(graph)
-        .arg("--cache")
-        .arg(run_dir.join("cache"))
-        .arg("--out")
-        .arg(run_dir.join("out"))
-        .arg("-j")
-        .arg("1")
-        .arg("--json")
-        .arg(&json)
-        .env("OBJECTSPLAT_NO_GPU", "1")
-        .status()
-        .with_context(|| format!("cannot start {}", binary.display()))?;
-    if !status.success() {
-        bail!(
-            "{} run {} failed ({status})",
-            binary.display(),
-            graph.display()
-        );
-    }
-    let text = std::fs::read_to_string(&json)
-        .with_context(|| format!("cannot read {}", json.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not JSON", json.display()))
-}
-
 pub fn train_speed(args: &TrainSpeedArgs) -> Result<()> {
     let binary = match &args.binary {
         Some(b) => b.clone(),
@@ -171,10 +141,7 @@ pub fn train_speed(args: &TrainSpeedArgs) -> Result<()> {
                     .out
                     .join("runs")
                     .join(format!("{name}-{pipeline}-{size}"));
-                if run_dir.exists() {
-                    std::fs::remove_dir_all(&run_dir)?;
-                }
-                let report = run_one(binary, &graph, &run_dir)?;
+                let report = crate::quality::run_graph(binary, &graph, &run_dir, 1)?;
                 let train = report["nodes"]
                     .as_array()
                     .and_then(|n| n.iter().find(|n| n["id"] == "train"))

@@ -10,8 +10,8 @@
 //!
 //! `run N`: the fan-out computed locally (`-j 2`) and then as Slurm jobs, into two
 //! caches; prints wall times, submit-to-done seconds per item (the report's item
-//! times), and the coordinator's CPU time (its own threads, and the `sbatch`/`squeue`
-//! it started).
+//! times and waits together), and the coordinator's CPU time (its own threads, and
+//! the `sbatch`/`squeue` it started).
 //! `hold N`: the coordinator's side at scale without running N jobs: the arrays are
 //! submitted held (`--hold`), so the run plans, claims, writes N task files and
 //! submits; once `squeue` lists all N tasks the program interrupts itself (SIGINT, as
@@ -165,7 +165,13 @@ fn main() -> Result<()> {
                 bail!("a run failed: {:?}", report.first_failure());
             }
             let touch = report.node("touch").expect("touch ran");
-            let mut secs: Vec<f64> = touch.items.iter().map(|i| i.seconds).collect();
+            // Submit to done: the item's own run and its wait (Slurm's queue, the job's
+            // start, collecting the result), which the report keeps apart.
+            let mut secs: Vec<f64> = touch
+                .items
+                .iter()
+                .map(|i| i.seconds + i.queued_seconds)
+                .collect();
             secs.sort_by(f64::total_cmp);
             let pct = |p: f64| secs[((secs.len() - 1) as f64 * p).round() as usize];
             println!("items: {n}");

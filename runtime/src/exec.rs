@@ -75,6 +75,8 @@ pub(crate) struct Job {
     pub params_key: String,
     pub inputs: BTreeMap<String, Digest>,
     pub label: String,
+    /// When the job was handed to the workers (queue waiting is reported apart).
+    pub queued_at: Instant,
 }
 
 pub(crate) struct JobOutcome {
@@ -82,10 +84,20 @@ pub(crate) struct JobOutcome {
     pub item: Option<String>,
     pub result: Result<ActionRecord, JobError>,
     pub status: Status,
-    pub seconds: f64,
+    pub timing: Timing,
     pub warnings: Vec<String>,
     /// Where it was computed (for a cache hit: where the record says).
     pub ran_on: Option<RanOn>,
+}
+
+/// One job's time: its own run (the producing run's, for a cache hit) and how long it
+/// waited for a worker before that.
+#[derive(Clone, Copy, Default)]
+pub(crate) struct Timing {
+    pub seconds: f64,
+    pub queued: f64,
+    /// When a worker took it up (`None`: answered from the cache by the scheduler).
+    pub started: Option<Instant>,
 }
 
 pub(crate) enum JobError {
@@ -99,7 +111,10 @@ struct NodeState {
     status: Option<Status>,
     reason: Option<String>,
     started: Option<Instant>,
+    /// When its first job was taken up by a worker.
+    first_job: Option<Instant>,
     seconds: f64,
+    queued: f64,
     pending: usize,
     items: Vec<(String, Option<ActionRecord>, ItemReport)>,
     notes: BTreeMap<String, String>,
@@ -392,13 +407,17 @@ fn run_pass(
                         };
                         match cached(store, &key) {
                             Ok(Some(rec)) => {
+                                let timing = Timing {
+                                    seconds: rec.seconds,
+                                    ..Timing::default()
+                                };
                                 let ran_on = rec.ran_on.clone();
                                 record_item(
                                     st,
                                     item_name,
                                     Ok(rec),
                                     Status::Cached,
-                                    0.0,
+                                    timing,
                                     vec![],
                                     ran_on,
                                 );
@@ -422,6 +441,7 @@ fn run_pass(
                                     params_key: pk.clone(),
                                     inputs: job_inputs,
                                     label,
+                                    queued_at: Instant::now(),
                                 };
                                 if on_slurm.is_some() {
                                     remote.push(job);
@@ -481,7 +501,7 @@ fn run_pass(
                 out.item,
                 result,
                 out.status,
-                out.seconds,
+                out.timing,
                 out.warnings,
                 out.ran_on,
             );
@@ -519,6 +539,7 @@ fn run_pass(
                 kind: n.kind.clone(),
                 status: st.status.unwrap_or(Status::Failed),
                 seconds: st.seconds,
+                queued_seconds: st.queued,
                 reason: st.reason,
                 items: st.items.into_iter().map(|(_, _, r)| r).collect(),
                 executor: st.ran_on.as_ref().map(|r| r.executor.clone()),
@@ -558,11 +579,15 @@ fn record_item(
     item: Option<String>,
     result: Result<ActionRecord, String>,
     status: Status,
-    seconds: f64,
+    timing: Timing,
     warnings: Vec<String>,
     ran_on: Option<RanOn>,
 ) {
     st.warnings.extend(warnings);
+    if let Some(t) = timing.started {
+        st.first_job = Some(st.first_job.map_or(t, |f| f.min(t)));
+    }
+    let mut notes = BTreeMap::new();
     let (rec, status, reason) = match result {
         Ok(rec) => {
             let status = if rec.status == "skipped" && status == Status::Ran {
@@ -576,9 +601,7 @@ fn record_item(
                 }
                 (_, r) => r.clone(),
             };
-            for (k, v) in &rec.notes {
-                st.notes.insert(k.clone(), v.clone());
-            }
+            notes.extend(rec.notes.iter().cloned());
             (Some(rec), status, reason)
         }
         Err(msg) => (None, Status::Failed, Some(msg)),
@@ -591,8 +614,10 @@ fn record_item(
                 ItemReport {
                     name,
                     status,
-                    seconds,
+                    seconds: timing.seconds,
+                    queued_seconds: timing.queued,
                     reason,
+                    notes,
                     executor: ran_on.as_ref().map(|r| r.executor.clone()),
                     job_id: ran_on.as_ref().and_then(|r| r.job_id.clone()),
                     host: ran_on.map(|r| r.host),
@@ -603,13 +628,24 @@ fn record_item(
             st.status = Some(status);
             st.reason = reason;
             st.record = rec;
+            st.notes = notes;
+            st.seconds = timing.seconds;
+            st.queued = timing.queued;
             st.ran_on = ran_on;
         }
     }
 }
 
 fn finish_node(plan: &Plan, store: &Store, i: usize, st: &mut NodeState, fans_out: bool) {
-    st.seconds = st.started.map_or(0.0, |t| t.elapsed().as_secs_f64());
+    if fans_out {
+        // Its own time is its items' (they may run side by side); the wait is until a
+        // worker took up its first item.
+        st.seconds = st.items.iter().map(|(_, _, r)| r.seconds).sum();
+        st.queued = match (st.started, st.first_job) {
+            (Some(ready), Some(first)) => first.saturating_duration_since(ready).as_secs_f64(),
+            _ => 0.0,
+        };
+    }
     if st.corrupt {
         st.status = Some(Status::Failed);
         st.reason = Some("corrupt cache entry (recomputed next pass)".into());
@@ -703,6 +739,7 @@ fn execute(
     cancel: &AtomicBool,
 ) -> JobOutcome {
     let t0 = Instant::now();
+    let queued = t0.saturating_duration_since(job.queued_at).as_secs_f64();
     opts.observer.job_started(&job.label);
     let running = active.fetch_add(1, Ordering::SeqCst) + 1;
     let threads = (jobs / running).max(1);
@@ -719,7 +756,12 @@ fn execute(
         &here,
     );
     active.fetch_sub(1, Ordering::SeqCst);
-    let seconds = t0.elapsed().as_secs_f64();
+    // A stored action carries its own run time (the producing run's, for a hit);
+    // a failure has none and is timed here.
+    let seconds = match &result {
+        Ok((rec, _)) => rec.seconds,
+        Err(_) => t0.elapsed().as_secs_f64(),
+    };
     let mut ran_on = Some(here);
     let (result, status) = match result {
         Ok((rec, hit)) => {
@@ -753,7 +795,11 @@ fn execute(
         item: job.item.map(|(n, _)| n),
         result,
         status,
-        seconds,
+        timing: Timing {
+            seconds,
+            queued,
+            started: Some(t0),
+        },
         warnings,
         ran_on,
     }
@@ -779,6 +825,9 @@ pub(crate) fn execute_inner(
     if let Ok(Some(rec)) = cached(store, &job.key) {
         return Ok((rec, true));
     }
+    // The action's time: inputs laid out, the run, outputs stored (not the wait for
+    // the lock above, which is another process's work).
+    let t0 = Instant::now();
     let stage = store.staging(&job.label)?;
     let result = (|| {
         let mut inputs = BTreeMap::new();
@@ -814,7 +863,6 @@ pub(crate) fn execute_inner(
             progress: opts.observer.as_ref(),
             cancel,
         };
-        let t0 = Instant::now();
         let outcome = catch_unwind(AssertUnwindSafe(|| node.reg.node.run(&mut ctx)))
             .unwrap_or_else(|p| {
                 let msg = p
@@ -824,7 +872,6 @@ pub(crate) fn execute_inner(
                     .unwrap_or_else(|| "unknown panic".into());
                 Err(anyhow!("node panicked: {msg}"))
             })?;
-        let seconds = t0.elapsed().as_secs_f64();
         warnings.extend(ctx.warnings.iter().map(|w| format!("{}: {w}", job.label)));
         let mut out_digests = BTreeMap::new();
         for o in &spec.outputs {
@@ -888,7 +935,7 @@ pub(crate) fn execute_inner(
             outputs: out_digests,
             status: status.into(),
             reason,
-            seconds,
+            seconds: t0.elapsed().as_secs_f64(),
             notes: ctx.notes,
             ran_on: Some(ran_on.clone()),
         };
@@ -952,6 +999,7 @@ pub(crate) fn compute_action(
             Some((n, _)) => format!("{}[{n}]", node.id),
             None => node.id.clone(),
         },
+        queued_at: Instant::now(),
     };
     opts.observer.job_started(&job.label);
     let cancel = AtomicBool::new(false);
@@ -991,6 +1039,57 @@ fn materialize_targets(plan: &Plan, store: &Store, report: &RunReport, out: &Pat
         }
     }
     crate::outdir::write_targets(store, out, &targets)
+}
+
+/// The outputs node `i` has in the cache for its params key `pk` and resolved
+/// `inputs` (a fan-out node's `each` input as the whole collection), assembled as a
+/// run assembles them; `None` when some run (item) is not cached.
+pub(crate) fn cached_outputs(
+    plan: &Plan,
+    store: &Store,
+    i: usize,
+    pk: &str,
+    inputs: &BTreeMap<String, Digest>,
+) -> Option<BTreeMap<String, Digest>> {
+    let node = &plan.nodes[i];
+    let spec = &node.reg.spec;
+    let mut inputs = inputs.clone();
+    let each = node.inputs.iter().find(|x| x.each);
+    let items: Vec<Option<(String, Digest)>> = match each {
+        None => vec![None],
+        Some(e) => match store.manifest(&inputs.remove(&e.port)?).ok().flatten()? {
+            Manifest::Collection { items, .. } => items.into_iter().map(Some).collect(),
+            _ => return None,
+        },
+    };
+    let mut by_port: BTreeMap<String, Vec<(String, Digest)>> = BTreeMap::new();
+    for item in &items {
+        let key = compute_key(&spec.kind, &spec.version, pk, &inputs, item.as_ref());
+        let rec = cached(store, &key).ok().flatten()?;
+        let name = item.as_ref().map(|(n, _)| n.clone()).unwrap_or_default();
+        for (port, d) in rec.outputs {
+            by_port.entry(port).or_default().push((name.clone(), d));
+        }
+    }
+    if each.is_none() {
+        return Some(
+            by_port
+                .into_iter()
+                .filter_map(|(port, mut v)| v.pop().map(|(_, d)| (port, d)))
+                .collect(),
+        );
+    }
+    let mut outputs = BTreeMap::new();
+    for (port, ty) in &node.outputs {
+        let mut items = by_port.remove(port).unwrap_or_default();
+        items.sort_by(|a, b| a.0.cmp(&b.0));
+        let m = Manifest::Collection {
+            ty: ty.element().to_string(),
+            items,
+        };
+        outputs.insert(port.clone(), store.put_manifest(&m).ok()?);
+    }
+    Some(outputs)
 }
 
 /// Why each needed node would (re)run, without running anything.
@@ -1103,6 +1202,27 @@ pub fn explain(plan: &Plan, store: &Store, target: &str) -> Result<String> {
     Ok(lines.join("\n"))
 }
 
+/// `iterations: 600 → 300; schedule.patience: 300 → 200` between two keys' params
+/// texts; a path param's content fingerprint reads as "its content changed".
+fn params_diff(was: &str, now: &str) -> String {
+    let parse = |t: &str| crate::syntax::parse(t).map(|v| v.to_value());
+    let (Ok(a), Ok(b)) = (parse(was), parse(now)) else {
+        // Keys written by an older version may not parse: show both texts.
+        return format!("was {was}, now {now}");
+    };
+    let fingerprint = |line: &str| line.contains("\"file:") || line.contains("\"dir:");
+    a.diff(&b, "")
+        .into_iter()
+        .map(|line| match line.split_once(": ") {
+            Some((path, _)) if fingerprint(&line) => {
+                format!("{path}: the file or folder it names changed")
+            }
+            _ => line,
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
 fn diff_reason(
     prev: &ActionRecord,
     spec: &crate::NodeSpec,
@@ -1125,7 +1245,8 @@ fn diff_reason(
     let ((prev_params, prev_reads), (now_params, now_reads)) = (split(&prev.params), split(params));
     if prev_params != now_params {
         why.push(format!(
-            "params changed (was {prev_params}, now {now_params})"
+            "params changed: {}",
+            params_diff(&prev_params, &now_params)
         ));
     }
     if prev_reads != now_reads {

@@ -3,6 +3,7 @@
 //! caches results by content, schedules work in parallel (here, or as Slurm jobs)
 //! and loads plugins.
 
+pub mod check;
 pub mod diag;
 pub mod exec;
 pub mod graph;
@@ -21,7 +22,10 @@ pub mod testing;
 pub mod value;
 
 pub use diag::{Diagnostic, Diagnostics};
-pub use node::{Context, InputValue, Node, NodeSpec, Outcome, PortSpec, ProgressSink, TypeRef};
+pub use node::{
+    CheckedInput, Context, DeclaredPorts, InputValue, Node, NodeSpec, Outcome, ParamError,
+    PortSpec, ProgressSink, TypeRef,
+};
 pub use params::{ParamSpec, ParamType, Params};
 pub use registry::{Origin, Registry};
 pub use value::Value;

@@ -152,11 +152,78 @@ pub enum Outcome {
     Skipped(String),
 }
 
+/// Ports a node's params declare (for kinds whose ports the graph gives, like `command`).
+#[derive(Debug, Clone)]
+pub struct DeclaredPorts {
+    pub inputs: Vec<PortSpec>,
+    pub outputs: Vec<PortSpec>,
+    /// The params that declare the inputs and the outputs: errors about a port point there.
+    pub inputs_param: String,
+    pub outputs_param: String,
+}
+
+/// A param value the node cannot use, found before anything runs.
+#[derive(Debug, Clone)]
+pub struct ParamError {
+    pub param: String,
+    /// Where inside the value, for a problem in a nested struct, map or list: field
+    /// names, map keys and list indices (`["1", "target"]` for the second item's
+    /// `target`); empty for the whole value. Errors point at that place in the graph.
+    pub field: Vec<String>,
+    pub message: String,
+}
+
+impl ParamError {
+    pub fn new(param: impl Into<String>, message: impl Into<String>) -> ParamError {
+        ParamError {
+            param: param.into(),
+            field: Vec::new(),
+            message: message.into(),
+        }
+    }
+
+    /// The same error, about `field` inside the param's value.
+    pub fn at<S: ToString>(mut self, field: impl IntoIterator<Item = S>) -> ParamError {
+        self.field = field.into_iter().map(|s| s.to_string()).collect();
+        self
+    }
+
+    /// `schedule.patience`, `edits[1].target`: the field as a path below the param.
+    pub fn path(&self) -> String {
+        let mut s = self.param.clone();
+        for step in &self.field {
+            if step.parse::<usize>().is_ok() {
+                s.push_str(&format!("[{step}]"));
+            } else {
+                s.push('.');
+                s.push_str(step);
+            }
+        }
+        s
+    }
+}
+
+/// An input a node's params can be checked against before the node runs (edit targets
+/// against a scene's labels), when its value is already in the cache.
+#[derive(Debug, Clone)]
+pub struct CheckedInput {
+    pub port: String,
+    /// What is checked, for the line saying it could not be: "edit targets against the
+    /// scene's labels".
+    pub what: String,
+}
+
 /// A node kind. Implementations must be deterministic: the same inputs and params
 /// must give byte-identical outputs (that is what makes early cutoff work).
 pub trait Node: Send + Sync {
     fn spec(&self) -> NodeSpec;
     fn run(&self, ctx: &mut Context) -> Result<Outcome>;
+
+    /// The ports of one node of this kind given its checked params, when its params
+    /// declare them; `None` (the default) keeps the ports of `spec()`.
+    fn declared_ports(&self, _params: &Params) -> Result<Option<DeclaredPorts>, ParamError> {
+        Ok(None)
+    }
 
     /// Files and folders a run will read that are neither inputs nor named by a
     /// `path` param (those are fingerprinted already): an image folder found beside
@@ -166,6 +233,30 @@ pub trait Node: Send + Sync {
     /// replacing one of them reruns the node. A node that reads files it cannot name
     /// in advance must say so in its doc.
     fn reads(&self, _params: &Params) -> Result<Vec<PathBuf>> {
+        Ok(Vec::new())
+    }
+
+    /// Checks params beyond their declared types (unknown fields inside a `ron`
+    /// value, values that contradict each other), before anything runs: every plan
+    /// (`check`, `run`, `explain`) calls it. Point nested problems at their field
+    /// ([`ParamError::at`]).
+    fn check_params(&self, _params: &Params) -> Vec<ParamError> {
+        Vec::new()
+    }
+
+    /// Inputs whose value lets params be checked further ([`Node::check_with_inputs`]).
+    fn checked_inputs(&self) -> Vec<CheckedInput> {
+        Vec::new()
+    }
+
+    /// Checks params against the values of [`Node::checked_inputs`] (folders, laid out
+    /// as `ctx.input` gives them); `objectsplat check` calls it when those values are
+    /// in the cache. An `Err` means the input could not be read, not a bad param.
+    fn check_with_inputs(
+        &self,
+        _params: &Params,
+        _inputs: &BTreeMap<String, PathBuf>,
+    ) -> Result<Vec<ParamError>> {
         Ok(Vec::new())
     }
 }

@@ -20,6 +20,12 @@ pub struct Override {
     pub param: String,
     pub value: Value,
     pub text: String,
+    /// The value as typed. A bare word (`dense`) or text that is not RON
+    /// (`data/scene.json`) is taken as this string when the param takes a string
+    /// (string, enum, path; optional or not).
+    pub raw: String,
+    /// Why `raw` is not RON, when it is not (then `value` is `raw` as a string).
+    pub not_ron: Option<String>,
 }
 
 impl Override {
@@ -32,23 +38,44 @@ impl Override {
             .split_once('.')
             .filter(|(n, p)| !n.is_empty() && !p.is_empty())
             .ok_or_else(|| Diagnostic::argument(&text, "expected NODE.PARAM=VALUE"))?;
-        let value = syntax::parse(rhs)
-            .map_err(|e| {
-                Diagnostic::argument(
-                    &text,
-                    format!(
-                        "value is not RON: {} (strings need quotes: \"...\")",
-                        e.message
-                    ),
-                )
-            })?
-            .to_value();
+        let (value, not_ron) = match syntax::parse(rhs) {
+            Ok(v) => (v.to_value(), None),
+            Err(e) => (Value::Str(rhs.to_string()), Some(e.message)),
+        };
         Ok(Override {
             node: node.into(),
             param: param.into(),
             value,
             text,
+            raw: rhs.to_string(),
+            not_ron,
         })
+    }
+
+    /// The value for a param of type `ty`: the RON value, or the text as typed when
+    /// it is a bare word or not RON and `ty` takes a string. The caller checks it.
+    fn value_for(&self, ty: &ParamType) -> Result<Value, String> {
+        fn takes_string(ty: &ParamType) -> bool {
+            match ty {
+                ParamType::Str | ParamType::Enum(_) | ParamType::Path | ParamType::RelPath => true,
+                ParamType::Optional(inner) => takes_string(inner),
+                _ => false,
+            }
+        }
+        let bare = self.not_ron.is_some() || matches!(self.value, Value::Ident(_));
+        if self.not_ron.is_none() && ty.check(&self.value).is_ok() {
+            return Ok(self.value.clone());
+        }
+        if bare && takes_string(ty) {
+            return Ok(Value::Str(self.raw.clone()));
+        }
+        match &self.not_ron {
+            Some(why) => Err(format!(
+                "value is not RON: {why} (a bare word is read as a string only where the param \
+                 takes one; otherwise write RON, e.g. 3, 0.5, true, [1, 2], \"text\")"
+            )),
+            None => Ok(self.value.clone()),
+        }
     }
 }
 
@@ -191,11 +218,18 @@ fn check(
             nodes.push(None);
             continue;
         };
-        match check_params(src, n, reg, overrides) {
-            Ok((params, input_paths)) => nodes.push(Some(PlanNode {
+        let checked = check_params(src, n, reg, overrides).and_then(|(params, paths)| {
+            Ok((
+                declared_ports(src, n, reg, registry, &params)?,
+                params,
+                paths,
+            ))
+        });
+        match checked {
+            Ok((reg, params, input_paths)) => nodes.push(Some(PlanNode {
                 id: n.id.clone(),
                 kind: n.kind.clone(),
-                reg: reg.clone(),
+                reg,
                 params,
                 input_paths,
                 inputs: vec![],
@@ -447,6 +481,63 @@ fn list_or_none(names: &[&str]) -> String {
 
 type CheckedParams = (Params, Vec<(String, PathBuf)>);
 
+/// The node's registration with the ports its params declare, for kinds that declare
+/// ports in the graph (`Node::declared_ports`); other kinds keep their spec.
+fn declared_ports(
+    src: &GraphSource,
+    n: &NodeDecl,
+    reg: &Registered,
+    registry: &Registry,
+    params: &Params,
+) -> Result<Registered, Vec<Diagnostic>> {
+    let at = |param: &str| {
+        n.params
+            .iter()
+            .find(|p| p.name == param)
+            .map_or(n.span, |p| p.value.span)
+    };
+    let ports = match reg.node.declared_ports(params) {
+        Ok(None) => return Ok(reg.clone()),
+        Ok(Some(ports)) => ports,
+        Err(e) => {
+            return Err(vec![src.diag(
+                at(&e.param),
+                format!(
+                    "node {:?} ({}) param `{}`: {}",
+                    n.id, n.kind, e.param, e.message
+                ),
+            )]);
+        }
+    };
+    let mut diags = Vec::new();
+    for (list, param) in [
+        (&ports.inputs, &ports.inputs_param),
+        (&ports.outputs, &ports.outputs_param),
+    ] {
+        for p in list {
+            let t = p.ty.element();
+            if !registry.has_type(t) {
+                let hint = did_you_mean(&similar(t, registry.types().map(|t| t.name.as_str())));
+                diags.push(src.diag(
+                    at(param),
+                    format!(
+                        "node {:?} ({}) declares port `{}` of unknown type `{t}`{hint}",
+                        n.id, n.kind, p.name
+                    ),
+                ));
+            }
+        }
+    }
+    if !diags.is_empty() {
+        return Err(diags);
+    }
+    let mut reg = reg.clone();
+    let spec = std::sync::Arc::make_mut(&mut reg.spec);
+    spec.inputs = ports.inputs;
+    spec.outputs = ports.outputs;
+    Ok(reg)
+}
+
 fn check_params(
     src: &GraphSource,
     n: &NodeDecl,
@@ -482,10 +573,20 @@ fn check_params(
         let (value, report): (Value, Box<dyn Fn(String) -> Diagnostic>) = match (over, declared) {
             (Some(o), _) => {
                 let text = o.text.clone();
-                (
-                    o.value.clone(),
-                    Box::new(move |m| Diagnostic::argument(&text, m)),
-                )
+                let report: Box<dyn Fn(String) -> Diagnostic> =
+                    Box::new(move |m| Diagnostic::argument(&text, m));
+                match o.value_for(&ps.ty) {
+                    Ok(v) => (v, report),
+                    Err(msg) => {
+                        diags.push(report(format!(
+                            "node {:?} param `{}`: {msg} (expected {})",
+                            n.id,
+                            ps.name,
+                            ps.ty.describe()
+                        )));
+                        continue;
+                    }
+                }
             }
             (None, Some(d)) => {
                 let span = d.value.span;
@@ -538,8 +639,18 @@ fn check_params(
             ))),
         }
     }
+    if !diags.is_empty() {
+        return Err(diags);
+    }
+    let params = Params::new(values);
+    let diags: Vec<Diagnostic> = reg
+        .node
+        .check_params(&params)
+        .iter()
+        .map(|e| crate::check::param_error_diag(src, n, overrides, e))
+        .collect();
     if diags.is_empty() {
-        Ok((Params::new(values), input_paths))
+        Ok((params, input_paths))
     } else {
         Err(diags)
     }

@@ -27,7 +27,10 @@ impl Status {
 pub struct ItemReport {
     pub name: String,
     pub status: Status,
+    /// Its own run time; for a cached item, that of the run that produced it.
     pub seconds: f64,
+    /// Time it waited for a worker (not part of `seconds`).
+    pub queued_seconds: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
     /// Where it was computed: `local` or `slurm` (a cache hit: where its record says;
@@ -37,6 +40,9 @@ pub struct ItemReport {
     pub job_id: Option<String>,
     /// The machine that computed it.
     pub host: Option<String>,
+    /// The notes this item's run left (each item its own).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub notes: BTreeMap<String, String>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -44,7 +50,11 @@ pub struct NodeReport {
     pub id: String,
     pub kind: String,
     pub status: Status,
+    /// Its own run time, queue waiting excluded (a fan-out node: the sum over its
+    /// items). Cached: the time of the run that produced the cached outputs.
     pub seconds: f64,
+    /// Time from being ready to run until a worker took it (or its first item) up.
+    pub queued_seconds: f64,
     pub reason: Option<String>,
     pub items: Vec<ItemReport>,
     /// For a node that does not fan out: where it was computed (as for items).
@@ -127,16 +137,22 @@ impl RunReport {
                 .map(|r| format!("  {}", first_line(r)))
                 .unwrap_or_default();
             s.push_str(&format!(
-                "  {:<w$}  {:<7} {:>8.2}s{items}{reason}\n",
+                "  {:<w$}  {:<7} {:>8.2}s{}{items}{reason}\n",
                 n.id,
                 n.status.as_str(),
-                n.seconds
+                n.seconds,
+                timing_note(n.status, n.queued_seconds)
             ));
             for (k, v) in &n.notes {
                 s.push_str(&format!("  {:<w$}    {k}: {v}\n", ""));
             }
             if let Some(line) = slurm_summary(n) {
                 s.push_str(&format!("  {:<w$}    {line}\n", ""));
+            }
+            for i in &n.items {
+                for (k, v) in &i.notes {
+                    s.push_str(&format!("  {:<w$}    [{}] {k}: {v}\n", "", i.name));
+                }
             }
             for i in n
                 .items
@@ -203,6 +219,23 @@ fn slurm_summary(n: &NodeReport) -> Option<String> {
             hosts.join(", ")
         }
     ))
+}
+
+/// After the seconds column: where a cached time comes from, and queue waiting worth
+/// mentioning (under 0.05 s it is scheduling noise).
+fn timing_note(status: Status, queued: f64) -> String {
+    let mut parts = Vec::new();
+    if status == Status::Cached {
+        parts.push("when produced".to_string());
+    }
+    if queued >= 0.05 {
+        parts.push(format!("queued {queued:.2}s"));
+    }
+    if parts.is_empty() {
+        String::new()
+    } else {
+        format!(" ({})", parts.join(", "))
+    }
 }
 
 fn first_line(s: &str) -> &str {

@@ -61,6 +61,14 @@ pub fn run_node(
         values.insert(ps.name.clone(), v);
     }
     let params = Params::new(values);
+    let mut spec = spec;
+    if let Some(ports) = node
+        .declared_ports(&params)
+        .map_err(|e| anyhow!("param `{}`: {}", e.param, e.message))?
+    {
+        spec.inputs = ports.inputs;
+        spec.outputs = ports.outputs;
+    }
     let mut input_map = BTreeMap::new();
     for (port, path) in inputs {
         let ps = spec

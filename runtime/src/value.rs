@@ -136,9 +136,77 @@ impl Value {
         }
     }
 
+    /// What changed from `self` to `now`, one `path: before → after` line per changed
+    /// leaf: struct fields and map entries by name (`schedule.patience`), list and
+    /// tuple items by index (`edits[1].target`) when the lengths agree; a changed
+    /// shape, name or length is one line for the whole value. `path` names `self`.
+    pub fn diff(&self, now: &Value, path: &str) -> Vec<String> {
+        let mut out = Vec::new();
+        diff_into(self, now, path, &mut out);
+        out
+    }
+
     /// Deserializes into a typed value through the canonical RON text.
     pub fn deserialize<T: DeserializeOwned>(&self) -> Result<T, String> {
         ron::from_str(&self.to_ron()).map_err(|e| e.code.to_string())
+    }
+}
+
+fn diff_into(was: &Value, now: &Value, path: &str, out: &mut Vec<String>) {
+    if was == now {
+        return;
+    }
+    let join = |key: &str| {
+        if path.is_empty() {
+            key.to_string()
+        } else {
+            format!("{path}.{key}")
+        }
+    };
+    let keyed =
+        |entries: &[(String, &Value)], other: &[(String, &Value)], out: &mut Vec<String>| {
+            let mut keys: Vec<&String> = entries.iter().chain(other).map(|(k, _)| k).collect();
+            keys.sort();
+            keys.dedup();
+            let find = |list: &[(String, &Value)], k: &str| {
+                list.iter().find(|(n, _)| n == k).map(|(_, v)| (*v).clone())
+            };
+            for k in keys {
+                match (find(entries, k), find(other, k)) {
+                    (Some(a), Some(b)) => diff_into(&a, &b, &join(k), out),
+                    (Some(a), None) => out.push(format!("{}: {a} → (not set)", join(k))),
+                    (None, Some(b)) => out.push(format!("{}: (not set) → {b}", join(k))),
+                    (None, None) => {}
+                }
+            }
+        };
+    match (was, now) {
+        (Value::Struct(n1, f1), Value::Struct(n2, f2)) if n1 == n2 => {
+            let a: Vec<(String, &Value)> = f1.iter().map(|(k, v)| (k.clone(), v)).collect();
+            let b: Vec<(String, &Value)> = f2.iter().map(|(k, v)| (k.clone(), v)).collect();
+            keyed(&a, &b, out);
+        }
+        (Value::Map(e1), Value::Map(e2)) => {
+            let key = |k: &Value| k.as_str().map_or_else(|| k.to_ron(), str::to_string);
+            let a: Vec<(String, &Value)> = e1.iter().map(|(k, v)| (key(k), v)).collect();
+            let b: Vec<(String, &Value)> = e2.iter().map(|(k, v)| (key(k), v)).collect();
+            keyed(&a, &b, out);
+        }
+        (Value::List(a), Value::List(b)) if a.len() == b.len() => {
+            for (i, (x, y)) in a.iter().zip(b).enumerate() {
+                diff_into(x, y, &format!("{path}[{i}]"), out);
+            }
+        }
+        (Value::Tuple(n1, a), Value::Tuple(n2, b)) if n1 == n2 && a.len() == b.len() => {
+            // `Some(x)` → `Some(y)` reads as `x → y`.
+            if a.len() == 1 && n1.as_deref() == Some("Some") {
+                return diff_into(&a[0], &b[0], path, out);
+            }
+            for (i, (x, y)) in a.iter().zip(b).enumerate() {
+                diff_into(x, y, &format!("{path}.{i}"), out);
+            }
+        }
+        _ => out.push(format!("{path}: {was} → {now}")),
     }
 }
 
@@ -212,5 +280,30 @@ mod tests {
         );
         let s = Value::Str("q\"\\\n".into());
         assert_eq!(s.deserialize::<String>().unwrap(), "q\"\\\n");
+    }
+
+    #[test]
+    fn diff_names_each_changed_field_by_its_path() {
+        let parse = |t: &str| crate::syntax::parse(t).unwrap().to_value();
+        let was = parse(
+            r#"(iterations: 600, schedule: {"patience": 300, "lr": 0.1}, edits: [Remove(target: "a"), Remove(target: "b")], seed: 1)"#,
+        );
+        let now = parse(
+            r#"(iterations: 300, schedule: {"patience": 200, "lr": 0.1, "sigma": 2.0}, edits: [Remove(target: "a"), Remove(target: "c")], seed: 1)"#,
+        );
+        assert_eq!(
+            was.diff(&now, ""),
+            [
+                r#"edits[1].target: "b" → "c""#,
+                "iterations: 600 → 300",
+                "schedule.patience: 300 → 200",
+                "schedule.sigma: (not set) → 2.0",
+            ]
+        );
+        assert_eq!(
+            parse("[1, 2]").diff(&parse("[1, 2, 3]"), "xs"),
+            ["xs: [1,2] → [1,2,3]"]
+        );
+        assert!(was.diff(&was, "").is_empty());
     }
 }

@@ -150,7 +150,7 @@ fn explain_names_the_changed_param() {
     let text = objectsplat_runtime::exec::explain(&plan, &store, "sum").unwrap();
     assert!(text.contains("a: cached"), "{text}");
     assert!(
-        text.contains("b: will run — params changed (was (value:4), now (value:9))"),
+        text.contains("b: will run — params changed: value: 4 → 9"),
         "{text}"
     );
     assert!(

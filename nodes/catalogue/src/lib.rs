@@ -13,6 +13,7 @@ pub fn builtin_registry() -> Registry {
     objectsplat_inputs::register(&mut reg);
     objectsplat_synth::register(&mut reg);
     objectsplat_completion::register(&mut reg);
+    objectsplat_command::register(&mut reg);
     objectsplat_export::register(&mut reg);
     objectsplat_scene::register(&mut reg);
     objectsplat_train::register(&mut reg);
@@ -37,6 +38,7 @@ mod tests {
             "inpaint",
             "fill_holes",
             "surface_completion",
+            "complete_surfaces",
             "inpaint_background",
             "report",
             "compose",
@@ -45,6 +47,7 @@ mod tests {
             "evaluate",
             "export_gltf",
             "train",
+            "command",
         ] {
             assert!(reg.get(kind).is_some(), "{kind} is not registered");
         }

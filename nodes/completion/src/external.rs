@@ -10,11 +10,12 @@
 //! The command is an argv list run directly, never through a shell. An argument
 //! that is exactly `{input}` or `{output}` is replaced by the folder's path; nothing
 //! else is substituted, so file names never end up inside a command string. The
-//! program's stdout is discarded, its stderr is captured (the last few KB go into
-//! error messages), and it runs in a process group of its own: at the timeout the
-//! whole group is killed (the program and everything it started), and processes it
-//! leaves behind when it exits are killed too. Pixels outside the mask are taken
-//! from the input, whatever the program wrote there.
+//! program runs through `objectsplat_command::process` (the runner the generic
+//! `command` stage uses): stdout discarded, the last few KB of stderr in error
+//! messages, and it runs in a process group of its own: at the timeout the whole
+//! group is killed (the program and everything it started), and processes it leaves
+//! behind when it exits are killed too. Pixels outside the mask are taken from the
+//! input, whatever the program wrote there.
 //!
 //! Cache key: the argv, the program file and every file or folder an absolute
 //! argument names ([`ExternalCommand::reads`]), so editing the script reruns the
@@ -23,14 +24,9 @@
 
 use crate::component_io::{load_rgb8, save_gray8, save_rgb8};
 use anyhow::{Context, Result, bail};
-use std::io::Read;
+use objectsplat_command::process::Program;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Stdio};
 use std::time::Duration;
-use wait_timeout::ChildExt;
-
-/// How much of the program's stderr is quoted in errors.
-const STDERR_TAIL: usize = 4000;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExternalCommand {
@@ -112,71 +108,23 @@ impl ExternalCommand {
             )?;
         }
 
-        let args: Vec<&std::ffi::OsStr> = self.argv[1..]
+        let argv = self
+            .argv
             .iter()
             .map(|a| match a.as_str() {
-                "{input}" => input.as_os_str(),
-                "{output}" => output.as_os_str(),
-                other => std::ffi::OsStr::new(other),
+                "{input}" => input.clone().into_os_string(),
+                "{output}" => output.clone().into_os_string(),
+                other => other.into(),
             })
             .collect();
-        let mut command = Command::new(program);
-        command
-            .args(&args)
-            .current_dir(workdir)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped());
-        #[cfg(unix)]
-        std::os::unix::process::CommandExt::process_group(&mut command, 0);
-        let mut child = command
-            .spawn()
-            .with_context(|| format!("cannot start inpainting command {program:?}"))?;
-        let group = ProcessGroup(child.id());
-        // Drain stderr on a thread so a chatty program cannot block on a full pipe.
-        let mut stderr_pipe = child
-            .stderr
-            .take()
-            .context("child stderr was not captured")?;
-        let (sender, receiver) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            let mut buf = Vec::new();
-            let _ = stderr_pipe.read_to_end(&mut buf);
-            let _ = sender.send(buf);
-        });
-        // The pipe closes when the program and every process it started have exited;
-        // grandchildren that outlive a killed program must not hang the node.
-        let collect_stderr = || {
-            receiver
-                .recv_timeout(Duration::from_secs(2))
-                .map(|b| tail(&b))
-                .unwrap_or_else(|_| {
-                    "(not available: processes started by the command still hold it)".into()
-                })
-        };
-        let status = match child
-            .wait_timeout(self.timeout)
-            .context("cannot wait for the inpainting command")?
-        {
-            Some(status) => status,
-            None => {
-                group.kill();
-                // Kill errors mean it exited in the meantime; either way, reap it.
-                let _ = child.kill();
-                let _ = child.wait();
-                let stderr = collect_stderr();
-                bail!(
-                    "inpainting command {program:?} did not finish within {:.1} s and was killed; stderr:\n{stderr}",
-                    self.timeout.as_secs_f64()
-                );
-            }
-        };
-        // Whatever it started and left running goes with it.
-        group.kill();
-        let stderr = collect_stderr();
-        if !status.success() {
-            bail!("inpainting command {program:?} failed ({status}); stderr:\n{stderr}");
+        let stderr = Program {
+            what: "inpainting command",
+            argv,
+            workdir,
+            timeout: self.timeout,
+            cancelled: &|| false,
         }
+        .run()?;
 
         let missing: Vec<String> = requests
             .iter()
@@ -209,21 +157,6 @@ impl ExternalCommand {
     }
 }
 
-/// The process group a command runs in (its id is the program's pid).
-struct ProcessGroup(u32);
-
-impl ProcessGroup {
-    /// Kills every process of the group; a group already gone is fine.
-    fn kill(&self) {
-        #[cfg(unix)]
-        if let Ok(pgid) = libc::pid_t::try_from(self.0) {
-            // SAFETY: kill(2) with a negative pid signals that process group only; it
-            // touches no memory. The group was created for this command by spawn.
-            unsafe { libc::kill(-pgid, libc::SIGKILL) };
-        }
-    }
-}
-
 /// `filled` inside the mask, `original` outside it.
 pub fn composite(original: &[u8], filled: &[u8], mask: &[u8]) -> Vec<u8> {
     let mut out = original.to_vec();
@@ -233,16 +166,4 @@ pub fn composite(original: &[u8], filled: &[u8], mask: &[u8]) -> Vec<u8> {
         }
     }
     out
-}
-
-fn tail(bytes: &[u8]) -> String {
-    let text = String::from_utf8_lossy(bytes);
-    let text = text.trim_end();
-    if text.is_empty() {
-        return "(empty)".into();
-    }
-    match text.char_indices().rev().nth(STDERR_TAIL) {
-        Some((cut, _)) => format!("…{}", &text[cut..]),
-        None => text.to_string(),
-    }
 }

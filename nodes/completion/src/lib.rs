@@ -12,6 +12,7 @@ pub mod inpaint;
 pub mod nodes;
 pub mod plane;
 pub mod surface;
+pub mod surface_mesh;
 
 pub use inpaint::{InpaintError, Method, Options, Raster, Sample, inpaint};
 pub use nodes::register;

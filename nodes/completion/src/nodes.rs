@@ -1,10 +1,12 @@
-//! Node wrappers: `inpaint`, `fill_holes`, `surface_completion`, `inpaint_background`.
+//! Node wrappers: `inpaint`, `fill_holes`, `surface_completion`, `complete_surfaces`,
+//! `inpaint_background`.
 
 use crate::background::{FillSource, inpaint_background};
 use crate::external::ExternalCommand;
 use crate::fill_holes::{Connectivity, fill_holes};
 use crate::inpaint::{Method, Options, Raster, Sample, inpaint};
 use crate::surface::{SurfaceParams, complete_surfaces};
+use crate::surface_mesh::{SurfaceMeshParams, complete_scene_surfaces};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::{Frames, Points};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params, Registry};
@@ -16,10 +18,11 @@ const IMAGE_PNG: &str = "image.png";
 const MASK_PNG: &str = "mask.png";
 
 pub fn register(reg: &mut Registry) {
-    let nodes: [Arc<dyn Node>; 4] = [
+    let nodes: [Arc<dyn Node>; 5] = [
         Arc::new(InpaintNode),
         Arc::new(FillHolesNode),
         Arc::new(SurfaceCompletionNode),
+        Arc::new(CompleteSurfacesNode),
         Arc::new(InpaintBackgroundNode),
     ];
     for node in nodes {
@@ -236,6 +239,77 @@ impl Node for SurfaceCompletionNode {
                 Ok(Outcome::Skipped(reason))
             }
             None => Ok(Outcome::Done),
+        }
+    }
+}
+
+pub struct CompleteSurfacesNode;
+
+impl Node for CompleteSurfacesNode {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("complete_surfaces", "1")
+            .doc("Closes the holes resting objects leave in trained support surfaces (those surface_completion completed): fits the surface's plane to its trained faces, finds the part of its outline under resting objects' footprints that its faces do not cover, triangulates it (constrained Delaunay, spade), colours it from the NS-inpainted per-frame completions and appends it to the surface's model as opaque triangles. Degenerate surfaces are skipped with a reason.")
+            .input("scene", "Scene", "the composed scene (members in the frame they were trained in)")
+            .input("components", "[Component]", "surface_completion's components: completion.json marks a support surface, targets/ hold its inpainted colours")
+            .input("frames", "Frames", "the capture")
+            .optional_input("points", "Points", "scene points; those on a surface's pixels join its plane fit")
+            .output("scene", "Scene", "the scene with completed surfaces (model.json metadata surface_completion_3d records each patch)")
+            .param("planarity_tolerance", ParamType::float_range(1e-6, 1.0), Some("0.02"), "plane tolerance relative to the surface model's bounding-box diagonal")
+            .param("min_plane_fraction", ParamType::float_range(1e-6, 1.0), Some("0.5"), "fraction of the surface's visible face area that must lie on its plane")
+            .param("contact_tolerance", ParamType::float_range(1e-6, 1.0), Some("0.03"), "how far an object's base may be from the plane to rest on it, relative to the surface's diagonal")
+            .param("cell_scale", ParamType::float_range(1e-3, 100.0), Some("0.5"), "grid cell side relative to the median edge of the surface's in-plane faces (patch triangles come out about as large as the trained ones)")
+            .param("max_resolution", ParamType::int_range(8, 4096), Some("512"), "most grid cells along the surface's longer side")
+            .param("vertex_step", ParamType::int_range(1, 256), Some("2"), "interior vertices of a patch every this many cells")
+            .param("max_hole_fraction", ParamType::float_range(1e-6, 1.0), Some("0.5"), "skip a surface whose hole would take more than this fraction of its outline")
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let max_resolution: i64 = ctx.param("max_resolution")?;
+        let vertex_step: i64 = ctx.param("vertex_step")?;
+        let params = SurfaceMeshParams {
+            planarity_tolerance: ctx.param("planarity_tolerance")?,
+            min_plane_fraction: ctx.param("min_plane_fraction")?,
+            contact_tolerance: ctx.param("contact_tolerance")?,
+            // Both are range-checked by the param types above.
+            cell_scale: ctx.param("cell_scale")?,
+            max_resolution: max_resolution as usize,
+            vertex_step: vertex_step as usize,
+            max_hole_fraction: ctx.param("max_hole_fraction")?,
+        };
+        // Validates the capture; the components carry their own frames.
+        Frames::read(ctx.input("frames")?)?;
+        let points = match ctx.input_opt("points") {
+            Some(dir) => Some(Points::read_ply(
+                &dir.join(objectsplat_core::mesh_io::POINTS_PLY),
+            )?),
+            None => None,
+        };
+        let mut scene = objectsplat_scene::load_scene(ctx.input("scene")?)?;
+        let items = ctx.input_items("components")?.to_vec();
+        ctx.progress(0, 1, "completing support surfaces in 3D");
+        let report = complete_scene_surfaces(&mut scene, &items, points.as_ref(), &params)?;
+        for s in &report.surfaces {
+            ctx.note(&format!("surface {}", s.component), &s.reason);
+            if s.completed {
+                ctx.note(
+                    &format!("surface {} colour", s.component),
+                    format!(
+                        "{} vertices from {} frames ({} with no frame: surface mean)",
+                        s.vertices_added, s.colour_frames, s.uncoloured_vertices
+                    ),
+                );
+            }
+        }
+        ctx.progress(1, 1, "done");
+        match report.skipped {
+            Some(reason) => {
+                ctx.forward("scene", "scene")?;
+                Ok(Outcome::Skipped(reason))
+            }
+            None => {
+                objectsplat_scene::save_scene(&scene, &ctx.output("scene")?)?;
+                Ok(Outcome::Done)
+            }
         }
     }
 }

@@ -37,7 +37,7 @@ pub const MIN_PLANE_POINTS: usize = 12;
 /// test asks for a dominant plane, not a flat object; chairs and bumpy surfaces stay well
 /// below (their best plane holds under half the points).
 pub const MIN_INLIER_FRACTION: f64 = 0.6;
-const RANSAC_ITERATIONS: usize = 256;
+pub(crate) const RANSAC_ITERATIONS: usize = 256;
 
 /// The file written into each completed component with what was done.
 pub const COMPLETION_JSON: &str = "completion.json";
@@ -196,7 +196,7 @@ pub fn label_matches(label: &str, labels: &[String]) -> bool {
 
 /// Points that project into the surface's own pixels in at least half the frames
 /// that see them, and in at least two frames (or the only frame the surface has).
-fn surface_points(surface: &ComponentDir, points: &Points) -> Result<Vec<DVec3>> {
+pub(crate) fn surface_points(surface: &ComponentDir, points: &Points) -> Result<Vec<DVec3>> {
     let frames = &surface.frames.frames;
     let mut seen = vec![0u32; points.positions.len()];
     let mut on_surface = vec![0u32; points.positions.len()];

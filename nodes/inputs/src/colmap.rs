@@ -8,6 +8,7 @@
 //! refused instead of being read half right.
 
 use crate::binio::ByteReader;
+use crate::undistort::{Distortion, Intrinsics};
 use anyhow::{Context, Result, bail};
 use glam::{DMat3, DQuat, DVec3};
 use std::collections::BTreeMap;
@@ -39,20 +40,68 @@ pub struct ColmapCamera {
 }
 
 impl ColmapCamera {
-    /// `(fx, fy, cx, cy)` for the undistorted models; distorted ones are refused with
-    /// the step that fixes them.
-    pub fn pinhole(&self) -> Result<(f64, f64, f64, f64), String> {
+    /// The camera's pinhole part and its lens distortion (`None` for the pinhole
+    /// models). Models without an undistortion here are refused with the step that
+    /// fixes them.
+    pub fn lens(&self) -> Result<(Intrinsics, Option<Distortion>), String> {
         let p = &self.params;
-        match self.model {
-            "SIMPLE_PINHOLE" => Ok((p[0], p[0], p[1], p[2])),
-            "PINHOLE" => Ok((p[0], p[1], p[2], p[3])),
-            other => Err(format!(
-                "camera {} uses the distorted model {other}; undistort the images first \
-                 (`colmap image_undistorter --image_path <images> --input_path <sparse> --output_path <out>` \
-                 writes PINHOLE cameras and undistorted images) and point this source at the result",
-                self.id
-            )),
-        }
+        let pinhole = |fx: f64, fy: f64, cx: f64, cy: f64| Intrinsics {
+            width: self.width,
+            height: self.height,
+            fx,
+            fy,
+            cx,
+            cy,
+        };
+        let brown = |k: [f64; 6], tangential: [f64; 2]| Distortion::Brown { k, p: tangential };
+        Ok(match self.model {
+            "SIMPLE_PINHOLE" => (pinhole(p[0], p[0], p[1], p[2]), None),
+            "PINHOLE" => (pinhole(p[0], p[1], p[2], p[3]), None),
+            "SIMPLE_RADIAL" => (
+                pinhole(p[0], p[0], p[1], p[2]),
+                Some(brown([p[3], 0.0, 0.0, 0.0, 0.0, 0.0], [0.0; 2])),
+            ),
+            "RADIAL" => (
+                pinhole(p[0], p[0], p[1], p[2]),
+                Some(brown([p[3], p[4], 0.0, 0.0, 0.0, 0.0], [0.0; 2])),
+            ),
+            "OPENCV" => (
+                pinhole(p[0], p[1], p[2], p[3]),
+                Some(brown([p[4], p[5], 0.0, 0.0, 0.0, 0.0], [p[6], p[7]])),
+            ),
+            "FULL_OPENCV" => (
+                pinhole(p[0], p[1], p[2], p[3]),
+                Some(brown([p[4], p[5], p[8], p[9], p[10], p[11]], [p[6], p[7]])),
+            ),
+            "OPENCV_FISHEYE" => (
+                pinhole(p[0], p[1], p[2], p[3]),
+                Some(Distortion::Fisheye {
+                    k: [p[4], p[5], p[6], p[7]],
+                }),
+            ),
+            "SIMPLE_RADIAL_FISHEYE" => (
+                pinhole(p[0], p[0], p[1], p[2]),
+                Some(Distortion::Fisheye {
+                    k: [p[3], 0.0, 0.0, 0.0],
+                }),
+            ),
+            "RADIAL_FISHEYE" => (
+                pinhole(p[0], p[0], p[1], p[2]),
+                Some(Distortion::Fisheye {
+                    k: [p[3], p[4], 0.0, 0.0],
+                }),
+            ),
+            other => {
+                return Err(format!(
+                    "camera {} uses the model {other}, which is not undistorted here (supported: SIMPLE_PINHOLE, \
+                     PINHOLE, SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV, OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE, \
+                     RADIAL_FISHEYE); undistort the images first (`colmap image_undistorter --image_path <images> \
+                     --input_path <sparse> --output_path <out>` writes PINHOLE cameras and undistorted images) and \
+                     point this source at the result",
+                    self.id
+                ));
+            }
+        })
     }
 }
 

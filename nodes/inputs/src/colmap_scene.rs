@@ -2,13 +2,17 @@
 
 use crate::colmap::ColmapModel;
 use crate::scene::SourceView;
+use crate::undistort;
 use anyhow::{Context, Result};
 use objectsplat_core::{Camera, Points};
 use std::path::Path;
 
-/// One view per registered image; distorted cameras are refused (see `ColmapCamera::pinhole`).
+/// One view per registered image; distorted cameras carry their distortion, which
+/// `scene::write_frames` removes (see `ColmapCamera::lens` for the models).
 pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> {
     let mut out = Vec::with_capacity(model.images.len());
+    // Cameras whose distortion was checked to be invertible (an error names the camera).
+    let mut checked = std::collections::HashSet::new();
     for img in model.images.values() {
         // `ColmapModel::check` guarantees every image's camera exists; stay defensive anyway.
         let cam = model.cameras.get(&img.camera_id).with_context(|| {
@@ -19,16 +23,24 @@ pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> 
                 img.camera_id
             )
         })?;
-        let (fx, fy, cx, cy) = cam
-            .pinhole()
+        let (lens, distortion) = cam
+            .lens()
             .map_err(|e| anyhow::anyhow!("{}: {e}", model.dir.display()))?;
+        let distortion = distortion.filter(|d| !d.is_identity());
+        if let Some(d) = &distortion
+            && checked.insert(cam.id)
+        {
+            undistort::undistorted_camera(&lens, d).with_context(|| {
+                format!("{}: camera {} ({})", model.dir.display(), cam.id, cam.model)
+            })?;
+        }
         let camera = Camera {
-            width: cam.width,
-            height: cam.height,
-            fx,
-            fy,
-            cx,
-            cy,
+            width: lens.width,
+            height: lens.height,
+            fx: lens.fx,
+            fy: lens.fy,
+            cx: lens.cx,
+            cy: lens.cy,
             world_to_camera: img.pose.matrix(),
         };
         out.push(SourceView {
@@ -36,6 +48,8 @@ pub fn views(model: &ColmapModel, images_dir: &Path) -> Result<Vec<SourceView>> 
             image: images_dir.join(crate::scene::portable(&img.name)),
             camera,
             valid_mask: None,
+            distortion,
+            listed: None,
         });
     }
     Ok(out)

@@ -12,5 +12,6 @@ pub mod npy;
 pub mod rle;
 pub mod scannetpp;
 pub mod scene;
+pub mod undistort;
 
 pub use nodes::register;

@@ -1,26 +1,45 @@
 //! Dataflow nodes: `colmap_scene`, `nerfstudio_scene`, `scannetpp_scene`, `import_masks`.
 //!
-//! Shared scene-source params: `split` ("sparse" | "dense" | "all"), `resolution`
-//! (integer downscale factor) and `max_width` (optional width cap in pixels).
+//! Shared scene-source params: `split` ("sparse" | "dense" | "all", plus "lists" for
+//! sources that carry their own train/test lists), `resolution` (integer downscale
+//! factor) and `max_width` (optional width cap in pixels).
 
 use crate::masks_import::{self, MaskFormat, OverlapPolicy};
 use crate::scannetpp::{self, GroupOverlap, PoseSource};
-use crate::scene::{self, Resolution};
+use crate::scene::{self, Resolution, SplitChoice, WrittenFrames};
 use crate::{colmap, colmap_scene, nerfstudio};
 use anyhow::{Context as _, Result, bail};
-use objectsplat_core::SplitPolicy;
+use objectsplat_core::{Split, SplitPolicy};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params, Registry};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-fn with_scene_params(spec: NodeSpec) -> NodeSpec {
+/// The shared scene-source params; `lists` says where `split: "lists"` takes its lists
+/// from (`None`: the source has none, so the option is not offered).
+fn with_scene_params(spec: NodeSpec, lists: Option<&str>) -> NodeSpec {
+    let mut splits = vec!["sparse", "dense", "all"];
+    let mut doc = String::from(
+        "sparse: train 1 of 8 frames (sorted by name); dense: train 7 of 8; all: train on every frame",
+    );
+    if let Some(lists) = lists {
+        splits.push("lists");
+        doc += &format!(
+            "; lists: the source's own train/test lists ({lists}). Frames the source lists as test \
+             frames stay test frames under sparse and dense (the rule splits the others)"
+        );
+    }
     spec.param(
         "split",
-        ParamType::enumeration(&["sparse", "dense", "all"]),
+        ParamType::enumeration(&splits),
         Some("\"sparse\""),
-        "sparse: train 1 of 8 frames (sorted by name); dense: train 7 of 8; all: train on every frame",
+        &doc,
     )
-    .param("resolution", ParamType::int_range(1, 64), Some("1"), "integer downscale factor of width×height")
+    .param(
+        "resolution",
+        ParamType::int_range(1, 64),
+        Some("1"),
+        "integer downscale factor of width×height",
+    )
     .param(
         "max_width",
         ParamType::optional(ParamType::int_range(1, 100_000)),
@@ -29,17 +48,54 @@ fn with_scene_params(spec: NodeSpec) -> NodeSpec {
     )
 }
 
-fn split_param(ctx: &Context) -> Result<SplitPolicy> {
+/// The split choice; `lists` names where `split: "lists"` reads its lists, or says why
+/// there are none.
+fn split_param(ctx: &Context, lists: impl FnOnce() -> Result<String>) -> Result<SplitChoice> {
     Ok(match ctx.param::<String>("split")?.as_str() {
-        "sparse" => SplitPolicy::Sparse,
-        "dense" => SplitPolicy::Dense,
-        "all" => SplitPolicy::All,
-        other => bail!("split {other:?} is not sparse, dense or all"),
+        "sparse" => SplitChoice::Rule(SplitPolicy::Sparse),
+        "dense" => SplitChoice::Rule(SplitPolicy::Dense),
+        "all" => SplitChoice::Rule(SplitPolicy::All),
+        "lists" => SplitChoice::Lists(lists()?),
+        other => bail!("split {other:?} is not sparse, dense, all or lists"),
     })
 }
 
 fn resolution_param(ctx: &Context) -> Result<Resolution> {
     Resolution::new(ctx.param("resolution")?, ctx.param("max_width")?)
+}
+
+/// Report lines for the frames a source wrote: how many, how they split, what was undistorted.
+fn note_frames(ctx: &mut Context, written: &WrittenFrames) {
+    let test = written
+        .frames
+        .iter()
+        .filter(|f| f.split == Split::Test)
+        .count();
+    ctx.note("frames", written.frames.len());
+    ctx.note(
+        "split",
+        format!("{} train, {test} test", written.frames.len() - test),
+    );
+    if written.undistorted_frames > 0 {
+        let cameras: Vec<String> = written
+            .undistorted_cameras
+            .iter()
+            .map(|(from, to)| {
+                format!(
+                    "{}×{} → pinhole {}×{} (fx {:.3}, fy {:.3}, cx {:.3}, cy {:.3})",
+                    from.width, from.height, to.width, to.height, to.fx, to.fy, to.cx, to.cy
+                )
+            })
+            .collect();
+        ctx.note(
+            "undistorted",
+            format!(
+                "{} frames; {}",
+                written.undistorted_frames,
+                cameras.join("; ")
+            ),
+        );
+    }
 }
 
 /// `colmap_scene`: a COLMAP sparse model and its images.
@@ -49,7 +105,7 @@ impl Node for ColmapScene {
     fn spec(&self) -> NodeSpec {
         with_scene_params(
             NodeSpec::new("colmap_scene", "1")
-                .doc("A COLMAP sparse model (text or binary, classic or rigs/frames layout) with PINHOLE or SIMPLE_PINHOLE cameras, and its images.")
+                .doc("A COLMAP sparse model (text or binary, classic or rigs/frames layout) and its images. Distorted cameras (SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV, OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE) are undistorted to the pinhole camera COLMAP's image_undistorter would choose, images resampled bilinearly.")
                 .output("frames", "Frames", "posed images, split and downscaled")
                 .output("points", "Points", "the model's 3D points with colours")
                 .param("path", ParamType::Path, None, "sparse model folder (or a project folder holding sparse/0)")
@@ -59,6 +115,7 @@ impl Node for ColmapScene {
                     Some("None"),
                     "image folder; default: the first of <path>/images, <path>/../images, <path>/../../images",
                 ),
+            None,
         )
     }
 
@@ -81,16 +138,17 @@ impl Node for ColmapScene {
         };
         let views = colmap_scene::views(&model, &images)?;
         ctx.progress(0, 2, "writing frames");
-        let frames = scene::write_frames(
+        let split = split_param(ctx, || bail!("a COLMAP model has no train/test lists"))?;
+        let written = scene::write_frames(
             &ctx.output("frames")?,
             views,
-            split_param(ctx)?,
+            &split,
             resolution_param(ctx)?,
         )?;
         ctx.progress(1, 2, "writing points");
         scene::write_points(&ctx.output("points")?, &colmap_scene::points(&model))?;
         ctx.progress(2, 2, "done");
-        ctx.note("frames", frames.len());
+        note_frames(ctx, &written);
         ctx.note("points", model.points.len());
         ctx.note(
             "layout",
@@ -119,20 +177,54 @@ fn default_images_dir(model: &Path) -> Result<PathBuf> {
 /// `nerfstudio_scene`: a transforms.json capture.
 pub struct NerfstudioScene;
 
+/// Where a nerfstudio JSON's `file_path`s and `mask_path`s are relative to.
+fn nerfstudio_roots(params: &Params) -> Result<nerfstudio::Roots> {
+    Ok(nerfstudio::Roots {
+        images: params.get::<Option<String>>("images")?.map(PathBuf::from),
+        masks: params.get::<Option<String>>("masks")?.map(PathBuf::from),
+    })
+}
+
 impl Node for NerfstudioScene {
     fn spec(&self) -> NodeSpec {
         with_scene_params(
-            NodeSpec::new("nerfstudio_scene", "1")
-                .doc("A nerfstudio/instant-ngp transforms.json (OpenGL camera-to-world, converted to OpenCV) with undistorted cameras.")
+            NodeSpec::new("nerfstudio_scene", "2")
+                .doc("A nerfstudio/instant-ngp transforms.json (OpenGL camera-to-world, converted to OpenCV). Distorted cameras (camera_model OPENCV with k1, k2, k3, p1, p2; OPENCV_FISHEYE with k1..k4) are undistorted to the pinhole camera COLMAP's image_undistorter would choose. ScanNet++ test_frames are test frames.")
                 .output("frames", "Frames", "posed images, split and downscaled; mask_path becomes valid/<stem>.png")
-                .param("path", ParamType::Path, None, "the transforms.json file"),
+                .param("path", ParamType::Path, None, "the transforms.json file")
+                .param(
+                    "images",
+                    ParamType::optional(ParamType::Path),
+                    Some("None"),
+                    "the folder the file_paths are relative to; default: the JSON's folder (ScanNet++: dslr/resized_images for transforms.json, dslr/resized_undistorted_images for transforms_undistorted.json)",
+                )
+                .param(
+                    "masks",
+                    ParamType::optional(ParamType::Path),
+                    Some("None"),
+                    "the folder the mask_paths are relative to; default: the JSON's folder (ScanNet++: dslr/resized_anon_masks, dslr/resized_undistorted_masks)",
+                )
+                .param("use_masks", ParamType::Bool, Some("true"), "load mask_path validity masks (also skipped when the JSON says has_mask: false)")
+                .param(
+                    "world",
+                    ParamType::enumeration(&["json", "scannetpp_mesh"]),
+                    Some("\"json\""),
+                    "json: poses as stored; scannetpp_mesh: a ScanNet++ JSON moved into the scene's mesh frame (JSON world = M · mesh world, M = [[0,1,0],[1,0,0],[0,0,−1]]), so the frames line up with scannetpp_scene's mesh and poses",
+                ),
+            Some("the JSON's test_frames, or its train_filenames / test_filenames"),
         )
     }
 
     /// The images and masks the JSON lists (the `path` param covers the JSON only).
+    /// The images and masks the JSON lists, where `images` / `masks` say they are.
     fn reads(&self, params: &Params) -> Result<Vec<PathBuf>> {
         let path = PathBuf::from(params.get::<String>("path")?);
-        let t = nerfstudio::read(&path, &nerfstudio::Roots::default())?;
+        let mut t = nerfstudio::read(&path, &nerfstudio_roots(params)?)?;
+        if !params.get::<bool>("use_masks")? {
+            for f in &mut t.frames {
+                f.mask = None;
+            }
+        }
         Ok(t.frames
             .into_iter()
             .flat_map(|f| std::iter::once(f.image).chain(f.mask))
@@ -141,15 +233,36 @@ impl Node for NerfstudioScene {
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let path = PathBuf::from(ctx.param::<String>("path")?);
-        let t = nerfstudio::read(&path, &nerfstudio::Roots::default())?;
-        let views = t.views(glam::DMat4::IDENTITY)?;
-        let frames = scene::write_frames(
+        let mut t = nerfstudio::read(&path, &nerfstudio_roots(ctx.params())?)?;
+        if !ctx.param::<bool>("use_masks")? {
+            for f in &mut t.frames {
+                f.mask = None;
+            }
+        }
+        t.check_files()?;
+        let world = match ctx.param::<String>("world")?.as_str() {
+            "json" => glam::DMat4::IDENTITY,
+            "scannetpp_mesh" => scannetpp::mesh_change(),
+            other => bail!("world {other:?} is not json or scannetpp_mesh"),
+        };
+        let views = t.views(world)?;
+        let split = split_param(ctx, || {
+            let source = t.lists.with_context(|| {
+                format!(
+                    "{}: split \"lists\" needs the JSON's own split (test_frames, or train_filenames / \
+                     test_filenames), and it gives none",
+                    path.display()
+                )
+            })?;
+            Ok(format!("{} ({source})", path.display()))
+        })?;
+        let written = scene::write_frames(
             &ctx.output("frames")?,
             views,
-            split_param(ctx)?,
+            &split,
             resolution_param(ctx)?,
         )?;
-        ctx.note("frames", frames.len());
+        note_frames(ctx, &written);
         if t.skipped_bad > 0 {
             ctx.note("skipped is_bad frames", t.skipped_bad);
         }
@@ -163,10 +276,10 @@ pub struct ScannetppScene;
 impl Node for ScannetppScene {
     fn spec(&self) -> NodeSpec {
         with_scene_params(
-            NodeSpec::new("scannetpp_scene", "1")
-                .doc("A ScanNet++ scene folder: undistorted DSLR images, COLMAP poses (mesh frame), the annotated mesh.")
-                .output("frames", "Frames", "posed undistorted DSLR images")
-                .output("mesh", "Mesh", "mesh_aligned_0.05 with per-vertex object ids and labels")
+            NodeSpec::new("scannetpp_scene", "2")
+                .doc("A ScanNet++ scene folder: DSLR images (the toolkit's undistorted ones, else the fisheye ones undistorted here), COLMAP poses (mesh frame), the annotated mesh with the annotation's own objectIds.")
+                .output("frames", "Frames", "posed undistorted DSLR images; the JSON's test_frames are test frames")
+                .output("mesh", "Mesh", "mesh_aligned_0.05 with per-vertex object ids (the annotation's objectIds; ids above 65534 are an error) and labels")
                 .output("points", "Points", "COLMAP points (mesh vertices when there are none)")
                 .param("path", ParamType::Path, None, "the scene folder (holding dslr/ and scans/)")
                 .param(
@@ -181,6 +294,7 @@ impl Node for ScannetppScene {
                     Some("[\"wall\", \"floor\", \"ceiling\"]"),
                     "annotation labels kept as background (no object id), compared case-insensitively",
                 ),
+            Some("dslr/train_test_lists.json"),
         )
     }
 
@@ -188,16 +302,44 @@ impl Node for ScannetppScene {
         let path = PathBuf::from(ctx.param::<String>("path")?);
         let overlap = GroupOverlap::parse(&ctx.param::<String>("overlap")?)?;
         let background: Vec<String> = ctx.param("background_labels")?;
-        let s = scannetpp::load(&path, overlap, &background)?;
-        let frames = scene::write_frames(
+        let mut s = scannetpp::load(&path, overlap, &background)?;
+        let mut unmatched_list_entries = 0;
+        let split = split_param(ctx, || {
+            let (file, lists) = scannetpp::read_train_test_lists(&path)?;
+            for v in &mut s.views {
+                v.listed = lists.get(&v.name).copied();
+            }
+            let loaded: std::collections::HashSet<&str> =
+                s.views.iter().map(|v| v.name.as_str()).collect();
+            unmatched_list_entries = lists
+                .keys()
+                .filter(|n| !loaded.contains(n.as_str()))
+                .count();
+            Ok(file.display().to_string())
+        })?;
+        let written = scene::write_frames(
             &ctx.output("frames")?,
-            s.views,
-            split_param(ctx)?,
+            std::mem::take(&mut s.views),
+            &split,
             resolution_param(ctx)?,
         )?;
         objectsplat_core::write_mesh_artifact(&ctx.output("mesh")?, &s.mesh, &s.labels)?;
         scene::write_points(&ctx.output("points")?, &s.points)?;
-        ctx.note("frames", frames.len());
+        note_frames(ctx, &written);
+        ctx.note(
+            "images",
+            if s.distorted {
+                format!("{} (fisheye, undistorted here)", s.images)
+            } else {
+                s.images.clone()
+            },
+        );
+        if unmatched_list_entries > 0 {
+            ctx.note(
+                "list entries without a loaded frame (is_bad or missing)",
+                unmatched_list_entries,
+            );
+        }
         ctx.note(
             "poses",
             match s.pose_source {
@@ -208,6 +350,18 @@ impl Node for ScannetppScene {
             },
         );
         ctx.note("objects", s.labels.len());
+        if let (Some(lo), Some(hi)) = (s.labels.keys().next(), s.labels.keys().last()) {
+            ctx.note(
+                "object ids (the annotation's objectIds)",
+                format!("{lo}..={hi}"),
+            );
+        }
+        if s.nonpositive_object_ids > 0 {
+            ctx.note(
+                "groups with objectId ≤ 0 (kept as background)",
+                s.nonpositive_object_ids,
+            );
+        }
         ctx.note("vertices in several groups", s.contested_vertices);
         if s.skipped_bad > 0 {
             ctx.note("skipped is_bad frames", s.skipped_bad);
@@ -227,8 +381,18 @@ impl Node for ImportMasks {
         NodeSpec::new("import_masks", "1")
             .doc("Imports DAVIS indexed PNGs, per-object PNG folders, SAM COCO-RLE JSON or Grounded-SAM-2 output as mutually exclusive id maps.")
             .input("frames", "Frames", "the frames the masks belong to (names and sizes)")
+            .optional_input(
+                "source",
+                "File",
+                "the mask files made by another node (e.g. a `command` mask source), instead of `path`",
+            )
             .output("masks", "Masks", "one 16-bit id map per frame + objects.json")
-            .param("path", ParamType::Path, None, "the folder holding the masks")
+            .param(
+                "path",
+                ParamType::optional(ParamType::Path),
+                Some("None"),
+                "the folder holding the masks (or wire the `source` input instead)",
+            )
             .param("format", ParamType::enumeration(&MaskFormat::NAMES), None, "how the masks are stored")
             .param(
                 "overlap",
@@ -239,7 +403,19 @@ impl Node for ImportMasks {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let source = PathBuf::from(ctx.param::<String>("path")?);
+        let source = match (
+            ctx.input_opt("source"),
+            ctx.param::<Option<String>>("path")?,
+        ) {
+            (Some(dir), None) => dir.to_path_buf(),
+            (None, Some(path)) => PathBuf::from(path),
+            (Some(_), Some(path)) => bail!(
+                "both the `source` input and `path` ({path}) give the masks; keep one of them"
+            ),
+            (None, None) => bail!(
+                "no masks: set `path` to the folder holding them, or wire the `source` input to a node that writes them"
+            ),
+        };
         let format = MaskFormat::parse(&ctx.param::<String>("format")?)?;
         let policy = OverlapPolicy::parse(&ctx.param::<String>("overlap")?)?;
         let frames = ctx.input("frames")?.to_path_buf();

@@ -4,9 +4,11 @@
 //! Images: `dslr/resized_undistorted_images` (or `dslr/undistorted_images`), with
 //! validity masks from `dslr/resized_undistorted_masks` (or `undistorted_anon_masks`)
 //! when present. Intrinsics of the undistorted images come from
-//! `dslr/nerfstudio/transforms_undistorted.json` (or, without it, from a PINHOLE camera
-//! in `dslr/colmap`). Poses come from `dslr/colmap/images.txt`, which is in the mesh
-//! frame. The nerfstudio JSON lives in another world frame: JSON world = M · mesh world
+//! `dslr/nerfstudio/transforms_undistorted.json` (or, without it, from the camera in
+//! `dslr/colmap`). Without undistorted images the distorted (fisheye) ones are used:
+//! `dslr/resized_images` with `dslr/nerfstudio/transforms.json` (or `dslr/colmap`) and
+//! masks from `dslr/resized_anon_masks`, undistorted here when the frames are written.
+//! Poses come from `dslr/colmap/images.txt`, which is in the mesh frame. The nerfstudio JSON lives in another world frame: JSON world = M · mesh world
 //! with M = [[0,1,0],[1,0,0],[0,0,−1]] (M is its own inverse), so a JSON pose maps to the
 //! mesh frame as `M · c2w_json`, then to OpenCV axes. When both are present every JSON
 //! camera centre must land within 1 mm of COLMAP's; when only the JSON is present, every
@@ -18,8 +20,14 @@
 //! several groups goes to one by an explicit policy: `smallest` (fewest vertices, the
 //! toolkit's training prep), `first` or `last` (file order; the toolkit's `anno.py`
 //! lets the last win). Groups whose label is listed in `background_labels` (compared
-//! case-insensitively) stay background (−1). Object ids are the distinct `objectId`s
-//! that own vertices, numbered 1..N in `objectId` order.
+//! case-insensitively) stay background (−1), and so do groups with an `objectId` ≤ 0
+//! (the toolkit's rule). Object ids are the annotation's own `objectId`s, so masks,
+//! components, metrics and exported names use the dataset's ids; masks store ids in
+//! 16 bits, so an `objectId` above 65534 is an error.
+//!
+//! Split lists: `dslr/train_test_lists.json` is `{"train": [image names], "test": [image
+//! names]}` (the names of the DSLR images, as in `file_path` and the COLMAP model);
+//! [`read_train_test_lists`] reads it for `split: "lists"`.
 //!
 //! Points: `dslr/colmap/points3D.txt`; when that is missing or empty, the mesh vertices.
 
@@ -28,7 +36,7 @@ use crate::nerfstudio::{self, Roots};
 use crate::scene::SourceView;
 use anyhow::{Context, Result, bail};
 use glam::{DMat3, DMat4, DVec3};
-use objectsplat_core::{Camera, Mesh, ObjectLabels, Points};
+use objectsplat_core::{Camera, Mesh, ObjectLabels, Points, Split};
 use serde_json::Value;
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
@@ -37,6 +45,7 @@ use std::path::{Path, PathBuf};
 pub const JSON_FROM_MESH: [[f64; 3]; 3] = [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]];
 
 pub const MESH_FILE: &str = "scans/mesh_aligned_0.05.ply";
+pub const TRAIN_TEST_LISTS: &str = "dslr/train_test_lists.json";
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum GroupOverlap {
@@ -78,13 +87,20 @@ pub struct ScannetppScene {
     pub contested_vertices: usize,
     /// Frames skipped because the JSON marks them `is_bad`.
     pub skipped_bad: usize,
+    /// The image folder used, relative to the scene folder.
+    pub images: String,
+    /// True when the images are the distorted ones (undistorted when written).
+    pub distorted: bool,
+    /// Annotation groups left as background because their `objectId` is ≤ 0.
+    pub nonpositive_object_ids: usize,
 }
 
 fn first_dir(root: &Path, names: &[&str]) -> Option<PathBuf> {
     names.iter().map(|n| root.join(n)).find(|p| p.is_dir())
 }
 
-fn mesh_change() -> DMat4 {
+/// The ScanNet++ JSON → mesh frame change as a 4×4 matrix (M is its own inverse).
+pub fn mesh_change() -> DMat4 {
     let m = DMat3::from_cols_array_2d(&JSON_FROM_MESH).transpose();
     DMat4::from_mat3(m)
 }
@@ -95,17 +111,32 @@ pub fn load(
     background_labels: &[String],
 ) -> Result<ScannetppScene> {
     let dslr = root.join("dslr");
-    let images = first_dir(&dslr, &["resized_undistorted_images", "undistorted_images"]).with_context(|| {
-        format!(
-            "{}: no dslr/resized_undistorted_images or dslr/undistorted_images (run the toolkit's dslr/undistort.py first)",
-            root.display()
-        )
-    })?;
-    let masks = first_dir(
-        &dslr,
-        &["resized_undistorted_masks", "undistorted_anon_masks"],
-    );
-    let json = dslr.join("nerfstudio/transforms_undistorted.json");
+    let undistorted = first_dir(&dslr, &["resized_undistorted_images", "undistorted_images"]);
+    let (images, masks, json, distorted) = match undistorted {
+        Some(images) => (
+            images,
+            first_dir(
+                &dslr,
+                &["resized_undistorted_masks", "undistorted_anon_masks"],
+            ),
+            dslr.join("nerfstudio/transforms_undistorted.json"),
+            false,
+        ),
+        None => {
+            let images = first_dir(&dslr, &["resized_images"]).with_context(|| {
+                format!(
+                    "{}: no dslr/resized_undistorted_images, dslr/undistorted_images or dslr/resized_images",
+                    root.display()
+                )
+            })?;
+            (
+                images,
+                first_dir(&dslr, &["resized_anon_masks"]),
+                dslr.join("nerfstudio/transforms.json"),
+                true,
+            )
+        }
+    };
     let colmap_dir = dslr.join("colmap");
     let model = if colmap_dir.is_dir() {
         Some(colmap::read_model(&colmap_dir)?)
@@ -115,7 +146,8 @@ pub fn load(
 
     let mesh_path = root.join(MESH_FILE);
     let mut mesh = Mesh::read_ply(&mesh_path)?;
-    let (ids, labels, contested) = object_ids(root, &mesh, overlap, background_labels)?;
+    let (ids, labels, contested, nonpositive) =
+        object_ids(root, &mesh, overlap, background_labels)?;
     mesh.object_ids = Some(ids);
 
     let (views, pose_source, skipped_bad) = if json.is_file() {
@@ -143,15 +175,22 @@ pub fn load(
             }
         }
     } else if let Some(model) = &model {
-        (
-            crate::colmap_scene::views(model, &images)?,
-            PoseSource::Colmap,
-            0,
-        )
+        let views = crate::colmap_scene::views(model, &images)?;
+        if !distorted && views.iter().any(|v| v.distortion.is_some()) {
+            bail!(
+                "{}: the images in {} are undistorted but dslr/colmap's camera is the distorted one, and \
+                 without {} nothing gives the undistorted intrinsics",
+                root.display(),
+                images.display(),
+                json.display()
+            );
+        }
+        (views, PoseSource::Colmap, 0)
     } else {
         bail!(
-            "{}: neither dslr/nerfstudio/transforms_undistorted.json nor dslr/colmap is present",
-            root.display()
+            "{}: neither {} nor dslr/colmap is present",
+            root.display(),
+            json.strip_prefix(root).unwrap_or(&json).display()
         );
     };
     let points = match &model {
@@ -177,6 +216,13 @@ pub fn load(
         points,
         contested_vertices: contested,
         skipped_bad,
+        images: images
+            .strip_prefix(root)
+            .unwrap_or(&images)
+            .display()
+            .to_string(),
+        distorted,
+        nonpositive_object_ids: nonpositive,
     })
 }
 
@@ -259,13 +305,14 @@ fn read_json(path: &Path) -> Result<Value> {
     serde_json::from_str(&text).with_context(|| format!("{}: not JSON", path.display()))
 }
 
-/// Per-vertex object ids (−1 = none), their labels, and the number of contested vertices.
+/// Per-vertex object ids (−1 = none), their labels, the number of contested vertices and
+/// the number of groups left as background for an `objectId` ≤ 0.
 fn object_ids(
     root: &Path,
     mesh: &Mesh,
     overlap: GroupOverlap,
     background_labels: &[String],
-) -> Result<(Vec<i32>, ObjectLabels, usize)> {
+) -> Result<(Vec<i32>, ObjectLabels, usize, usize)> {
     let seg_path = root.join("scans/segments.json");
     let anno_path = root.join("scans/segments_anno.json");
     let seg = read_json(&seg_path)?;
@@ -296,6 +343,7 @@ fn object_ids(
         .with_context(|| format!("{}: no segGroups list", anno_path.display()))?;
     let background: Vec<String> = background_labels.iter().map(|l| l.to_lowercase()).collect();
     let mut groups = Vec::new();
+    let mut nonpositive = 0;
     for (g, v) in groups_json.iter().enumerate() {
         let at = || format!("{}: segGroups[{g}]", anno_path.display());
         let object_id = v
@@ -319,6 +367,18 @@ fn object_ids(
             .collect::<Result<Vec<_>>>()?;
         if background.contains(&label.to_lowercase()) {
             continue;
+        }
+        // The toolkit treats ids ≤ 0 as background.
+        if object_id <= 0 {
+            nonpositive += 1;
+            continue;
+        }
+        if object_id >= objectsplat_core::masks::UNOWNED as i64 {
+            bail!(
+                "{}: objectId {object_id} (label {label:?}) does not fit a mask: masks store object ids in \
+                 16 bits, so ids must be 1..=65534",
+                at()
+            );
         }
         groups.push(Group {
             object_id,
@@ -362,25 +422,49 @@ fn object_ids(
         used.entry(groups[*g].object_id)
             .or_insert_with(|| groups[*g].label.clone());
     }
-    if used.len() >= objectsplat_core::masks::UNOWNED as usize {
-        bail!(
-            "{}: {} objects exceed the 65534 ids masks can hold",
-            anno_path.display(),
-            used.len()
-        );
-    }
-    let id_of: HashMap<i64, i32> = used
-        .keys()
-        .enumerate()
-        .map(|(i, &o)| (o, i as i32 + 1))
-        .collect();
+    // Ids were checked to lie in 1..=65534 when the groups were read.
     let ids = owner
         .iter()
-        .map(|o| o.map_or(-1, |g| id_of[&groups[g].object_id]))
+        .map(|o| o.map_or(-1, |g| groups[g].object_id as i32))
         .collect();
-    let labels = used
-        .into_iter()
-        .map(|(o, l)| (id_of[&o] as u16, l))
-        .collect();
-    Ok((ids, labels, contested))
+    let labels = used.into_iter().map(|(o, l)| (o as u16, l)).collect();
+    Ok((ids, labels, contested, nonpositive))
+}
+
+/// Reads `dslr/train_test_lists.json`: image name → its split. Errors name the file
+/// and the field.
+pub fn read_train_test_lists(root: &Path) -> Result<(PathBuf, HashMap<String, Split>)> {
+    let path = root.join(TRAIN_TEST_LISTS);
+    if !path.is_file() {
+        bail!(
+            "{}: not found; split \"lists\" reads the scene's official train/test lists from it \
+             (use split \"sparse\", \"dense\" or \"all\" for a scene without one)",
+            path.display()
+        );
+    }
+    let doc = read_json(&path)?;
+    let mut out = HashMap::new();
+    for (key, split) in [("train", Split::Train), ("test", Split::Test)] {
+        let list = doc
+            .get(key)
+            .and_then(Value::as_array)
+            .with_context(|| format!("{}: no \"{key}\" list of image names", path.display()))?;
+        for (i, name) in list.iter().enumerate() {
+            let name = name.as_str().with_context(|| {
+                format!(
+                    "{}: {key}[{i}] is not an image name (a string)",
+                    path.display()
+                )
+            })?;
+            if let Some(previous) = out.insert(name.to_string(), split)
+                && previous != split
+            {
+                bail!(
+                    "{}: image {name:?} is in both the train and the test list",
+                    path.display()
+                );
+            }
+        }
+    }
+    Ok((path, out))
 }

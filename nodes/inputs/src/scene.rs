@@ -5,14 +5,23 @@
 //! nearest pixel (as 3DGS does); `max_width: Some(w)` then caps the width at `w` pixels,
 //! keeping the aspect ratio. Intrinsics follow the pixel grid (`Camera::scaled`).
 //!
-//! Frames are sorted by name before the split is assigned (as COLMAP/3DGS order them).
+//! Frames are sorted by name before the split is assigned (as COLMAP/3DGS order them);
+//! frames the source itself lists as test frames stay test frames under a rule, and
+//! `split: "lists"` follows the source's lists alone ([`SplitChoice`]).
+//!
+//! Distorted views are undistorted first, at full resolution, to the pinhole camera
+//! COLMAP's undistorter would choose (see `undistort`); downscaling follows.
+//!
 //! A source's validity mask (nerfstudio `mask_path`, non-zero = use the pixel) is
-//! written beside the image as `valid/<stem>.png` (8-bit, 255 = use, 0 = ignore);
-//! after downscaling a pixel is valid only when every source pixel under it was.
+//! written beside the image as `valid/<stem>.png` (8-bit, 255 = use, 0 = ignore); an
+//! undistorted view gets one too when some of its pixels fall outside the distorted
+//! image. After undistortion and downscaling a pixel is valid only when every source
+//! pixel under it was.
 
+use crate::undistort::{self, Distortion, Intrinsics, UndistortMap};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::frames::frame_stem;
-use objectsplat_core::{Camera, Frame, Frames, Image, Points, SplitPolicy};
+use objectsplat_core::{Camera, Frame, Frames, Image, Points, Split, SplitPolicy};
 use std::path::{Path, PathBuf};
 
 pub const VALID_DIR: &str = "valid";
@@ -74,18 +83,81 @@ pub struct SourceView {
     /// Frame name (unique; may contain `/`).
     pub name: String,
     pub image: PathBuf,
-    /// The camera at the image file's full resolution.
+    /// The camera at the image file's full resolution (its pinhole part when the lens
+    /// is distorted).
     pub camera: Camera,
     pub valid_mask: Option<PathBuf>,
+    /// The lens distortion of the image file; `write_frames` undistorts the image.
+    pub distortion: Option<Distortion>,
+    /// The split the source itself gives this view (ScanNet++ `test_frames`, a
+    /// `train_test_lists.json`, nerfstudio `*_filenames`), if any.
+    pub listed: Option<Split>,
 }
 
-/// Writes the Frames artifact into `out` and returns its frames.
+/// How frames are assigned to train and test.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub enum SplitChoice {
+    /// A rule over the frames sorted by name. Frames the source lists as test frames
+    /// stay test frames under `sparse` and `dense` (the rule splits the others); `all`
+    /// trains on every frame.
+    Rule(SplitPolicy),
+    /// The source's own lists: every view must be listed. The text names where the
+    /// lists come from, for errors.
+    Lists(String),
+}
+
+/// Assigns a split to each view (same order).
+pub fn assign_splits(views: &[SourceView], choice: &SplitChoice) -> Result<Vec<Split>> {
+    match choice {
+        SplitChoice::Rule(SplitPolicy::All) => Ok(vec![Split::Train; views.len()]),
+        SplitChoice::Rule(policy) => {
+            let free: Vec<usize> = (0..views.len())
+                .filter(|&i| views[i].listed != Some(Split::Test))
+                .collect();
+            let mut splits = vec![Split::Test; views.len()];
+            for (&i, s) in free.iter().zip(policy.assign(free.len())) {
+                splits[i] = s;
+            }
+            Ok(splits)
+        }
+        SplitChoice::Lists(source) => views
+            .iter()
+            .map(|v| {
+                v.listed.with_context(|| {
+                    format!(
+                        "{source}: frame {:?} is in neither the train nor the test list (split \"lists\" needs every frame listed)",
+                        v.name
+                    )
+                })
+            })
+            .collect(),
+    }
+}
+
+/// What `write_frames` wrote.
+#[derive(Debug, Clone)]
+pub struct WrittenFrames {
+    pub frames: Vec<Frame>,
+    /// Every distinct distorted camera and the pinhole camera it was undistorted to.
+    pub undistorted_cameras: Vec<(Intrinsics, Intrinsics)>,
+    /// Frames whose image was undistorted.
+    pub undistorted_frames: usize,
+}
+
+/// The undistortion of one distorted camera, shared by the frames that use it.
+struct Undistortion {
+    source: Intrinsics,
+    distortion: Distortion,
+    map: UndistortMap,
+}
+
+/// Writes the Frames artifact into `out`.
 pub fn write_frames(
     out: &Path,
     mut views: Vec<SourceView>,
-    split: SplitPolicy,
+    split: &SplitChoice,
     res: Resolution,
-) -> Result<Vec<Frame>> {
+) -> Result<WrittenFrames> {
     if views.is_empty() {
         bail!("the scene has no images");
     }
@@ -99,9 +171,11 @@ pub fn write_frames(
     if let Some(w) = views.windows(2).find(|w| w[0].name == w[1].name) {
         bail!("two images are both named {:?}", w[0].name);
     }
-    let splits = split.assign(views.len());
+    let splits = assign_splits(&views, split)?;
     let mut frames = Vec::with_capacity(views.len());
     let mut stems = std::collections::HashSet::new();
+    let mut undistortions: Vec<Undistortion> = Vec::new();
+    let mut undistorted_frames = 0;
     for (view, split) in views.iter().zip(splits) {
         view.camera
             .validate()
@@ -115,17 +189,64 @@ pub fn write_frames(
             );
         }
         let img = Image::load(&view.image)?.to_rgb();
-        let cam = &view.camera;
-        if (img.width, img.height) != (cam.width, cam.height) {
+        let full = &view.camera;
+        if (img.width, img.height) != (full.width, full.height) {
             bail!(
                 "{}: image is {}×{} but its camera says {}×{}",
                 view.image.display(),
                 img.width,
                 img.height,
-                cam.width,
-                cam.height
+                full.width,
+                full.height
             );
         }
+        let valid = match &view.valid_mask {
+            Some(mask) => Some(load_valid_mask(mask, (full.width, full.height))?),
+            None => None,
+        };
+        let (img, cam, valid) = match &view.distortion {
+            None => (img, *full, valid),
+            Some(distortion) => {
+                let source = intrinsics(full);
+                let u = match undistortions
+                    .iter()
+                    .position(|u| u.source == source && u.distortion == *distortion)
+                {
+                    Some(i) => &undistortions[i],
+                    None => {
+                        let target = undistort::undistorted_camera(&source, distortion)
+                            .with_context(|| format!("frame {:?}", view.name))?;
+                        undistortions.push(Undistortion {
+                            source,
+                            distortion: *distortion,
+                            map: UndistortMap::new(source, distortion, target),
+                        });
+                        &undistortions[undistortions.len() - 1]
+                    }
+                };
+                let at = || format!("{}", view.image.display());
+                let undistorted = u.map.apply(&img).with_context(at)?;
+                let coverage = u.map.coverage(valid.as_ref()).with_context(at)?;
+                // Output pixels the distorted image does not cover become invalid pixels.
+                let blank = coverage.data.contains(&0.0);
+                let t = u.map.target;
+                let cam = Camera {
+                    width: t.width,
+                    height: t.height,
+                    fx: t.fx,
+                    fy: t.fy,
+                    cx: t.cx,
+                    cy: t.cy,
+                    world_to_camera: full.world_to_camera,
+                };
+                undistorted_frames += 1;
+                (
+                    undistorted,
+                    cam,
+                    (valid.is_some() || blank).then_some(coverage),
+                )
+            }
+        };
         let (w, h) = res.target(img.width, img.height);
         let scaled = if (w, h) == (img.width, img.height) {
             img
@@ -137,21 +258,39 @@ pub fn write_frames(
         std::fs::create_dir_all(out.join("images"))
             .with_context(|| format!("{}: cannot create", out.display()))?;
         scaled.save_png8(&path)?;
-        if let Some(mask) = &view.valid_mask {
+        if let Some(valid) = valid {
             write_valid_mask(
-                mask,
+                &valid,
                 &out.join(VALID_DIR).join(format!("{stem}.png")),
-                (cam.width, cam.height),
                 (w, h),
             )?;
         }
         frames.push(Frame::new(view.name.clone(), rel, &cam.scaled(w, h), split));
     }
     Frames::write_json(out, &frames)?;
-    Ok(frames)
+    Ok(WrittenFrames {
+        frames,
+        undistorted_cameras: undistortions
+            .iter()
+            .map(|u| (u.source, u.map.target))
+            .collect(),
+        undistorted_frames,
+    })
 }
 
-fn write_valid_mask(src: &Path, dst: &Path, full: (u32, u32), target: (u32, u32)) -> Result<()> {
+fn intrinsics(c: &Camera) -> Intrinsics {
+    Intrinsics {
+        width: c.width,
+        height: c.height,
+        fx: c.fx,
+        fy: c.fy,
+        cx: c.cx,
+        cy: c.cy,
+    }
+}
+
+/// A validity mask at its image's size as 1 (use) / 0 (ignore).
+fn load_valid_mask(src: &Path, full: (u32, u32)) -> Result<Image> {
     let m = Image::load(src)?;
     if (m.width, m.height) != full {
         bail!(
@@ -163,15 +302,18 @@ fn write_valid_mask(src: &Path, dst: &Path, full: (u32, u32), target: (u32, u32)
             full.1
         );
     }
-    let binary = Image::from_fn(m.width, m.height, 1, |x, y, _| {
+    Ok(Image::from_fn(m.width, m.height, 1, |x, y, _| {
         if m.get(x, y, 0) > 0.0 { 1.0 } else { 0.0 }
-    });
-    let scaled = if target == full {
-        binary
+    }))
+}
+
+/// Writes a 0/1 validity mask at `target` size: valid only when every pixel under it was.
+fn write_valid_mask(binary: &Image, dst: &Path, target: (u32, u32)) -> Result<()> {
+    let scaled = if target == (binary.width, binary.height) {
+        binary.clone()
     } else {
         binary.resize_area(target.0, target.1)
     };
-    // Valid only when every source pixel under the output pixel was valid.
     let out = Image::from_fn(target.0, target.1, 1, |x, y, _| {
         if scaled.get(x, y, 0) >= 1.0 - 1e-6 {
             1.0

@@ -57,13 +57,25 @@ fn lying_record_count_is_refused_before_allocating() {
 }
 
 #[test]
-fn distorted_camera_names_the_undistortion_step() {
-    let model = colmap::read_model(&fixture("distorted_txt")).unwrap();
+fn a_camera_model_without_undistortion_names_the_undistortion_step() {
+    let dir = copy_model("distorted_txt");
+    let path = dir.path().join("cameras.txt");
+    let text = std::fs::read_to_string(&path).unwrap();
+    // FOV (fx, fy, cx, cy, omega) has no undistortion here.
+    std::fs::write(
+        &path,
+        text.replace(
+            "1 SIMPLE_RADIAL 64 48 50 32 24 0.01",
+            "1 FOV 64 48 50 50 32 24 0.9",
+        ),
+    )
+    .unwrap();
+    let model = colmap::read_model(dir.path()).unwrap();
     let e = colmap_scene::views(&model, &fixture("images"))
         .unwrap_err()
         .to_string();
     assert!(
-        e.contains("camera 1 uses the distorted model SIMPLE_RADIAL"),
+        e.contains("camera 1 uses the model FOV, which is not undistorted here"),
         "{e}"
     );
     assert!(e.contains("colmap image_undistorter"), "{e}");

@@ -2,7 +2,7 @@
 //! the pixel grid) and a Points artifact with the model's colours.
 
 use objectsplat_core::{Frames, Points, Split, SplitPolicy};
-use objectsplat_inputs::scene::{self, Resolution};
+use objectsplat_inputs::scene::{self, Resolution, SplitChoice};
 use objectsplat_inputs::{colmap, colmap_scene};
 use std::path::{Path, PathBuf};
 
@@ -20,7 +20,7 @@ fn frames_are_sorted_split_and_downscaled() {
     scene::write_frames(
         out.path(),
         views,
-        SplitPolicy::Sparse,
+        &SplitChoice::Rule(SplitPolicy::Sparse),
         Resolution::new(2, None).unwrap(),
     )
     .unwrap();
@@ -38,7 +38,9 @@ fn frames_are_sorted_split_and_downscaled() {
     for f in &frames.frames {
         let img = model.images.values().find(|i| i.name == f.name).unwrap();
         let cam = &model.cameras[&img.camera_id];
-        let (fx, fy, cx, cy) = cam.pinhole().unwrap();
+        let (lens, distortion) = cam.lens().unwrap();
+        assert_eq!(distortion, None);
+        let (fx, fy, cx, cy) = (lens.fx, lens.fy, lens.cx, lens.cy);
         assert_eq!((f.width, f.height), (32, 24));
         assert_eq!(
             (f.fx, f.fy, f.cx, f.cy),
@@ -108,9 +110,14 @@ fn image_of_the_wrong_size_names_the_file() {
         .unwrap();
     let out = tempfile::tempdir().unwrap();
     let views = colmap_scene::views(&model, images.path()).unwrap();
-    let e = scene::write_frames(out.path(), views, SplitPolicy::All, Resolution::FULL)
-        .unwrap_err()
-        .to_string();
+    let e = scene::write_frames(
+        out.path(),
+        views,
+        &SplitChoice::Rule(SplitPolicy::All),
+        Resolution::FULL,
+    )
+    .unwrap_err()
+    .to_string();
     assert!(
         e.contains(bad.as_str()) && e.contains("image is 10×10 but its camera says 64×48"),
         "{e}"

@@ -21,7 +21,7 @@ fn fixture(name: &str) -> PathBuf {
 
 fn registry() -> Registry {
     let mut reg = Registry::new();
-    for t in ["Frames", "Points", "Mesh", "Masks"] {
+    for t in ["Frames", "Points", "Mesh", "Masks", "File"] {
         reg.add_type(t, "test");
     }
     objectsplat_inputs::register(&mut reg);

@@ -1,5 +1,5 @@
 //! transforms.json poses (OpenGL camera-to-world) become OpenCV world-to-camera poses that
-//! project like the cameras they were made from; distorted cameras are refused.
+//! project like the cameras they were made from; inconsistent lens keys are refused.
 
 use glam::DVec3;
 use objectsplat_core::Camera;
@@ -96,16 +96,31 @@ fn distortion_and_bad_matrices_are_errors_naming_the_frame() {
     let dir = tempfile::tempdir().unwrap();
     let cams = cameras();
     let path = dir.path().join("t.json");
-    let doc = json!({"fl_x": 14.0, "w": 16, "h": 12, "camera_model": "OPENCV_FISHEYE", "k1": 0.1,
-        "frames": [{"file_path": "a.png", "transform_matrix": c2w_gl(&cams[0])}]});
-    std::fs::write(&path, doc.to_string()).unwrap();
-    let e = nerfstudio::read(&path, &Roots::default())
-        .unwrap_err()
-        .to_string();
-    assert!(
-        e.contains("(a.png): camera model OPENCV_FISHEYE has distortion k1 = 0.1; undistort"),
-        "{e}"
-    );
+    for (model, key, want) in [
+        (
+            "PINHOLE",
+            "k1",
+            "(a.png): camera model PINHOLE has distortion k1 = 0.1; a pinhole camera has none",
+        ),
+        (
+            "OPENCV",
+            "k4",
+            "(a.png): camera model OPENCV has k4 = 0.1, which its radial–tangential model",
+        ),
+        (
+            "OPENCV_FISHEYE",
+            "p2",
+            "(a.png): camera model OPENCV_FISHEYE has p2 = 0.1, which its fisheye model",
+        ),
+    ] {
+        let doc = json!({"fl_x": 14.0, "w": 16, "h": 12, "camera_model": model, key: 0.1,
+            "frames": [{"file_path": "a.png", "transform_matrix": c2w_gl(&cams[0])}]});
+        std::fs::write(&path, doc.to_string()).unwrap();
+        let e = nerfstudio::read(&path, &Roots::default())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("t.json: frame 0") && e.contains(want), "{e}");
+    }
     let mut scaled = c2w_gl(&cams[0]);
     for row in scaled.iter_mut().take(3) {
         row[0] *= 2.0;
@@ -126,4 +141,48 @@ fn distortion_and_bad_matrices_are_errors_naming_the_frame() {
         nerfstudio::read(&path, &Roots::default()).unwrap_err()
     );
     assert!(e.contains("neither fl_x nor camera_angle_x"), "{e}");
+}
+
+#[test]
+fn nerfstudio_filename_lists_give_the_split_and_their_absence_is_named() {
+    use objectsplat_core::{Frames, Image, Split};
+    use objectsplat_inputs::nodes::NerfstudioScene;
+    use objectsplat_runtime::testing::run_node;
+    let dir = tempfile::tempdir().unwrap();
+    let cams = cameras();
+    std::fs::create_dir_all(dir.path().join("images")).unwrap();
+    let mut frames = Vec::new();
+    for i in 0..3 {
+        Image::new(16, 12, 3)
+            .save_png8(&dir.path().join(format!("images/f{i}.png")))
+            .unwrap();
+        frames.push(json!({"file_path": format!("./images/f{i}.png"), "transform_matrix": c2w_gl(&cams[i % 2])}));
+    }
+    let path = dir.path().join("transforms.json");
+    let mut doc = json!({"fl_x": 14.0, "w": 16, "h": 12, "frames": frames,
+        "train_filenames": ["images/f0.png", "images/f2.png"], "test_filenames": ["images/f1.png"]});
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let params = format!("(path: {:?}, split: \"lists\")", path.display().to_string());
+    let out = tempfile::tempdir().unwrap();
+    let run = run_node(&NerfstudioScene, &[], &params, out.path(), None).unwrap();
+    let got: Vec<Split> = Frames::read(&run.outputs["frames"])
+        .unwrap()
+        .frames
+        .iter()
+        .map(|f| f.split)
+        .collect();
+    assert_eq!(got, [Split::Train, Split::Test, Split::Train]);
+    doc.as_object_mut().unwrap().remove("train_filenames");
+    doc.as_object_mut().unwrap().remove("test_filenames");
+    std::fs::write(&path, doc.to_string()).unwrap();
+    let e = format!(
+        "{:#}",
+        run_node(&NerfstudioScene, &[], &params, out.path(), None)
+            .err()
+            .unwrap()
+    );
+    assert!(
+        e.contains("transforms.json: split \"lists\" needs the JSON's own split"),
+        "{e}"
+    );
 }

@@ -15,7 +15,7 @@ fn fixture(name: &str) -> PathBuf {
 #[test]
 fn register_declares_all_four_kinds_with_valid_specs() {
     let mut reg = Registry::new();
-    for t in ["Frames", "Points", "Mesh", "Masks"] {
+    for t in ["Frames", "Points", "Mesh", "Masks", "File"] {
         reg.add_type(t, "test");
     }
     objectsplat_inputs::register(&mut reg);
@@ -120,4 +120,60 @@ fn bad_params_are_errors_not_panics() {
     .err()
     .unwrap();
     assert!(format!("{e:#}").contains("resolution"), "{e:#}");
+}
+
+#[test]
+fn import_masks_reads_a_wired_source_or_a_path_never_both() {
+    let gsam = fixture("masks/gsam");
+    let frames = fixture("masks/frames");
+    let from_path = tempfile::tempdir().unwrap();
+    let params = format!(
+        "(path: {:?}, format: \"grounded_sam2\")",
+        gsam.display().to_string()
+    );
+    run_node(
+        &ImportMasks,
+        &[("frames", &frames)],
+        &params,
+        from_path.path(),
+        None,
+    )
+    .unwrap();
+    let from_source = tempfile::tempdir().unwrap();
+    run_node(
+        &ImportMasks,
+        &[("frames", &frames), ("source", &gsam)],
+        "(format: \"grounded_sam2\")",
+        from_source.path(),
+        None,
+    )
+    .unwrap();
+    for f in ["f000.png", "f001.png", "objects.json"] {
+        assert_eq!(
+            std::fs::read(from_path.path().join("masks").join(f)).unwrap(),
+            std::fs::read(from_source.path().join("masks").join(f)).unwrap(),
+            "{f}"
+        );
+    }
+    let out = tempfile::tempdir().unwrap();
+    let both = run_node(
+        &ImportMasks,
+        &[("frames", &frames), ("source", &gsam)],
+        &params,
+        out.path(),
+        None,
+    )
+    .err()
+    .unwrap();
+    assert!(format!("{both:#}").contains("both the `source` input and `path`"));
+    let neither = run_node(
+        &ImportMasks,
+        &[("frames", &frames)],
+        "(format: \"davis\")",
+        out.path(),
+        None,
+    )
+    .err()
+    .unwrap();
+    assert!(format!("{neither:#}").contains("no masks: set `path`"));
 }

@@ -1,12 +1,17 @@
 //! A tiny synthetic scene in the ScanNet++ layout (built here): COLMAP poses in the mesh
-//! frame, the nerfstudio JSON fallback with the documented frame change, and segment
-//! annotations with overlapping groups resolved by an explicit policy.
+//! frame, the nerfstudio JSON fallback with the documented frame change, segment
+//! annotations with overlapping groups resolved by an explicit policy and the
+//! annotation's own objectIds kept, the same JSON read by `nerfstudio_scene` with an
+//! `images` folder, and the splits (`test_frames`, `train_test_lists.json`).
 
 use glam::{DQuat, DVec3};
-use objectsplat_core::{Camera, Image, Mesh};
+use objectsplat_core::{Camera, Frames, Image, Mesh, Split};
+use objectsplat_inputs::nodes::{NerfstudioScene, ScannetppScene};
 use objectsplat_inputs::scannetpp::{self, GroupOverlap, PoseSource};
+use objectsplat_inputs::undistort;
+use objectsplat_runtime::testing::run_node;
 use serde_json::json;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 const NAMES: [&str; 3] = ["DSC00001.JPG", "DSC00002.JPG", "DSC00003.JPG"];
 
@@ -203,32 +208,70 @@ fn json_in_the_wrong_frame_is_caught_both_ways() {
 fn overlapping_groups_follow_the_policy_and_background_labels_stay_background() {
     let dir = tempfile::tempdir().unwrap();
     build(dir.path(), true, true);
-    // Segment 8 is in both the table (3 vertices) and the cup (2 vertices).
-    // Ids follow objectId order: cup (3) → 1, table (12) → 2.
+    // Segment 8 is in both the table (3 vertices) and the cup (2 vertices). Ids are
+    // the annotation's own objectIds: cup 3, table 12.
     let none = -1;
     for (policy, vertex8) in [
-        (GroupOverlap::Smallest, 1),
-        (GroupOverlap::First, 2),
-        (GroupOverlap::Last, 1),
+        (GroupOverlap::Smallest, 3),
+        (GroupOverlap::First, 12),
+        (GroupOverlap::Last, 3),
     ] {
         let s = scannetpp::load(dir.path(), policy, &["wall".into()]).unwrap();
         let ids = s.mesh.object_ids.as_ref().unwrap();
         assert_eq!(
             ids,
-            &[none, none, none, none, 2, 2, none, none, vertex8, 1],
+            &[none, none, none, none, 12, 12, none, none, vertex8, 3],
             "{policy:?}"
         );
         assert_eq!(s.contested_vertices, 1);
         assert_eq!(
             s.labels,
-            [(1, "cup".to_string()), (2, "table".to_string())].into()
+            [(3, "cup".to_string()), (12, "table".to_string())].into()
         );
     }
     let s = scannetpp::load(dir.path(), GroupOverlap::First, &[]).unwrap();
     assert_eq!(
-        s.labels.len(),
-        3,
-        "without background labels the wall is an object"
+        s.labels.keys().copied().collect::<Vec<_>>(),
+        [3, 12, 40],
+        "without background labels the wall is an object, with its objectId"
+    );
+}
+
+#[test]
+fn object_ids_are_the_annotations_and_must_fit_a_mask() {
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), true, true);
+    let anno_path = dir.path().join("scans/segments_anno.json");
+    let write = |cup_id: i64| {
+        let anno = json!({"sceneId": "t", "segGroups": [
+            {"id": 0, "objectId": 0, "label": "Wall", "segments": [0, 1, 2, 3]},
+            {"id": 1, "objectId": 65534, "label": "table", "segments": [4, 5, 8]},
+            {"id": 2, "objectId": cup_id, "label": "cup", "segments": [8, 9]},
+        ]});
+        std::fs::write(&anno_path, anno.to_string()).unwrap();
+    };
+    // objectId 0 is background (the toolkit's ids ≤ 0 rule), even without background labels;
+    // the largest id a mask can hold is kept as it is.
+    write(7);
+    let s = scannetpp::load(dir.path(), GroupOverlap::First, &[]).unwrap();
+    assert_eq!(s.nonpositive_object_ids, 1);
+    assert_eq!(
+        s.labels,
+        [(7, "cup".to_string()), (65534, "table".to_string())].into()
+    );
+    assert_eq!(&s.mesh.object_ids.as_ref().unwrap()[..4], &[-1, -1, -1, -1]);
+    write(65535);
+    let e = format!(
+        "{:#}",
+        scannetpp::load(dir.path(), GroupOverlap::First, &[])
+            .err()
+            .unwrap()
+    );
+    assert!(
+        e.contains(
+            "segments_anno.json: segGroups[2]: objectId 65535 (label \"cup\") does not fit a mask"
+        ) && e.contains("1..=65534"),
+        "{e}"
     );
 }
 
@@ -240,7 +283,9 @@ fn missing_pieces_are_named() {
         .unwrap()
         .to_string();
     assert!(
-        e.contains("no dslr/resized_undistorted_images or dslr/undistorted_images"),
+        e.contains(
+            "no dslr/resized_undistorted_images, dslr/undistorted_images or dslr/resized_images"
+        ),
         "{e}"
     );
     build(dir.path(), true, true);
@@ -256,5 +301,247 @@ fn missing_pieces_are_named() {
     assert!(
         e.contains("segments.json: 2 segIndices for 10 mesh vertices"),
         "{e}"
+    );
+}
+
+fn run_scene(
+    node: &dyn objectsplat_runtime::Node,
+    params: &str,
+) -> (Frames, Vec<(String, String)>) {
+    let out = tempfile::tempdir().unwrap();
+    let run = run_node(node, &[], params, out.path(), None).unwrap();
+    let frames = Frames::read(&run.outputs["frames"]).unwrap();
+    // Keep the frames readable after the temporary folder goes: copy what the tests need.
+    let frames = Frames {
+        root: PathBuf::new(),
+        frames: frames.frames,
+    };
+    (frames, run.notes)
+}
+
+fn split_of(frames: &Frames) -> Vec<(&str, Split)> {
+    frames
+        .frames
+        .iter()
+        .map(|f| (f.name.as_str(), f.split))
+        .collect()
+}
+
+#[test]
+fn nerfstudio_scene_reads_the_scannetpp_json_with_an_images_folder() {
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), true, true);
+    let root = dir.path().display().to_string();
+    let json = format!("{root}/dslr/nerfstudio/transforms_undistorted.json");
+    let images = format!("{root}/dslr/resized_undistorted_images");
+    let (ours, _) = run_scene(
+        &NerfstudioScene,
+        &format!("(path: {json:?}, images: Some({images:?}), world: \"scannetpp_mesh\")"),
+    );
+    let (reference, _) = run_scene(&ScannetppScene, &format!("(path: {root:?})"));
+    assert_eq!(ours.frames.len(), 3);
+    for (a, b) in ours.frames.iter().zip(&reference.frames) {
+        assert_eq!((&a.name, a.split), (&b.name, b.split));
+        assert_eq!((a.fx, a.fy, a.cx, a.cy), (b.fx, b.fy, b.cx, b.cy));
+        let gap = (a.camera().center() - b.camera().center()).length();
+        assert!(gap < 1e-3, "{}: camera centres {gap} m apart", a.name);
+        let turn = (a.camera().rotation() - b.camera().rotation())
+            .to_cols_array()
+            .iter()
+            .fold(0.0f64, |m, x| m.max(x.abs()));
+        assert!(turn < 1e-6, "{}: rotations differ by {turn}", a.name);
+    }
+    // Without `world`, the poses stay in the JSON's frame: the same cameras, M apart.
+    let (as_stored, _) = run_scene(
+        &NerfstudioScene,
+        &format!("(path: {json:?}, images: Some({images:?}))"),
+    );
+    let m = glam::DMat3::from_cols_array_2d(&scannetpp::JSON_FROM_MESH).transpose();
+    for (a, b) in as_stored.frames.iter().zip(&reference.frames) {
+        let gap = (a.camera().center() - m * b.camera().center()).length();
+        assert!(gap < 1e-3, "{}: {gap}", a.name);
+    }
+    // Without `images` the bare file names are looked up beside the JSON, and the error says so.
+    let out = tempfile::tempdir().unwrap();
+    let e = format!(
+        "{:#}",
+        run_node(
+            &NerfstudioScene,
+            &[],
+            &format!("(path: {json:?})"),
+            out.path(),
+            None
+        )
+        .err()
+        .unwrap()
+    );
+    assert!(
+        e.contains("transforms_undistorted.json: frame 0: file_path \"DSC00001.JPG\"")
+            && e.contains("does not exist; set `images`"),
+        "{e}"
+    );
+}
+
+#[test]
+fn test_frames_stay_test_frames_under_a_rule() {
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), true, true);
+    let root = dir.path().display().to_string();
+    // `frames` holds DSC00001 and DSC00002, `test_frames` DSC00003. The rule splits the
+    // two free frames (fewer than 8: the middle one, index 1, is marked).
+    for (split, want) in [
+        ("sparse", [Split::Test, Split::Train, Split::Test]),
+        ("dense", [Split::Train, Split::Test, Split::Test]),
+        ("all", [Split::Train, Split::Train, Split::Train]),
+        ("lists", [Split::Train, Split::Train, Split::Test]),
+    ] {
+        let json = format!("{root}/dslr/nerfstudio/transforms_undistorted.json");
+        let images = format!("{root}/dslr/resized_undistorted_images");
+        let (frames, _) = run_scene(
+            &NerfstudioScene,
+            &format!("(path: {json:?}, images: Some({images:?}), split: {split:?})"),
+        );
+        assert_eq!(
+            split_of(&frames),
+            NAMES.iter().copied().zip(want).collect::<Vec<_>>(),
+            "nerfstudio_scene {split}"
+        );
+        if split != "lists" {
+            let (frames, _) = run_scene(
+                &ScannetppScene,
+                &format!("(path: {root:?}, split: {split:?})"),
+            );
+            assert_eq!(
+                split_of(&frames),
+                NAMES.iter().copied().zip(want).collect::<Vec<_>>(),
+                "scannetpp_scene {split}"
+            );
+        }
+    }
+}
+
+#[test]
+fn split_lists_reads_train_test_lists_json() {
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), true, true);
+    let root = dir.path().display().to_string();
+    let params = format!("(path: {root:?}, split: \"lists\")");
+    let out = tempfile::tempdir().unwrap();
+    let e = format!(
+        "{:#}",
+        run_node(&ScannetppScene, &[], &params, out.path(), None)
+            .err()
+            .unwrap()
+    );
+    assert!(
+        e.contains("dslr/train_test_lists.json: not found; split \"lists\""),
+        "{e}"
+    );
+    let lists = dir.path().join(scannetpp::TRAIN_TEST_LISTS);
+    // The official lists disagree with the JSON's test_frames on purpose; they win. The
+    // is_bad frame is listed but not loaded.
+    std::fs::write(
+        &lists,
+        json!({"train": ["DSC00001.JPG", "DSC00003.JPG"], "test": ["DSC00002.JPG", "DSC09999.JPG"]})
+            .to_string(),
+    )
+    .unwrap();
+    let (frames, notes) = run_scene(&ScannetppScene, &params);
+    assert_eq!(
+        split_of(&frames),
+        [
+            ("DSC00001.JPG", Split::Train),
+            ("DSC00002.JPG", Split::Test),
+            ("DSC00003.JPG", Split::Train)
+        ]
+    );
+    assert!(
+        notes
+            .iter()
+            .any(|(k, v)| k.starts_with("list entries without a loaded frame") && v == "1"),
+        "{notes:?}"
+    );
+    // A loaded frame in neither list, and a malformed list, are errors naming the file.
+    std::fs::write(
+        &lists,
+        json!({"train": ["DSC00001.JPG"], "test": ["DSC00002.JPG"]}).to_string(),
+    )
+    .unwrap();
+    let e = format!(
+        "{:#}",
+        run_node(&ScannetppScene, &[], &params, out.path(), None)
+            .err()
+            .unwrap()
+    );
+    assert!(
+        e.contains("train_test_lists.json: frame \"DSC00003.JPG\" is in neither the train nor the test list"),
+        "{e}"
+    );
+    std::fs::write(
+        &lists,
+        json!({"train": ["DSC00001.JPG", 7], "test": []}).to_string(),
+    )
+    .unwrap();
+    let e = format!(
+        "{:#}",
+        run_node(&ScannetppScene, &[], &params, out.path(), None)
+            .err()
+            .unwrap()
+    );
+    assert!(
+        e.contains("train_test_lists.json: train[1] is not an image name"),
+        "{e}"
+    );
+}
+
+#[test]
+fn without_undistorted_images_the_fisheye_ones_are_undistorted_here() {
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), true, true);
+    let dslr = dir.path().join("dslr");
+    std::fs::rename(
+        dslr.join("resized_undistorted_images"),
+        dslr.join("resized_images"),
+    )
+    .unwrap();
+    let undistorted = dslr.join("nerfstudio/transforms_undistorted.json");
+    let mut doc: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&undistorted).unwrap()).unwrap();
+    let k = [-0.03, -0.005, 0.0007, -0.0002];
+    doc["camera_model"] = json!("OPENCV_FISHEYE");
+    for (i, v) in k.iter().enumerate() {
+        doc[format!("k{}", i + 1)] = json!(v);
+    }
+    std::fs::write(dslr.join("nerfstudio/transforms.json"), doc.to_string()).unwrap();
+    std::fs::remove_file(&undistorted).unwrap();
+    let root = dir.path().display().to_string();
+    let (frames, notes) = run_scene(&ScannetppScene, &format!("(path: {root:?})"));
+    let want = undistort::undistorted_camera(
+        &undistort::Intrinsics {
+            width: 16,
+            height: 12,
+            fx: 12.0,
+            fy: 12.5,
+            cx: 8.0,
+            cy: 6.0,
+        },
+        &undistort::Distortion::Fisheye { k },
+    )
+    .unwrap();
+    for f in &frames.frames {
+        assert_eq!(
+            (f.width, f.height, f.fx, f.fy, f.cx, f.cy),
+            (want.width, want.height, want.fx, want.fy, want.cx, want.cy)
+        );
+    }
+    assert!(
+        want.width > 16,
+        "a fisheye undistorts to a wider pinhole image"
+    );
+    assert!(
+        notes
+            .iter()
+            .any(|(k, v)| k == "images" && v == "dslr/resized_images (fisheye, undistorted here)"),
+        "{notes:?}"
     );
 }

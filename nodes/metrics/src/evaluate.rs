@@ -4,7 +4,9 @@ use crate::lpips::Lpips;
 use crate::mask::Mask;
 use crate::mesh_eval::MeshFScores;
 use crate::psnr::psnr;
-use crate::report::{ImageMetrics, MetricsReport, ObjectImageMetrics, ObjectMetrics, ScopeMetrics};
+use crate::report::{
+    ImageMetrics, MetricsReport, ObjectImageMetrics, ObjectMetrics, ScopeMetrics, ThresholdMetrics,
+};
 use crate::ssim::{SsimMode, WINDOW_RADIUS, ssim};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::{IdMap, Image, ObjectLabels};
@@ -122,20 +124,31 @@ pub fn assemble_report(
                 ssim: mean(per_image.iter().filter_map(|o| o.ssim)),
                 ..Default::default()
             };
+            let mut thresholds = Vec::new();
             if let Some(m) = mesh {
-                let score = m
-                    .objects
-                    .iter()
-                    .find(|o| o.id == id)
-                    .and_then(|o| o.fscore.as_ref());
-                fill_fscore(&mut metrics, score);
+                let object = m.objects.iter().find(|o| o.id == id);
+                fill_fscore(&mut metrics, object.and_then(|o| o.fscore.as_ref()));
                 metrics.tau = Some(m.scene.tau);
+                thresholds = object
+                    .map(|o| {
+                        o.thresholds
+                            .iter()
+                            .map(|s| ThresholdMetrics {
+                                tau: s.tau,
+                                fscore: Some(s.fscore),
+                                precision: Some(s.precision),
+                                recall: Some(s.recall),
+                            })
+                            .collect()
+                    })
+                    .unwrap_or_default();
             }
             ObjectMetrics {
                 id,
                 label: label.clone(),
                 metrics,
                 images: per_image.len(),
+                thresholds,
             }
         })
         .collect();

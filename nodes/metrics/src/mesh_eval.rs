@@ -44,6 +44,9 @@ pub struct ObjectFScore {
     pub fscore: Option<FScore>,
     pub gt_points: usize,
     pub pred_points: usize,
+    /// The same comparison at each of the extra thresholds asked for (in their order).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub thresholds: Vec<FScore>,
 }
 
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -78,6 +81,28 @@ pub fn evaluate_mesh(
     object_ids: &[u16],
     params: &MeshEvalParams,
     keep_gt: Option<GtFilter<'_>>,
+) -> Result<MeshFScores> {
+    evaluate_mesh_at(
+        gt,
+        pred_scene,
+        pred_objects,
+        object_ids,
+        params,
+        keep_gt,
+        &[],
+    )
+}
+
+/// [`evaluate_mesh`], and every object also scored at each of `object_taus`
+/// ([`ObjectFScore::thresholds`]), on the same down-sampled points.
+pub fn evaluate_mesh_at(
+    gt: &Mesh,
+    pred_scene: &[[f64; 3]],
+    pred_objects: &[(u16, Vec<[f64; 3]>)],
+    object_ids: &[u16],
+    params: &MeshEvalParams,
+    keep_gt: Option<GtFilter<'_>>,
+    object_taus: &[f64],
 ) -> Result<MeshFScores> {
     let mut samples = sample_surface(gt, params.samples, params.seed, params.max_samples)
         .context("sampling the ground-truth mesh")?;
@@ -140,15 +165,22 @@ pub fn evaluate_mesh(
             }
             None => None,
         };
-        let score = match &pred {
-            Some(pred) if !gt_points.is_empty() => Some(fscore(pred, &gt_points, params.tau)?),
-            _ => None,
+        let (score, thresholds) = match &pred {
+            Some(pred) if !gt_points.is_empty() => (
+                Some(fscore(pred, &gt_points, params.tau)?),
+                object_taus
+                    .iter()
+                    .map(|&tau| fscore(pred, &gt_points, tau))
+                    .collect::<Result<Vec<_>>>()?,
+            ),
+            _ => (None, Vec::new()),
         };
         objects.push(ObjectFScore {
             id,
             fscore: score,
             gt_points: gt_points.len(),
             pred_points: pred.as_ref().map_or(0, Vec::len),
+            thresholds,
         });
     }
     Ok(MeshFScores { scene, objects })

@@ -10,15 +10,19 @@
 //!   whole mesh, or only what the capture's frames see);
 //! - `objects`: one entry per object with `id`, `label` and the same fields —
 //!   `psnr`/`ssim` are masked by the object's pixels and averaged over the images
-//!   that show it, `lpips` is always null (LPIPS has no masked form);
+//!   that show it, `lpips` is always null (LPIPS has no masked form) — and, when the
+//!   evaluation asked for more thresholds, `thresholds`: one `{tau, fscore, precision,
+//!   recall}` per threshold (absent in reports written before it existed, and read as
+//!   empty);
 //! - `images`: per test image `name`, `psnr`, `ssim`, `lpips`, and `objects`
 //!   (per object `id`, `psnr`, `ssim`).
 //!
 //! A PSNR of identical images is infinite and written as null (JSON has no infinity).
 //!
 //! `metrics.csv`: one row per scene / object / image with columns
-//! `scope,name,id,label,psnr,ssim,lpips,fscore,precision,recall,accuracy,completeness,tau`;
-//! empty cells mean null.
+//! `scope,name,id,label,psnr,ssim,lpips,fscore,precision,recall,accuracy,completeness,tau`,
+//! then one `object_tau` row per object and extra threshold (fscore, precision, recall,
+//! tau); empty cells mean null.
 
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize, Serializer};
@@ -79,6 +83,18 @@ pub struct ScopeMetrics {
     pub tau: Option<f64>,
 }
 
+/// An object's mesh scores at one more threshold.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct ThresholdMetrics {
+    pub tau: f64,
+    #[serde(serialize_with = "finite_or_null")]
+    pub fscore: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub precision: Option<f64>,
+    #[serde(serialize_with = "finite_or_null")]
+    pub recall: Option<f64>,
+}
+
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct ObjectMetrics {
     pub id: u16,
@@ -87,6 +103,9 @@ pub struct ObjectMetrics {
     pub metrics: ScopeMetrics,
     /// How many test images show the object (its image metrics average over these).
     pub images: usize,
+    /// Mesh scores at the extra thresholds the evaluation asked for.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub thresholds: Vec<ThresholdMetrics>,
 }
 
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
@@ -180,6 +199,24 @@ impl MetricsReport {
                 &o.label,
                 &o.metrics,
             ))?;
+        }
+        for o in &self.objects {
+            for t in &o.thresholds {
+                let m = ScopeMetrics {
+                    fscore: t.fscore,
+                    precision: t.precision,
+                    recall: t.recall,
+                    tau: Some(t.tau),
+                    ..Default::default()
+                };
+                w.serialize(CsvRow::scope(
+                    "object_tau",
+                    &o.label,
+                    Some(o.id),
+                    &o.label,
+                    &m,
+                ))?;
+            }
         }
         for img in &self.images {
             let m = ScopeMetrics {

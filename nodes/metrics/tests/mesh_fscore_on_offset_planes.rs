@@ -1,6 +1,8 @@
 //! Scene and per-object mesh F-score on shapes whose answer is known analytically.
 use objectsplat_core::Mesh;
-use objectsplat_metrics::{MeshEvalParams, SampleCount, evaluate_mesh, mesh_points};
+use objectsplat_metrics::{
+    MeshEvalParams, SampleCount, evaluate_mesh, evaluate_mesh_at, mesh_points,
+};
 
 /// Axis-aligned square [x0, x0+size]² at height z, as two triangles, tagged with `object`.
 fn square(mesh: &mut Mesh, x0: f32, size: f32, z: f32, object: i32) {
@@ -103,4 +105,38 @@ fn per_object_scores_use_the_faces_of_each_object() {
         r.scene.recall < 0.6,
         "object 2's surface still counts in the scene"
     );
+}
+
+#[test]
+fn per_object_scores_at_extra_thresholds_see_a_gap_between_them() {
+    // Object 1 is reconstructed 3 cm above its ground truth: inside τ = 5 cm, outside 2 cm.
+    let mut gt = Mesh::default();
+    square(&mut gt, 0.0, 1.0, 0.0, 1);
+    let mut pred = Mesh::default();
+    square(&mut pred, 0.0, 1.0, 0.03, 1);
+    let p = params();
+    let points = mesh_points(&pred, &p).unwrap();
+    let r = evaluate_mesh_at(
+        &gt,
+        &points,
+        &[(1, points.clone())],
+        &[1, 2],
+        &p,
+        None,
+        &[0.05, 0.02],
+    )
+    .unwrap();
+    let at: Vec<(f64, f64, f64)> = r.objects[0]
+        .thresholds
+        .iter()
+        .map(|s| (s.tau, s.precision, s.recall))
+        .collect();
+    assert_eq!(at, [(0.05, 1.0, 1.0), (0.02, 0.0, 0.0)]);
+    assert_eq!(r.objects[0].fscore.unwrap().recall, 1.0);
+    // No ground truth, no scores at any threshold.
+    assert!(r.objects[1].thresholds.is_empty());
+    // Without extra thresholds nothing changes.
+    let plain = evaluate_mesh(&gt, &points, &[(1, points.clone())], &[1], &p, None).unwrap();
+    assert!(plain.objects[0].thresholds.is_empty());
+    assert_eq!(plain.objects[0].fscore, r.objects[0].fscore);
 }

@@ -3,7 +3,7 @@ mod common;
 
 use common::image;
 use objectsplat_core::{IdMap, ObjectLabels};
-use objectsplat_metrics::report::{METRICS_CSV, METRICS_JSON};
+use objectsplat_metrics::report::{METRICS_CSV, METRICS_JSON, ThresholdMetrics};
 use objectsplat_metrics::{
     FScore, MeshFScores, MetricsReport, ObjectFScore, SsimMode, TestImage, assemble_report,
     evaluate_image, psnr, ssim,
@@ -64,6 +64,10 @@ fn report_averages_images_and_objects_and_round_trips() {
             fscore: Some(fscore(0.5, 0.5)),
             gt_points: 10,
             pred_points: 12,
+            thresholds: vec![FScore {
+                tau: 0.02,
+                ..fscore(0.25, 0.5)
+            }],
         }],
     };
     let report = assemble_report(
@@ -86,6 +90,17 @@ fn report_averages_images_and_objects_and_round_trips() {
         (0, None)
     );
 
+    assert_eq!(
+        report.objects[0].thresholds,
+        [ThresholdMetrics {
+            tau: 0.02,
+            fscore: Some(2.0 * 0.25 * 0.5 / 0.75),
+            precision: Some(0.25),
+            recall: Some(0.5),
+        }]
+    );
+    assert!(report.objects[1].thresholds.is_empty());
+
     let dir = tempfile::tempdir().unwrap();
     report.write(dir.path()).unwrap();
     assert_eq!(MetricsReport::read(dir.path()).unwrap(), report);
@@ -107,6 +122,20 @@ fn report_averages_images_and_objects_and_round_trips() {
     }
     assert!(json["lpips"].is_null());
     assert_eq!(json["objects"][0]["label"], "chair, red");
+    assert_eq!(json["objects"][0]["thresholds"][0]["tau"], 0.02);
+    assert_eq!(json["objects"][0]["thresholds"][0]["recall"], 0.5);
+    assert!(json["objects"][1].get("thresholds").is_none());
+    // Reports written before per-threshold scores existed still read (as none).
+    let mut old = json.clone();
+    old["objects"][0]
+        .as_object_mut()
+        .unwrap()
+        .remove("thresholds");
+    let old_dir = tempfile::tempdir().unwrap();
+    std::fs::write(old_dir.path().join(METRICS_JSON), old.to_string()).unwrap();
+    let read = MetricsReport::read(old_dir.path()).unwrap();
+    assert!(read.objects[0].thresholds.is_empty());
+    assert_eq!(read.objects[0].metrics, report.objects[0].metrics);
 
     let csv = std::fs::read_to_string(dir.path().join(METRICS_CSV)).unwrap();
     let lines: Vec<&str> = csv.lines().collect();
@@ -114,7 +143,15 @@ fn report_averages_images_and_objects_and_round_trips() {
         lines[0],
         "scope,name,id,label,psnr,ssim,lpips,fscore,precision,recall,accuracy,completeness,tau"
     );
-    assert_eq!(lines.len(), 1 + 1 + 2 + 2);
+    // Header, scene, two objects, one extra threshold of object 4, two images.
+    assert_eq!(lines.len(), 1 + 1 + 2 + 1 + 2);
+    assert!(
+        lines[4].starts_with(
+            "object_tau,\"chair, red\",4,\"chair, red\",,,,0.3333333333333333,0.25,0.5,,,0.02"
+        ),
+        "{}",
+        lines[4]
+    );
     assert!(
         lines[2].starts_with("object,\"chair, red\",4,\"chair, red\","),
         "{}",

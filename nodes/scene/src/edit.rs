@@ -212,6 +212,57 @@ impl Edit {
     }
 }
 
+/// Each edit's fields, as [`Edit`] declares them (a test keeps the two in step): what
+/// a check of the graph names when an edit has a field it does not know.
+pub const EDIT_FIELDS: &[(&str, &[&str])] = &[
+    ("Move", &["target", "by"]),
+    ("Rotate", &["target", "axis", "degrees"]),
+    ("Scale", &["target", "factor"]),
+    ("Duplicate", &["target", "offset"]),
+    ("Remove", &["target"]),
+    ("Recolor", &["target", "rgb"]),
+];
+
+/// What is wrong with one item of the `edits` list, and where inside it: `[]` for
+/// the whole item, `["tagret"]` for an unknown field. `None` when it is a valid edit.
+pub fn edit_item_problem(item: &objectsplat_runtime::Value) -> Option<(Vec<String>, String)> {
+    use objectsplat_runtime::Value;
+    let kinds = || {
+        EDIT_FIELDS
+            .iter()
+            .map(|(k, _)| *k)
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    if let Value::Struct(Some(kind), fields) = item {
+        let Some((_, known)) = EDIT_FIELDS.iter().find(|(k, _)| k == kind) else {
+            return Some((
+                vec![],
+                format!("unknown edit `{kind}`; edits are {}", kinds()),
+            ));
+        };
+        if let Some((name, _)) = fields.iter().find(|(f, _)| !known.contains(&f.as_str())) {
+            return Some((
+                vec![name.clone()],
+                format!(
+                    "`{kind}` has no field `{name}`; its fields are {}",
+                    known.join(", ")
+                ),
+            ));
+        }
+    }
+    match item.deserialize::<Edit>() {
+        Err(e) => Some((
+            vec![],
+            format!(
+                "not an edit ({e}); expected one of {}, e.g. Move(target: Id(3), by: (0.5, 0, 0))",
+                kinds()
+            ),
+        )),
+        Ok(edit) => edit.validate().err().map(|e| (vec![], format!("{e:#}"))),
+    }
+}
+
 /// Parses the `edits` list, one item at a time so an error names the bad item.
 pub fn parse_edits(items: &[objectsplat_runtime::Value]) -> Result<Vec<Edit>> {
     items
@@ -366,4 +417,36 @@ fn apply_one(scene: &mut Scene, edit: &Edit, log: &mut EditLog) -> Result<()> {
         }
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod field_table {
+    use super::*;
+
+    #[test]
+    fn edit_fields_list_every_variant_and_its_fields() {
+        let parse = |t: &str| objectsplat_runtime::syntax::parse(t).unwrap().to_value();
+        let samples = [
+            "Move(target: Id(1), by: (1, 0, 0))",
+            "Rotate(target: Id(1), axis: (0, 0, 1), degrees: 90)",
+            "Scale(target: Id(1), factor: 2)",
+            "Duplicate(target: Id(1), offset: (1, 0, 0))",
+            "Remove(target: Id(1))",
+            "Recolor(target: Id(1), rgb: (1, 0, 0))",
+        ];
+        assert_eq!(samples.len(), EDIT_FIELDS.len());
+        for (text, (kind, fields)) in samples.iter().zip(EDIT_FIELDS) {
+            let v = parse(text);
+            assert!(v.deserialize::<Edit>().is_ok(), "{text}");
+            assert!(edit_item_problem(&v).is_none(), "{text}");
+            let objectsplat_runtime::Value::Struct(Some(k), f) = &v else {
+                panic!("{text} is not a named struct");
+            };
+            assert_eq!(k, kind);
+            let names: Vec<&str> = f.iter().map(|(n, _)| n.as_str()).collect();
+            assert_eq!(&names, fields);
+        }
+        let typo = parse("Move(tagret: Id(1), by: (1, 0, 0))");
+        assert_eq!(edit_item_problem(&typo).unwrap().0, ["tagret"]);
+    }
 }

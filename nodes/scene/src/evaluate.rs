@@ -10,7 +10,7 @@ use objectsplat_core::{Frames, IdMap, Image, Mesh, ObjectLabels, Split};
 use objectsplat_metrics::surface::sample_surface;
 use objectsplat_metrics::{
     Lpips, MeshEvalParams, MetricsReport, SsimMode, TestImage, assemble_report, evaluate_image,
-    evaluate_mesh,
+    evaluate_mesh_at,
 };
 use std::path::Path;
 
@@ -24,6 +24,8 @@ pub struct GroundTruth<'a> {
 
 pub struct EvaluateSettings<'a> {
     pub mesh: MeshEvalParams,
+    /// More thresholds at which every object's mesh scores are reported.
+    pub object_taus: Vec<f64>,
     pub ssim: SsimMode,
     pub lpips: Option<&'a Lpips>,
     pub gt_surface: GtSurface,
@@ -213,7 +215,7 @@ pub fn evaluate_scene(
             } else {
                 Vec::new()
             };
-            Some(evaluate_mesh(
+            Some(evaluate_mesh_at(
                 gt,
                 &pred_scene,
                 &pred_objects,
@@ -221,6 +223,7 @@ pub fn evaluate_scene(
                 &settings.mesh,
                 keep.as_ref()
                     .map(|k| k as &(dyn Fn(&[f64; 3]) -> bool + Sync)),
+                &settings.object_taus,
             )?)
         }
         None => None,

@@ -3,7 +3,7 @@
 //!
 //! (`report` is registered by `objectsplat-export`, which owns the report library.)
 
-use crate::edit::{apply_edits, parse_edits};
+use crate::edit::{apply_edits, edit_item_problem, parse_edits};
 use crate::evaluate::{EvaluateSettings, GroundTruth, GtSurface, evaluate_scene};
 use crate::render::{Backdrop, focus_bounds, orbit_cameras, render_view};
 use crate::scene::{
@@ -17,7 +17,10 @@ use objectsplat_export::viewer::{ViewerCamera, ViewerMember, ViewerScene, write_
 use objectsplat_export::{ExportObject, ExportedComponent, SrgbColors, build_glb};
 use objectsplat_metrics::{Lpips, MeshEvalParams, SampleCount, SsimMode};
 use objectsplat_raster::load_model;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, Value};
+use objectsplat_runtime::{
+    CheckedInput, Context, Node, NodeSpec, Outcome, ParamError, ParamType, Params, Registry, Value,
+};
+use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -121,6 +124,59 @@ impl Node for EditScene {
             .optional_input("fills", "Images", "per-frame inpainted background images (<frame stem>.png)")
             .output("scene", "Scene", "the edited scene")
             .param("edits", ParamType::Ron("list of edits".into()), Some("[]"), EDITS_DOC)
+    }
+
+    /// Every edit's kind and fields, before anything runs.
+    fn check_params(&self, params: &Params) -> Vec<ParamError> {
+        match params.value("edits") {
+            Some(Value::List(items)) => items
+                .iter()
+                .enumerate()
+                .filter_map(|(i, item)| {
+                    let (field, message) = edit_item_problem(item)?;
+                    let path = std::iter::once(i.to_string()).chain(field);
+                    Some(ParamError::new("edits", message).at(path))
+                })
+                .collect(),
+            Some(other) => vec![ParamError::new(
+                "edits",
+                format!("expected a list of edits, found {}", other.shape()),
+            )],
+            None => Vec::new(),
+        }
+    }
+
+    fn checked_inputs(&self) -> Vec<CheckedInput> {
+        vec![CheckedInput {
+            port: "scene".into(),
+            what: "edit targets (ids, labels, member names)".into(),
+        }]
+    }
+
+    /// Each edit's target against the scene as the edits before it leave it.
+    fn check_with_inputs(
+        &self,
+        params: &Params,
+        inputs: &BTreeMap<String, PathBuf>,
+    ) -> Result<Vec<ParamError>> {
+        let (Some(Value::List(items)), Some(dir)) = (params.value("edits"), inputs.get("scene"))
+        else {
+            return Ok(Vec::new());
+        };
+        let Ok(edits) = parse_edits(items) else {
+            // check_params reports malformed edits.
+            return Ok(Vec::new());
+        };
+        let mut scene = load_scene(dir)?;
+        for (i, edit) in edits.iter().enumerate() {
+            if let Err(e) = apply_edits(&mut scene, std::slice::from_ref(edit)) {
+                let message = format!("{} (in the cached scene)", e.root_cause());
+                return Ok(vec![
+                    ParamError::new("edits", message).at([i.to_string(), "target".into()]),
+                ]);
+            }
+        }
+        Ok(Vec::new())
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
@@ -288,8 +344,8 @@ pub struct Evaluate;
 
 impl Node for Evaluate {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("evaluate", "3")
-            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id. Writes metrics.json and metrics.csv.")
+        NodeSpec::new("evaluate", "4")
+            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id (per object also at each of object_taus). Writes metrics.json and metrics.csv.")
             .input("images", "Images", "renders of the test frames (<frame stem>.png)")
             .input("frames", "Frames", "the capture; its test split is the ground truth")
             .input("scene", "Scene", "the scene whose surface is scored")
@@ -297,6 +353,7 @@ impl Node for Evaluate {
             .optional_input("masks", "Masks", "ground-truth object-id maps of the test frames, for per-object image metrics")
             .output("metrics", "Metrics", "metrics.json + metrics.csv")
             .param("tau", ParamType::float_range(1e-6, 10.0), Some("0.05"), "F-score distance threshold (m)")
+            .param("object_taus", ParamType::list(ParamType::float_range(1e-6, 10.0)), Some("[0.05, 0.02]"), "more thresholds (m) at which every object's precision, recall and F-score are reported (metrics.json objects[].thresholds)")
             .param("voxel", ParamType::float_range(1e-6, 10.0), Some("0.02"), "voxel size for down-sampling both point sets (m)")
             .param("samples", ParamType::float_range(1.0, 1e8), Some("10000.0"), "surface samples per square metre")
             .param("seed", ParamType::int_range(0, i64::MAX), Some("0"), "seed of the surface sampling")
@@ -351,6 +408,7 @@ impl Node for Evaluate {
                 // The param range is 1..; a cap beyond usize (32-bit) saturates.
                 max_samples: usize::try_from(max_samples).unwrap_or(usize::MAX),
             },
+            object_taus: ctx.param("object_taus")?,
             ssim,
             lpips: lpips.as_ref(),
             gt_surface: match ctx.param::<String>("gt_surface")?.as_str() {
@@ -376,6 +434,22 @@ impl Node for Evaluate {
         );
         if gt_mesh.is_none() {
             ctx.note("mesh F-score", "skipped: no ground-truth mesh wired");
+        }
+        for o in report.objects.iter().filter(|o| !o.thresholds.is_empty()) {
+            let scores: Vec<String> = o
+                .thresholds
+                .iter()
+                .map(|t| {
+                    let show = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3}"));
+                    format!(
+                        "τ {} cm: P {} R {}",
+                        t.tau * 100.0,
+                        show(t.precision),
+                        show(t.recall)
+                    )
+                })
+                .collect();
+            ctx.note(&format!("object {} {}", o.id, o.label), scores.join(", "));
         }
         Ok(Outcome::Done)
     }

@@ -1,7 +1,8 @@
 //! `evaluate` against analytic answers: a ground truth that differs from the render by a
 //! known amount inside one object's mask gives known scene and per-object PSNRs; the
 //! scene's own surface as ground-truth mesh scores F = 1, and an object moved far beyond
-//! τ scores F = 0 while the others stay at 1; LPIPS is reported as skipped.
+//! τ scores F = 0 while the others stay at 1 (also at the extra per-object thresholds);
+//! LPIPS is reported as skipped.
 
 mod common;
 
@@ -112,7 +113,7 @@ fn psnr_and_fscore_match_their_analytic_values() {
             ("mesh", &mesh_dir),
             ("masks", &masks),
         ],
-        "(samples: 1000.0, tau: 0.25)",
+        "(samples: 1000.0, tau: 0.25, object_taus: [0.5, 0.25])",
         &tmp.path().join("eval"),
         None,
     )
@@ -162,6 +163,16 @@ fn psnr_and_fscore_match_their_analytic_values() {
     assert!((f(&object(3)["fscore"]) - 1.0).abs() < 1e-12);
     assert!((f(&object(4)["fscore"]) - 1.0).abs() < 1e-12);
     assert_eq!(f(&object(5)["fscore"]), 0.0);
+    // Per object also at the extra thresholds (above the samples' spacing): the same verdicts.
+    for (id, expected) in [(3, 1.0), (4, 1.0), (5, 0.0)] {
+        let at = object(id)["thresholds"].as_array().unwrap().clone();
+        let taus: Vec<f64> = at.iter().map(|t| f(&t["tau"])).collect();
+        assert_eq!(taus, [0.5, 0.25], "object {id}");
+        for t in &at {
+            assert_eq!(f(&t["precision"]), expected, "object {id} at {}", t["tau"]);
+            assert_eq!(f(&t["recall"]), expected, "object {id} at {}", t["tau"]);
+        }
+    }
     let scene_f = f(&m["fscore"]);
     assert!(
         scene_f > 0.5 && scene_f < 1.0,

@@ -177,14 +177,18 @@ pub fn initial_points(
     min_object_points: usize,
     seed: u64,
 ) -> Result<(Points, usize)> {
-    let selected = masks.select_points(all_points);
-    let mut points = Points {
-        positions: selected.iter().map(|&i| all_points.positions[i]).collect(),
-        colors: selected.iter().map(|&i| all_points.colors[i]).collect(),
-    };
+    let mut points = masks.owned_points(all_points);
     let mut seeded = 0;
     if data.kind == ComponentKind::Object && points.positions.len() < min_object_points {
-        if let Some(bounds) = bounds_of(all_points) {
+        // Narrow baselines leave a hull long along the viewing direction: where the
+        // object has points of its own, the search stays near them (their box grown
+        // by half its size, at least 2 % of the scene's), else the scene's box.
+        let scene = bounds_of(all_points);
+        let near_own = bounds_of(&points).zip(scene).map(|((lo, hi), (slo, shi))| {
+            let grow = (0.5 * (hi - lo).max_element()).max(0.02 * (shi - slo).length());
+            ((lo - grow).max(slo), (hi + grow).min(shi))
+        });
+        if let Some(bounds) = near_own.or(scene) {
             let hull = visual_hull_points(
                 data,
                 bounds,

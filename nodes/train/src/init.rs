@@ -251,8 +251,8 @@ impl ComponentMasks {
 
     /// This component's points, or an error naming the component when none qualifies.
     pub fn component_points(&self, points: &Points) -> Result<Points> {
-        let chosen = self.select_points(points);
-        if chosen.is_empty() {
+        let chosen = self.owned_points(points);
+        if chosen.positions.is_empty() {
             bail!(
                 "component {:?}: none of the {} sparse points projects inside its own mask in most \
                  training views where it is visible, so there is nothing to initialize from",
@@ -260,9 +260,15 @@ impl ComponentMasks {
                 points.positions.len()
             );
         }
-        Ok(Points {
+        Ok(chosen)
+    }
+
+    /// The points [`Self::select_points`] picks, possibly none.
+    pub fn owned_points(&self, points: &Points) -> Points {
+        let chosen = self.select_points(points);
+        Points {
             positions: chosen.iter().map(|&i| points.positions[i]).collect(),
             colors: chosen.iter().map(|&i| points.colors[i]).collect(),
-        })
+        }
     }
 }

@@ -10,7 +10,9 @@ use objectsplat_core::ComponentKind;
 use objectsplat_core::Points;
 use objectsplat_raster::save_model;
 use objectsplat_raster::{Model, load_model};
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{
+    Context, Node, NodeSpec, Outcome, ParamError, ParamType, Params, Registry,
+};
 use serde_json::{Map, Number, Value};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -163,6 +165,35 @@ impl Node for TrainNode {
                 "overrides of the scaled reference schedule by field name, e.g. \
                  {\"lr_sh_dc\": 0.03, \"patience\": 300} (see objectsplat_train::Schedule)",
             )
+    }
+
+    /// A misspelt or out-of-range `schedule` setting is refused by `check`, at its line.
+    fn check_params(&self, params: &Params) -> Vec<ParamError> {
+        let given: BTreeMap<String, f64> = match params.get("schedule") {
+            Ok(given) => given,
+            Err(_) => {
+                return vec![ParamError::new(
+                    "schedule",
+                    "expected a map of schedule setting names to numbers",
+                )];
+            }
+        };
+        let known = Schedule::scaled(1);
+        let known = serde_json::to_value(&known).unwrap_or_default();
+        let mut errors: Vec<ParamError> = given
+            .keys()
+            .filter(|k| known.get(k.as_str()).is_none() || k.as_str() == "iterations")
+            .map(|k| ParamError::new("schedule", format!("unknown schedule setting `{k}`")).at([k]))
+            .collect();
+        if errors.is_empty() {
+            let iterations = params.get::<i64>("iterations").unwrap_or(3000).max(1) as u64;
+            if let Err(e) = schedule_overrides(&given)
+                .and_then(|overrides| Schedule::new(iterations, &overrides))
+            {
+                errors.push(ParamError::new("schedule", format!("{e:#}")));
+            }
+        }
+        errors
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {

@@ -466,7 +466,12 @@ pub fn train_component(
         let densify = s.densify_at(it) && model.vertex_count() < s.max_vertices;
         if prune.is_some() || densify {
             let render = render_settings(&model, settings);
-            let mut max_weight = if stats.complete() {
+            // The running maxima cover the last one to two epochs. When prunes come
+            // more often than an epoch they would keep faces a fresh render no longer
+            // shows (300 iterations on 42 views at 320×240: 1.2 M faces at the
+            // connectivity step instead of 27 k), so then the views are rendered.
+            let stats_recent = prune.is_none() || s.prune_every as usize >= train.len();
+            let mut max_weight = if stats.complete() && stats_recent {
                 stats.max_weight()
             } else {
                 host.face_max_weight(&model, data, &train, &render)?

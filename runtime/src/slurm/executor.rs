@@ -11,7 +11,7 @@
 use super::claims::{Claim, Claimed, Claims};
 use super::commands::{self, JobState};
 use super::{ActionResult, ActionSpec, SlurmConfig, SlurmSettings};
-use crate::exec::{Job, JobError, JobOutcome, RunOptions, cached};
+use crate::exec::{Job, JobError, JobOutcome, RunOptions, Timing, cached};
 use crate::plan::Plan;
 use crate::report::Status;
 use crate::store::{ActionRecord, RanOn, Store};
@@ -59,7 +59,6 @@ struct Task {
     /// The current attempt's job, `<array job>_<task>`.
     job_id: String,
     attempt: u32,
-    submitted: Instant,
     state: String,
     host: Option<String>,
     /// When Slurm first said the job ended (while its result may still be in flight).
@@ -71,7 +70,6 @@ struct Watched {
     job: Job,
     claim: Claim,
     settings: SlurmSettings,
-    since: Instant,
 }
 
 /// A task whose result said "ran" before its record was visible here.
@@ -157,7 +155,7 @@ pub(crate) fn track(
             // channel once every job it counted has an outcome.
             for b in batches.iter() {
                 for job in b.jobs {
-                    t.send_failure(job, "interrupted before it was submitted".into(), None, 0.0);
+                    t.send_failure(job, "interrupted before it was submitted".into());
                 }
             }
             break;
@@ -184,6 +182,20 @@ pub(crate) fn track(
 }
 
 /// `17_3` → `17`.
+/// A task's time as the run report counts it: its own run (`own`, the action record's
+/// time; unknown for a job that left no record, which then counts whole) and the rest
+/// of the time since the coordinator handed it over — Slurm's queue, the job's start,
+/// collecting its result — as waiting.
+fn task_timing(task: &Task, own: Option<f64>) -> Timing {
+    let total = task.job.queued_at.elapsed().as_secs_f64();
+    let seconds = own.unwrap_or(total);
+    Timing {
+        seconds,
+        queued: (total - seconds).max(0.0),
+        started: Instant::now().checked_sub(Duration::from_secs_f64(seconds.max(0.0))),
+    }
+}
+
 fn array_of(job_id: &str) -> &str {
     job_id.split('_').next().unwrap_or(job_id)
 }
@@ -223,15 +235,9 @@ impl Tracker<'_> {
                         job,
                         claim,
                         settings: batch.settings.clone(),
-                        since: Instant::now(),
                     });
                 }
-                Err(e) => self.send_failure(
-                    job,
-                    format!("cannot claim it for this run: {e:#}"),
-                    None,
-                    0.0,
-                ),
+                Err(e) => self.send_failure(job, format!("cannot claim it for this run: {e:#}")),
             }
         }
         self.submit_new(batch.node, &batch.settings, mine);
@@ -264,12 +270,7 @@ impl Tracker<'_> {
                 Err(e) => {
                     for job in part {
                         self.claims.release(&job.key);
-                        self.send_failure(
-                            job,
-                            format!("cannot prepare its Slurm job: {e:#}"),
-                            None,
-                            0.0,
-                        );
+                        self.send_failure(job, format!("cannot prepare its Slurm job: {e:#}"));
                     }
                     continue;
                 }
@@ -291,7 +292,6 @@ impl Tracker<'_> {
                                 index,
                                 job_id,
                                 attempt: 1,
-                                submitted: Instant::now(),
                                 state: "PENDING".into(),
                                 host: None,
                                 ended_at: None,
@@ -302,7 +302,7 @@ impl Tracker<'_> {
                 Err(e) => {
                     for job in part {
                         self.claims.release(&job.key);
-                        self.send_failure(job, format!("{e:#}"), None, 0.0);
+                        self.send_failure(job, format!("{e:#}"));
                     }
                 }
             }
@@ -447,11 +447,12 @@ impl Tracker<'_> {
                 let msg = result.error.unwrap_or_default();
                 self.warn(format!("warning: {msg}; recomputing"));
                 self.claims.release(&task.job.key);
+                let timing = task_timing(&task, None);
                 self.send(
                     task.job,
                     Err(JobError::Corrupt(msg)),
                     Status::Failed,
-                    task.submitted.elapsed().as_secs_f64(),
+                    timing,
                     vec![],
                     Some(self.ran_on(&job_id, Some(result.host))),
                 );
@@ -477,11 +478,12 @@ impl Tracker<'_> {
                 self.warn(format!("warning: {msg}; recomputing"));
                 self.claims.release(&task.job.key);
                 let ran_on = Some(self.ran_on(&task.job_id, Some(result.host)));
+                let timing = task_timing(&task, None);
                 self.send(
                     task.job,
                     Err(JobError::Corrupt(msg)),
                     Status::Failed,
-                    task.submitted.elapsed().as_secs_f64(),
+                    timing,
                     vec![],
                     ran_on,
                 );
@@ -532,38 +534,34 @@ impl Tracker<'_> {
             .ran_on
             .clone()
             .or_else(|| Some(self.ran_on(&task.job_id, task.host.clone())));
-        self.send(
-            task.job,
-            Ok(rec),
-            status,
-            task.submitted.elapsed().as_secs_f64(),
-            warnings,
-            ran_on,
-        );
+        let timing = task_timing(&task, Some(rec.seconds));
+        self.send(task.job, Ok(rec), status, timing, warnings, ran_on);
     }
 
     fn fail(&mut self, task: Task, message: String, host: Option<String>) {
         self.claims.release(&task.job.key);
         self.keep_run_dir = true;
         let ran_on = Some(self.ran_on(&task.job_id, host.or(task.host.clone())));
+        let timing = task_timing(&task, None);
         self.send(
             task.job,
             Err(JobError::Failed(message)),
             Status::Failed,
-            task.submitted.elapsed().as_secs_f64(),
+            timing,
             vec![],
             ran_on,
         );
     }
 
-    fn send_failure(&self, job: Job, message: String, ran_on: Option<RanOn>, seconds: f64) {
+    /// Fails an action that no job of this run computed (nothing ran: no time).
+    fn send_failure(&self, job: Job, message: String) {
         self.send(
             job,
             Err(JobError::Failed(message)),
             Status::Failed,
-            seconds,
+            Timing::default(),
             vec![],
-            ran_on,
+            None,
         );
     }
 
@@ -572,18 +570,20 @@ impl Tracker<'_> {
         job: Job,
         result: Result<ActionRecord, JobError>,
         status: Status,
-        seconds: f64,
+        timing: Timing,
         warnings: Vec<String>,
         ran_on: Option<RanOn>,
     ) {
-        self.opts.observer.job_finished(&job.label, status, seconds);
+        self.opts
+            .observer
+            .job_finished(&job.label, status, timing.seconds);
         // The coordinator gone means it failed and reports that itself.
         let _ = self.results.send(JobOutcome {
             node: job.node,
             item: job.item.map(|(n, _)| n),
             result,
             status,
-            seconds,
+            timing,
             warnings,
             ran_on,
         });
@@ -643,7 +643,6 @@ impl Tracker<'_> {
                     job: task.job,
                     claim: c,
                     settings,
-                    since: Instant::now(),
                 });
                 return;
             }
@@ -655,7 +654,6 @@ impl Tracker<'_> {
                         job: task.job,
                         claim: c,
                         settings,
-                        since: Instant::now(),
                     });
                     return;
                 }
@@ -833,14 +831,12 @@ impl Tracker<'_> {
         for w in std::mem::take(&mut self.watched) {
             if let Ok(Some(rec)) = cached(self.store, &w.job.key) {
                 let ran_on = rec.ran_on.clone();
-                self.send(
-                    w.job,
-                    Ok(rec),
-                    Status::Cached,
-                    w.since.elapsed().as_secs_f64(),
-                    vec![],
-                    ran_on,
-                );
+                // Another run's work: the producing run's time, as for any cache hit.
+                let timing = Timing {
+                    seconds: rec.seconds,
+                    ..Timing::default()
+                };
+                self.send(w.job, Ok(rec), Status::Cached, timing, vec![], ran_on);
                 continue;
             }
             let claim = match self.claims.read(&w.job.key) {
@@ -916,12 +912,7 @@ impl Tracker<'_> {
             self.fail(u.task, msg, None);
         }
         for w in std::mem::take(&mut self.watched) {
-            self.send_failure(
-                w.job,
-                format!("{why} while waiting for another run's job"),
-                None,
-                0.0,
-            );
+            self.send_failure(w.job, format!("{why} while waiting for another run's job"));
         }
     }
 

@@ -9,7 +9,10 @@ use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::{self, Override};
 use objectsplat_runtime::report::{RunReport, Status};
 use objectsplat_runtime::store::Store;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{
+    Context, DeclaredPorts, Node, NodeSpec, Outcome, ParamError, ParamType, Params, PortSpec,
+    Registry, TypeRef,
+};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -127,6 +130,7 @@ impl Node for Double {
             ms + per_unit * x.max(0) as u64,
         ));
         write_num(&ctx.output("out")?, 2 * x)?;
+        ctx.note("doubled", format!("{x} → {}", 2 * x));
         Ok(Outcome::Done)
     }
 }
@@ -182,6 +186,90 @@ impl Node for Flaky {
     }
 }
 
+/// The sum of the inputs its `terms` param declares (one `Num` input port per name):
+/// the ports come from the graph, not from the kind.
+struct SumOf;
+impl Node for SumOf {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("sum_of", "1")
+            .param("terms", ParamType::list(ParamType::Str), None, "")
+            .param("term_type", ParamType::Str, Some("\"Num\""), "")
+    }
+    fn declared_ports(&self, params: &Params) -> Result<Option<DeclaredPorts>, ParamError> {
+        let bad = |m: String| ParamError::new("terms", m);
+        let terms: Vec<String> = params.get("terms").map_err(|e| bad(e.to_string()))?;
+        let ty: String = params.get("term_type").map_err(|e| bad(e.to_string()))?;
+        if terms.is_empty() {
+            return Err(bad("declare at least one term".into()));
+        }
+        let port = |name: &str, ty: &str| PortSpec {
+            name: name.into(),
+            ty: TypeRef::One(ty.into()),
+            optional: false,
+            doc: String::new(),
+        };
+        Ok(Some(DeclaredPorts {
+            inputs: terms.iter().map(|t| port(t, &ty)).collect(),
+            outputs: vec![port("out", "Num")],
+            inputs_param: "term_type".into(),
+            outputs_param: "terms".into(),
+        }))
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let terms: Vec<String> = ctx.param("terms")?;
+        let mut total = 0;
+        for t in &terms {
+            total += read_num(ctx.input(t)?)?;
+        }
+        write_num(&ctx.output("out")?, total)?;
+        Ok(Outcome::Done)
+    }
+}
+
+/// `x × rate` over `steps`: a nested `schedule` map whose keys it checks before
+/// anything runs (like a trainer's schedule overrides).
+struct Tuned;
+const TUNED_KEYS: [&str; 2] = ["rate", "steps"];
+impl Node for Tuned {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("tuned", "1")
+            .input("x", "Num", "")
+            .output("out", "Num", "")
+            .param(
+                "schedule",
+                ParamType::Ron("map of settings".into()),
+                Some("{}"),
+                "",
+            )
+            .param("label", ParamType::Str, Some("\"\""), "")
+    }
+    fn check_params(&self, params: &Params) -> Vec<ParamError> {
+        let Ok(map) = params.get::<std::collections::BTreeMap<String, f64>>("schedule") else {
+            return vec![ParamError::new("schedule", "expected a map of numbers")];
+        };
+        map.keys()
+            .filter(|k| !TUNED_KEYS.contains(&k.as_str()))
+            .map(|k| {
+                ParamError::new(
+                    "schedule",
+                    format!(
+                        "unknown setting `{k}`; settings are {}",
+                        TUNED_KEYS.join(", ")
+                    ),
+                )
+                .at([k])
+            })
+            .collect()
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let map: std::collections::BTreeMap<String, f64> = ctx.param("schedule")?;
+        let rate = map.get("rate").copied().unwrap_or(1.0);
+        let x = read_num(ctx.input("x")?)?;
+        write_num(&ctx.output("out")?, (x as f64 * rate) as i64)?;
+        Ok(Outcome::Done)
+    }
+}
+
 pub fn registry() -> Registry {
     let mut reg = Registry::new();
     reg.add_type("Num", "a folder with value.txt");
@@ -193,6 +281,8 @@ pub fn registry() -> Registry {
         Arc::new(Double),
         Arc::new(Sum),
         Arc::new(Flaky),
+        Arc::new(SumOf),
+        Arc::new(Tuned),
     ] {
         reg.add_node(n).unwrap();
     }

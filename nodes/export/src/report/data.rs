@@ -71,7 +71,11 @@ pub struct NodeRun {
     pub id: String,
     pub kind: String,
     pub status: NodeStatus,
+    /// Its own run time; for a cached node, that of the run that produced its outputs.
     pub seconds: f64,
+    /// Time it waited for a worker (not part of `seconds`).
+    #[serde(default)]
+    pub queued_seconds: f64,
     #[serde(default)]
     pub reason: Option<String>,
     #[serde(default)]

@@ -40,7 +40,18 @@ pub fn run_section(run: &RunSummary) -> Result<String> {
             );
         }
     }
-    let total: f64 = nodes.iter().map(|n| n.seconds).sum();
+    // Cached nodes carry the time of the run that produced their outputs: reused work,
+    // not this run's.
+    let total: f64 = nodes
+        .iter()
+        .filter(|n| n.status != NodeStatus::Cached)
+        .map(|n| n.seconds)
+        .sum();
+    let reused: f64 = nodes
+        .iter()
+        .filter(|n| n.status == NodeStatus::Cached)
+        .map(|n| n.seconds)
+        .sum();
     let count = |s: NodeStatus| nodes.iter().filter(|n| n.status == s).count();
     let mut html = String::new();
     // Writing to a String cannot fail, so the fmt::Results below are ignored.
@@ -53,6 +64,12 @@ pub fn run_section(run: &RunSummary) -> Result<String> {
         count(NodeStatus::Skipped),
         count(NodeStatus::Failed)
     );
+    if reused > 0.0 {
+        let _ = write!(
+            html,
+            ", {reused:.2} s of cached work reused (as timed when it ran)"
+        );
+    }
     if let Some(wall) = run.seconds.filter(|s| s.is_finite() && *s >= 0.0) {
         let _ = write!(html, ", {wall:.2} s wall time");
     }
@@ -61,7 +78,7 @@ pub fn run_section(run: &RunSummary) -> Result<String> {
     }
     html.push_str(".</p>");
     html.push_str(&dag_svg(nodes, &run.edges)?);
-    html.push_str("<table id=\"nodes\"><tr><th>id</th><th>kind</th><th>status</th><th>seconds</th><th>reason</th><th>items</th></tr>");
+    html.push_str("<table id=\"nodes\"><tr><th>id</th><th>kind</th><th>status</th><th>seconds (own run)</th><th>queued</th><th>reason</th><th>items</th></tr>");
     for n in nodes {
         let items: Vec<String> = n
             .items
@@ -70,12 +87,18 @@ pub fn run_section(run: &RunSummary) -> Result<String> {
             .collect();
         let _ = write!(
             html,
-            r#"<tr data-node="{id}" data-status="{st}"><td>{id}</td><td>{kind}</td><td><span class="status" style="background:{bg}">{st}</span></td><td class="num">{secs:.2}</td><td>{reason}</td><td>{items}</td></tr>"#,
+            r#"<tr data-node="{id}" data-status="{st}"><td>{id}</td><td>{kind}</td><td><span class="status" style="background:{bg}">{st}</span></td><td class="num">{secs:.2}{cached}</td><td class="num">{queued:.2}</td><td>{reason}</td><td>{items}</td></tr>"#,
             id = escape(&n.id),
             kind = escape(&n.kind),
             bg = status_colour(n.status),
             st = n.status.as_str(),
             secs = n.seconds,
+            cached = if n.status == NodeStatus::Cached {
+                " (cached; when produced)"
+            } else {
+                ""
+            },
+            queued = n.queued_seconds,
             reason = escape(n.reason.as_deref().unwrap_or("")),
             items = escape(&items.join(", "))
         );

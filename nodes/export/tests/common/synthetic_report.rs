@@ -55,6 +55,7 @@ fn node(id: &str, kind: &str, status: NodeStatus, seconds: f64, reason: Option<&
         kind: kind.into(),
         status,
         seconds,
+        queued_seconds: 0.0,
         reason: reason.map(Into::into),
         items: Vec::new(),
     }

@@ -1,0 +1,245 @@
+//! The `command` node with real programs (python3 -c ..., sh -c ...): declared ports, placeholders,
+//! inputs as private copies, outputs collected from folders; a failure, a timeout and a
+//! missing or empty output each fail with a message naming the cause and quoting stderr;
+//! a bad declaration is refused before anything runs, naming the param.
+
+use objectsplat_command::node::CommandNode;
+use objectsplat_runtime::testing::run_node;
+use objectsplat_runtime::{Node, Params, Value};
+use std::path::Path;
+use std::time::Instant;
+
+/// A RON string literal for `text`.
+fn ron(text: &str) -> String {
+    format!("{text:?}")
+}
+
+fn argv(args: &[&str]) -> String {
+    format!(
+        "[{}]",
+        args.iter().map(|a| ron(a)).collect::<Vec<_>>().join(", ")
+    )
+}
+
+fn input(dir: &Path, text: &str) -> std::path::PathBuf {
+    let d = dir.join("input");
+    std::fs::create_dir_all(&d).unwrap();
+    std::fs::write(d.join("value.txt"), text).unwrap();
+    d
+}
+
+const COPY_AND_SCALE: &str = "import json, os, sys; src, dst, opts = sys.argv[1:4]; \
+    o = json.load(open(opts)); v = int(open(os.path.join(src, 'value.txt')).read()); \
+    open(os.path.join(src, 'value.txt'), 'w').write('spoiled'); \
+    open(os.path.join(dst, 'value.txt'), 'w').write(str(v * o['factor'])); \
+    print('scaled by', sys.argv[4], file=sys.stderr)";
+
+#[test]
+fn declared_ports_placeholders_and_options_reach_the_program() {
+    let dir = tempfile::tempdir().unwrap();
+    let inp = input(dir.path(), "21");
+    let params = format!(
+        "(argv: {}, consumes: {{\"number\": \"File\"}}, produces: {{\"scaled\": \"File\"}}, options: {{\"factor\": 2}})",
+        argv(&[
+            "python3",
+            "-c",
+            COPY_AND_SCALE,
+            "{in:number}",
+            "{out:scaled}",
+            "{options}",
+            "x{opt:factor}"
+        ])
+    );
+    let out = dir.path().join("out");
+    let run = run_node(&CommandNode, &[("number", &inp)], &params, &out, None).unwrap();
+    assert_eq!(
+        std::fs::read_to_string(run.outputs["scaled"].join("value.txt")).unwrap(),
+        "42"
+    );
+    // The program wrote into its own copy of the input, not into the input.
+    assert_eq!(
+        std::fs::read_to_string(inp.join("value.txt")).unwrap(),
+        "21"
+    );
+    assert!(
+        run.notes
+            .iter()
+            .any(|(k, v)| k == "stderr (last line)" && v == "scaled by x2"),
+        "{:?}",
+        run.notes
+    );
+}
+
+#[test]
+fn a_failing_program_fails_the_node_with_its_stderr() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = format!(
+        "(argv: {}, produces: {{\"out\": \"File\"}})",
+        argv(&[
+            "python3",
+            "-c",
+            "import sys; print('CUDA out of memory', file=sys.stderr); sys.exit(3)"
+        ])
+    );
+    let e = run_node(&CommandNode, &[], &params, dir.path(), None)
+        .err()
+        .unwrap();
+    let e = format!("{e:#}");
+    assert!(
+        e.contains("command \"python3\" failed (exit status: 3)")
+            && e.contains("CUDA out of memory"),
+        "{e}"
+    );
+    let params = format!(
+        "(argv: {}, produces: {{\"out\": \"File\"}})",
+        argv(&["no-such-program-anywhere"])
+    );
+    let e = run_node(&CommandNode, &[], &params, dir.path(), None)
+        .err()
+        .unwrap();
+    assert!(
+        format!("{e:#}").contains("cannot start command \"no-such-program-anywhere\""),
+        "{e:#}"
+    );
+}
+
+#[test]
+fn a_program_past_its_timeout_is_killed() {
+    let dir = tempfile::tempdir().unwrap();
+    // sh starts in milliseconds even on a loaded machine, so the message is out before the timeout.
+    let params = format!(
+        "(argv: {}, produces: {{\"out\": \"File\"}}, timeout_s: 1.0)",
+        argv(&["sh", "-c", "echo loading weights >&2; sleep 30"])
+    );
+    let t0 = Instant::now();
+    let e = run_node(&CommandNode, &[], &params, dir.path(), None)
+        .err()
+        .unwrap();
+    let e = format!("{e:#}");
+    assert!(t0.elapsed().as_secs_f64() < 10.0);
+    assert!(
+        e.contains("command \"sh\" did not finish within 1.0 s and was killed")
+            && e.contains("loading weights"),
+        "{e}"
+    );
+}
+
+#[test]
+fn outputs_must_be_written_in_their_encoding() {
+    let dir = tempfile::tempdir().unwrap();
+    let params = format!(
+        "(argv: {}, produces: {{\"masks\": \"File\"}})",
+        argv(&["python3", "-c", "pass"])
+    );
+    let e = run_node(&CommandNode, &[], &params, dir.path(), None)
+        .err()
+        .unwrap();
+    assert!(
+        format!("{e:#}").contains("wrote nothing into output `masks`"),
+        "{e:#}"
+    );
+    let params = format!(
+        "(argv: {}, produces: {{\"frames\": \"Frames\"}})",
+        argv(&[
+            "python3",
+            "-c",
+            "import sys; open(sys.argv[1] + '/cameras.json', 'w').write('[]')",
+            "{out:frames}"
+        ])
+    );
+    let e = run_node(&CommandNode, &[], &params, dir.path(), None)
+        .err()
+        .unwrap();
+    assert!(
+        format!("{e:#}").contains("wrote output `frames` (Frames) without frames.json"),
+        "{e:#}"
+    );
+}
+
+/// The error `declared_ports` gives for `params` (RON struct text, defaults filled in).
+fn declaration_error(params: &str) -> String {
+    let spec = CommandNode.spec();
+    let given = objectsplat_runtime::syntax::parse(params)
+        .unwrap()
+        .to_value();
+    let Value::Struct(_, given) = given else {
+        panic!("params must be a struct")
+    };
+    let mut values = std::collections::BTreeMap::new();
+    for ps in &spec.params {
+        let v = match given.iter().find(|(k, _)| *k == ps.name) {
+            Some((_, v)) => v.clone(),
+            None => objectsplat_runtime::syntax::parse(ps.default.as_deref().unwrap())
+                .unwrap()
+                .to_value(),
+        };
+        values.insert(ps.name.clone(), ps.ty.check(&v).unwrap());
+    }
+    let e = CommandNode
+        .declared_ports(&Params::new(values))
+        .expect_err("the declaration is refused");
+    format!("{}: {}", e.param, e.message)
+}
+
+#[test]
+fn bad_declarations_are_refused_naming_the_param() {
+    for (params, want) in [
+        (
+            "(argv: [], produces: {\"o\": \"File\"})",
+            "argv: the command is empty",
+        ),
+        (
+            "(argv: [\"p\", \"{in:frame}\"], consumes: {\"frames\": \"Frames\"}, produces: {\"o\": \"File\"})",
+            "argv: {in:frame} names the input port `frame`, which is not declared; the inputs are frames",
+        ),
+        (
+            "(argv: [\"p\", \"{script}\"], produces: {\"o\": \"File\"})",
+            "argv: {script} is used but no `script` is given",
+        ),
+        (
+            "(argv: [\"p\", \"--k={opt:k}\"], produces: {\"o\": \"File\"})",
+            "argv: {opt:k} names the option `k`, which `options` does not give",
+        ),
+        (
+            "(argv: [\"p\"], produces: {})",
+            "produces: declare at least one output port",
+        ),
+        (
+            "(argv: [\"p\"], produces: {\"my masks\": \"File\"})",
+            "produces: port name \"my masks\" must be made of letters, digits and `_`",
+        ),
+        (
+            "(argv: [\"p\"], produces: {\"o\": \"[File\"})",
+            "produces: port `o`: `[File` is not a type",
+        ),
+        (
+            "(argv: [\"p\"], consumes: {\"x\": \"File\"}, produces: {\"x\": \"File\"})",
+            "produces: `x` is declared both as an input and as an output",
+        ),
+        ("(argv: [\"p\"], produces: [\"o\"])", "produces: "),
+    ] {
+        let e = declaration_error(params);
+        assert!(e.starts_with(want), "{params}: {e}");
+    }
+}
+
+#[test]
+fn braces_that_are_no_placeholder_reach_the_program_verbatim() {
+    let dir = tempfile::tempdir().unwrap();
+    let literal = "{\"json\": [1, 2]} {unknown} {";
+    let params = format!(
+        "(argv: {}, produces: {{\"o\": \"File\"}})",
+        argv(&[
+            "python3",
+            "-c",
+            "import sys; open(sys.argv[2] + '/a.txt', 'w').write(sys.argv[1])",
+            literal,
+            "{out:o}"
+        ])
+    );
+    let run = run_node(&CommandNode, &[], &params, dir.path(), None).unwrap();
+    assert_eq!(
+        std::fs::read_to_string(run.outputs["o"].join("a.txt")).unwrap(),
+        literal
+    );
+}
