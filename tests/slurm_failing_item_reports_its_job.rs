@@ -1,6 +1,8 @@
 //! `--executor slurm`: an item that fails every time fails its node with the Slurm job
 //! id and the end of the job's stderr; the other items succeed, are cached, and a rerun
-//! submits only the failing item again (a cached item never gets a job).
+//! submits only the failing item again (a cached item never gets a job). An item's
+//! `seconds` is its own run on the node, from its action record (a cached item keeps
+//! the producing run's); the wait for Slurm to start its job is `queued_seconds`.
 //!
 //! Needs the local cluster (`scripts/slurm-local-cluster.sh up`); CI starts it.
 
@@ -16,7 +18,10 @@ fn a_failing_item_names_its_job_and_stderr_and_spares_the_others() {
     let dir = test_dir("failing_item");
     let log = dir.join("attempts.log");
     let graph = fan_out_graph(
-        &format!(r#"fail_item: "obj_9_cup", log: "{}""#, log.display()),
+        &format!(
+            r#"fail_item: "obj_9_cup", sleep_s: 0.3, log: "{}""#,
+            log.display()
+        ),
         "",
         "",
     );
@@ -84,8 +89,17 @@ fn a_failing_item_names_its_job_and_stderr_and_spares_the_others() {
             );
         } else {
             assert_eq!(item["status"], "ran", "{item}");
+            // Its own run holds its sleep; starting a Slurm job takes a while, which
+            // is waiting, not run time.
+            assert!(item["seconds"].as_f64().unwrap() >= 0.3, "{item}");
+            assert!(item["queued_seconds"].as_f64().unwrap() > 0.05, "{item}");
         }
     }
+    let ran_seconds: std::collections::BTreeMap<String, f64> = all
+        .iter()
+        .filter(|i| i["status"] == "ran")
+        .map(|i| (i["name"].to_string(), i["seconds"].as_f64().unwrap()))
+        .collect();
     assert!(
         stderr.contains(&format!("Slurm job {job}")),
         "the one-line cause names the job:\n{stderr}"
@@ -110,7 +124,14 @@ fn a_failing_item_names_its_job_and_stderr_and_spares_the_others() {
             "cached"
         };
         assert_eq!(item["status"], expected, "{item}");
-        // A cache hit still says where it was computed.
+        // A cache hit still says where it was computed, and how long that took.
         assert_eq!(item["executor"], "slurm", "{item}");
+        if expected == "cached" {
+            assert_eq!(
+                item["seconds"].as_f64(),
+                ran_seconds.get(&item["name"].to_string()).copied(),
+                "{item}"
+            );
+        }
     }
 }
