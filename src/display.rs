@@ -73,6 +73,15 @@ impl Observer for Display {
         }
     }
 
+    /// A Slurm job's state (queued, running on a node) shows as the spinner's message.
+    fn job_state(&self, job: &str, state: &str) {
+        if let Ok(bars) = self.bars.lock()
+            && let Some(bar) = bars.get(job)
+        {
+            bar.set_message(state.to_string());
+        }
+    }
+
     fn job_finished(&self, job: &str, status: Status, seconds: f64) {
         if let Ok(mut bars) = self.bars.lock()
             && let Some(bar) = bars.remove(job)

@@ -1,6 +1,7 @@
 //! `objectsplat`: the command-line front end. Parsing, display and exit codes only;
 //! the work happens in `objectsplat-runtime` and the node crates.
 
+mod cluster;
 mod display;
 
 use anyhow::{Context as _, Result, anyhow};
@@ -59,6 +60,14 @@ enum Command {
         /// Worker threads (default: the number of CPUs).
         #[arg(short = 'j', long = "jobs")]
         jobs: Option<usize>,
+        #[command(flatten)]
+        executor: Box<cluster::ExecutorArgs>,
+    },
+    /// Compute one action of a `run --executor slurm` (what its Slurm jobs run).
+    #[command(hide = true)]
+    RunAction {
+        /// The action's spec, written by the coordinator.
+        spec: PathBuf,
     },
     /// Validate a graph without running it: kinds, wiring, types, params (fields inside
     /// nested params too), that input files exist, and params against upstream values
@@ -183,7 +192,9 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             plugins,
             json,
             jobs,
+            executor,
         } => {
+            let executor = executor.executor(&sets, &plugins)?;
             let plan = load_plan(&graph, &plugins, &sets, &targets)?;
             let store = Store::open(&cache)?;
             let out = out.unwrap_or_else(|| PathBuf::from("out").join(plan.source.name()));
@@ -191,7 +202,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
                 .max(1);
             let observer = Arc::new(display::Display::new());
-            let report = exec::run(
+            let report = exec::run_on(
                 &plan,
                 &store,
                 &RunOptions {
@@ -199,6 +210,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                     out_dir: Some(out.clone()),
                     observer: observer.clone(),
                 },
+                &executor,
             )?;
             observer.finish();
             eprint!("{}", report.render_table());
@@ -231,6 +243,13 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 );
                 Ok(ExitCode::FAILURE)
             }
+        }
+        Command::RunAction { spec } => {
+            let code = objectsplat_runtime::slurm::worker::run_action(&spec, |spec| {
+                let args = cluster::plan_args(spec)?;
+                load_plan(&spec.graph, &args.plugins, &args.sets, &[])
+            });
+            Ok(ExitCode::from(u8::try_from(code).unwrap_or(1)))
         }
         Command::Report { run, html, out } => {
             let summary = read_run_summary(&run)?;

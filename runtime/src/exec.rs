@@ -9,9 +9,10 @@
 //! (early cutoff).
 
 use crate::node::{Context, InputValue, Outcome, ProgressSink, TypeRef};
-use crate::plan::Plan;
+use crate::plan::{Plan, PlanNode};
 use crate::report::{ItemReport, NodeReport, RunReport, Status};
-use crate::store::{ActionRecord, Corrupt, Digest, Manifest, Store, short};
+use crate::slurm::{SlurmConfig, SlurmSettings};
+use crate::store::{ActionRecord, Corrupt, Digest, Manifest, RanOn, Store, short};
 use anyhow::{Context as _, Result, anyhow};
 use std::collections::BTreeMap;
 use std::panic::{AssertUnwindSafe, catch_unwind};
@@ -23,6 +24,9 @@ use std::time::Instant;
 /// Lifecycle events for displays (progress bars, logs).
 pub trait Observer: ProgressSink {
     fn job_started(&self, _job: &str) {}
+    /// Where a job stands when that is not progress of its own (a Slurm job queued,
+    /// running on a node).
+    fn job_state(&self, _job: &str, _state: &str) {}
     fn job_finished(&self, _job: &str, _status: Status, _seconds: f64) {}
     fn warning(&self, _message: &str) {}
 }
@@ -40,38 +44,63 @@ pub struct RunOptions {
     pub observer: Arc<dyn Observer>,
 }
 
-/// What one job (a node, or one item of a fanned-out node) needs.
-struct Job {
-    node: usize,
-    item: Option<(String, Digest)>,
-    key: String,
-    params_key: String,
-    inputs: BTreeMap<String, Digest>,
-    label: String,
-    /// When the job was handed to the workers (queue waiting is reported apart).
-    queued_at: Instant,
+/// Where the actions that miss the cache are computed.
+#[derive(Debug, Clone, Default)]
+pub enum Executor {
+    /// In this process, on `-j` worker threads.
+    #[default]
+    Local,
+    /// Fan-out items, and nodes with a `slurm` field, as Slurm jobs; the rest here.
+    Slurm(Box<SlurmConfig>),
 }
 
-struct JobOutcome {
-    node: usize,
-    item: Option<String>,
-    result: Result<ActionRecord, JobError>,
-    status: Status,
-    timing: Timing,
-    warnings: Vec<String>,
+impl Executor {
+    /// The job options for `node` when it runs on Slurm; `None` when it runs here.
+    pub fn slurm_settings(&self, plan: &Plan, node: &PlanNode) -> Option<SlurmSettings> {
+        let Executor::Slurm(cfg) = self else {
+            return None;
+        };
+        let own = node.slurm.clone().unwrap_or_default();
+        let settings = plan.slurm.overridden_by(&cfg.settings).overridden_by(&own);
+        let asks = node.fans_out || node.slurm.is_some();
+        (asks && settings.local != Some(true)).then_some(settings)
+    }
+}
+
+/// What one job (a node, or one item of a fanned-out node) needs.
+pub(crate) struct Job {
+    pub node: usize,
+    pub item: Option<(String, Digest)>,
+    pub key: String,
+    pub params_key: String,
+    pub inputs: BTreeMap<String, Digest>,
+    pub label: String,
+    /// When the job was handed to the workers (queue waiting is reported apart).
+    pub queued_at: Instant,
+}
+
+pub(crate) struct JobOutcome {
+    pub node: usize,
+    pub item: Option<String>,
+    pub result: Result<ActionRecord, JobError>,
+    pub status: Status,
+    pub timing: Timing,
+    pub warnings: Vec<String>,
+    /// Where it was computed (for a cache hit: where the record says).
+    pub ran_on: Option<RanOn>,
 }
 
 /// One job's time: its own run (the producing run's, for a cache hit) and how long it
 /// waited for a worker before that.
 #[derive(Clone, Copy, Default)]
-struct Timing {
-    seconds: f64,
-    queued: f64,
+pub(crate) struct Timing {
+    pub seconds: f64,
+    pub queued: f64,
     /// When a worker took it up (`None`: answered from the cache by the scheduler).
-    started: Option<Instant>,
+    pub started: Option<Instant>,
 }
 
-enum JobError {
+pub(crate) enum JobError {
     Failed(String),
     Corrupt(String),
 }
@@ -92,17 +121,42 @@ struct NodeState {
     warnings: Vec<String>,
     keys: BTreeMap<String, String>,
     record: Option<ActionRecord>,
+    /// Where a node that does not fan out was computed.
+    ran_on: Option<RanOn>,
     corrupt: bool,
 }
 
+/// Runs the plan's targets with every action computed in this process.
 pub fn run(plan: &Plan, store: &Store, opts: &RunOptions) -> Result<RunReport> {
+    run_on(plan, store, opts, &Executor::Local)
+}
+
+/// Runs the plan's targets, computing what misses the cache with `executor`.
+pub fn run_on(
+    plan: &Plan,
+    store: &Store,
+    opts: &RunOptions,
+    executor: &Executor,
+) -> Result<RunReport> {
     let start = Instant::now();
     let mut warnings = Vec::new();
+    // Ctrl-C must cancel the cluster jobs, not orphan them.
+    let _signals =
+        matches!(executor, Executor::Slurm(_)).then(crate::slurm::interrupt::Guard::install);
     // A corrupt cache entry found mid-run is deleted; the next pass recomputes it. Every
     // such pass deletes at least one entry, so this terminates; the cap guards against a
     // disk that corrupts what we write.
     for _pass in 0..1000 {
-        let (mut report, corrupt) = run_pass(plan, store, opts, &mut warnings)?;
+        let (mut report, corrupt) = run_pass(plan, store, opts, executor, &mut warnings)?;
+        if crate::slurm::interrupt::interrupted() && _signals.is_some() {
+            return Err(anyhow!(
+                "interrupted: this run's Slurm jobs were cancelled{}",
+                report
+                    .first_failure()
+                    .map(|f| format!(" ({f})"))
+                    .unwrap_or_default()
+            ));
+        }
         if corrupt {
             continue;
         }
@@ -131,7 +185,7 @@ pub fn run(plan: &Plan, store: &Store, opts: &RunOptions) -> Result<RunReport> {
 }
 
 /// Longest failure message a node's report carries.
-const MAX_FAILURE_TEXT: usize = 16 << 10;
+pub(crate) const MAX_FAILURE_TEXT: usize = 16 << 10;
 
 /// Separates the params from the fingerprint of the files a node reads
 /// ([`crate::Node::reads`]) in a key's params text.
@@ -158,7 +212,7 @@ pub(crate) fn params_key(plan: &Plan, i: usize) -> Result<String> {
     Ok(format!("{}{READS_SEPARATOR}{fp}", params.canonical()))
 }
 
-fn compute_key(
+pub(crate) fn compute_key(
     kind: &str,
     version: &str,
     params: &str,
@@ -184,6 +238,7 @@ fn run_pass(
     plan: &Plan,
     store: &Store,
     opts: &RunOptions,
+    executor: &Executor,
     warnings: &mut Vec<String>,
 ) -> Result<(RunReport, bool)> {
     let needed = plan.needed();
@@ -212,6 +267,20 @@ fn run_pass(
                 }
             });
         }
+        // Actions for Slurm go to one thread that submits, watches and resubmits them.
+        let batch_tx = match executor {
+            Executor::Local => None,
+            Executor::Slurm(cfg) => {
+                let (batch_tx, batch_rx) =
+                    crossbeam::channel::unbounded::<crate::slurm::executor::Batch>();
+                let res_tx = res_tx.clone();
+                let cancel = &cancel;
+                s.spawn(move |_| {
+                    crate::slurm::executor::track(plan, store, opts, cfg, batch_rx, res_tx, cancel)
+                });
+                Some(batch_tx)
+            }
+        };
         drop(res_tx);
         let mut in_flight = 0usize;
         // Ready queue: a node is dispatched once every input edge's source has settled.
@@ -274,6 +343,9 @@ fn run_pass(
                         }
                     }
                     let st = state.get_mut(&i).expect("needed nodes have state");
+                    if blocked.is_none() && cancel.load(Ordering::SeqCst) {
+                        blocked = Some((Status::Failed, "interrupted before it started".into()));
+                    }
                     if let Some((status, reason)) = blocked {
                         st.status = Some(status);
                         st.reason = Some(reason);
@@ -322,6 +394,8 @@ fn run_pass(
                         }
                     };
                     let (kind, version) = (&node.reg.spec.kind, &node.reg.spec.version);
+                    let on_slurm = executor.slurm_settings(plan, node);
+                    let mut remote = Vec::new();
                     for item in items {
                         let key = compute_key(kind, version, &pk, &inputs, item.as_ref());
                         let item_name = item.as_ref().map(|(n, _)| n.clone());
@@ -337,7 +411,16 @@ fn run_pass(
                                     seconds: rec.seconds,
                                     ..Timing::default()
                                 };
-                                record_item(st, item_name, Ok(rec), Status::Cached, timing, vec![]);
+                                let ran_on = rec.ran_on.clone();
+                                record_item(
+                                    st,
+                                    item_name,
+                                    Ok(rec),
+                                    Status::Cached,
+                                    timing,
+                                    vec![],
+                                    ran_on,
+                                );
                             }
                             miss => {
                                 if let Err(c) = miss {
@@ -351,19 +434,35 @@ fn run_pass(
                                 }
                                 st.pending += 1;
                                 in_flight += 1;
-                                job_tx
-                                    .send(Job {
-                                        node: i,
-                                        item: item.clone(),
-                                        key,
-                                        params_key: pk.clone(),
-                                        inputs: job_inputs,
-                                        label,
-                                        queued_at: Instant::now(),
-                                    })
-                                    .map_err(|_| anyhow!("worker threads stopped"))?;
+                                let job = Job {
+                                    node: i,
+                                    item: item.clone(),
+                                    key,
+                                    params_key: pk.clone(),
+                                    inputs: job_inputs,
+                                    label,
+                                    queued_at: Instant::now(),
+                                };
+                                if on_slurm.is_some() {
+                                    remote.push(job);
+                                } else {
+                                    job_tx
+                                        .send(job)
+                                        .map_err(|_| anyhow!("worker threads stopped"))?;
+                                }
                             }
                         }
+                    }
+                    // One batch per node: its missing items become one job array.
+                    if let (Some(settings), Some(tx)) = (on_slurm, &batch_tx)
+                        && !remote.is_empty()
+                    {
+                        tx.send(crate::slurm::executor::Batch {
+                            node: i,
+                            settings,
+                            jobs: remote,
+                        })
+                        .map_err(|_| anyhow!("the Slurm thread stopped"))?;
                     }
                     if st.pending == 0 {
                         finish_node(plan, store, i, st, each.is_some());
@@ -397,7 +496,15 @@ fn run_pass(
             let result = out.result.map_err(|e| match e {
                 JobError::Failed(m) | JobError::Corrupt(m) => m,
             });
-            record_item(st, out.item, result, out.status, out.timing, out.warnings);
+            record_item(
+                st,
+                out.item,
+                result,
+                out.status,
+                out.timing,
+                out.warnings,
+                out.ran_on,
+            );
             if st.pending == 0 {
                 let fans = plan.nodes[out.node].fans_out;
                 finish_node(plan, store, out.node, st, fans);
@@ -405,6 +512,7 @@ fn run_pass(
             }
         }
         drop(job_tx);
+        drop(batch_tx);
         Ok(())
     })
     .map_err(|_| anyhow!("a scheduler thread panicked"))??;
@@ -434,6 +542,9 @@ fn run_pass(
                 queued_seconds: st.queued,
                 reason: st.reason,
                 items: st.items.into_iter().map(|(_, _, r)| r).collect(),
+                executor: st.ran_on.as_ref().map(|r| r.executor.clone()),
+                job_id: st.ran_on.as_ref().and_then(|r| r.job_id.clone()),
+                host: st.ran_on.map(|r| r.host),
                 notes: st.notes,
                 warnings: st.warnings,
                 outputs: st.outputs.unwrap_or_default(),
@@ -456,7 +567,7 @@ fn run_pass(
 }
 
 /// A cache hit: a record for the key whose outputs are all present.
-fn cached(store: &Store, key: &str) -> Result<Option<ActionRecord>, Corrupt> {
+pub(crate) fn cached(store: &Store, key: &str) -> Result<Option<ActionRecord>, Corrupt> {
     match store.action(key)? {
         Some(rec) if rec.outputs.values().all(|d| store.has_artifact(d)) => Ok(Some(rec)),
         _ => Ok(None),
@@ -470,6 +581,7 @@ fn record_item(
     status: Status,
     timing: Timing,
     warnings: Vec<String>,
+    ran_on: Option<RanOn>,
 ) {
     st.warnings.extend(warnings);
     if let Some(t) = timing.started {
@@ -506,6 +618,9 @@ fn record_item(
                     queued_seconds: timing.queued,
                     reason,
                     notes,
+                    executor: ran_on.as_ref().map(|r| r.executor.clone()),
+                    job_id: ran_on.as_ref().and_then(|r| r.job_id.clone()),
+                    host: ran_on.map(|r| r.host),
                 },
             ));
         }
@@ -516,6 +631,7 @@ fn record_item(
             st.notes = notes;
             st.seconds = timing.seconds;
             st.queued = timing.queued;
+            st.ran_on = ran_on;
         }
     }
 }
@@ -628,7 +744,17 @@ fn execute(
     let running = active.fetch_add(1, Ordering::SeqCst) + 1;
     let threads = (jobs / running).max(1);
     let mut warnings = Vec::new();
-    let result = execute_inner(plan, store, opts, &job, threads, cancel, &mut warnings);
+    let here = RanOn::local();
+    let result = execute_inner(
+        plan,
+        store,
+        opts,
+        &job,
+        threads,
+        cancel,
+        &mut warnings,
+        &here,
+    );
     active.fetch_sub(1, Ordering::SeqCst);
     // A stored action carries its own run time (the producing run's, for a hit);
     // a failure has none and is timed here.
@@ -636,9 +762,12 @@ fn execute(
         Ok((rec, _)) => rec.seconds,
         Err(_) => t0.elapsed().as_secs_f64(),
     };
+    let mut ran_on = Some(here);
     let (result, status) = match result {
         Ok((rec, hit)) => {
             let status = if hit {
+                // Computed by another process while this one waited for the key.
+                ran_on = rec.ran_on.clone();
                 Status::Cached
             } else if rec.status == "skipped" {
                 Status::Skipped
@@ -672,10 +801,14 @@ fn execute(
             started: Some(t0),
         },
         warnings,
+        ran_on,
     }
 }
 
-fn execute_inner(
+/// Computes one job in this process (unless another process has meanwhile): the
+/// record, and whether it was a cache hit after all.
+#[allow(clippy::too_many_arguments)]
+pub(crate) fn execute_inner(
     plan: &Plan,
     store: &Store,
     opts: &RunOptions,
@@ -683,6 +816,7 @@ fn execute_inner(
     threads: usize,
     cancel: &AtomicBool,
     warnings: &mut Vec<String>,
+    ran_on: &RanOn,
 ) -> Result<(ActionRecord, bool)> {
     let node = &plan.nodes[job.node];
     let spec = &node.reg.spec;
@@ -803,6 +937,7 @@ fn execute_inner(
             reason,
             seconds: t0.elapsed().as_secs_f64(),
             notes: ctx.notes,
+            ran_on: Some(ran_on.clone()),
         };
         store.put_action(&rec)?;
         // The action is stored: progress saved for a resume is no longer needed.
@@ -814,6 +949,80 @@ fn execute_inner(
     })();
     let _ = std::fs::remove_dir_all(&stage);
     result
+}
+
+/// Computes the action a Slurm task was handed (see [`crate::slurm::worker`]): the
+/// record, whether another process computed it meanwhile, and the node's warnings.
+/// Refuses to compute anything but the coordinator's key.
+pub(crate) fn compute_action(
+    plan: &Plan,
+    store: &Store,
+    opts: &RunOptions,
+    spec: &crate::slurm::ActionSpec,
+    ran_on: &RanOn,
+    threads: usize,
+) -> Result<(ActionRecord, bool, Vec<String>)> {
+    let i = plan
+        .index(&spec.node)
+        .ok_or_else(|| anyhow!("no node `{}` in {}", spec.node, plan.source.path.display()))?;
+    let node = &plan.nodes[i];
+    let pk = params_key(plan, i)?;
+    // The key covers the item separately from the other inputs.
+    let mut key_inputs = spec.inputs.clone();
+    if let Some(each) = node.inputs.iter().find(|x| x.each) {
+        key_inputs.remove(&each.port);
+    }
+    let spec_ = &node.reg.spec;
+    let key = compute_key(
+        &spec_.kind,
+        &spec_.version,
+        &pk,
+        &key_inputs,
+        spec.item.as_ref(),
+    );
+    if key != spec.key {
+        anyhow::bail!(
+            "this is not the action the coordinator planned (key {} here, {} there): the graph file, \
+             a param, a file the node reads or the objectsplat build differs between the coordinator \
+             and this node; the cache, the graph and its inputs must be the same files on both",
+            short(&key),
+            short(&spec.key)
+        );
+    }
+    let job = Job {
+        node: i,
+        item: spec.item.clone(),
+        key,
+        params_key: pk,
+        inputs: spec.inputs.clone(),
+        label: match &spec.item {
+            Some((n, _)) => format!("{}[{n}]", node.id),
+            None => node.id.clone(),
+        },
+        queued_at: Instant::now(),
+    };
+    opts.observer.job_started(&job.label);
+    let cancel = AtomicBool::new(false);
+    let mut warnings = Vec::new();
+    let t0 = Instant::now();
+    let (rec, hit) = execute_inner(
+        plan,
+        store,
+        opts,
+        &job,
+        threads,
+        &cancel,
+        &mut warnings,
+        ran_on,
+    )?;
+    let status = match (hit, rec.status.as_str()) {
+        (true, _) => Status::Cached,
+        (false, "skipped") => Status::Skipped,
+        _ => Status::Ran,
+    };
+    opts.observer
+        .job_finished(&job.label, status, t0.elapsed().as_secs_f64());
+    Ok((rec, hit, warnings))
 }
 
 fn materialize_targets(plan: &Plan, store: &Store, report: &RunReport, out: &Path) -> Result<()> {

@@ -8,10 +8,12 @@
 //!   },
 //!   targets: ["train"],
 //!   plugins: ["../target/release/libmy_plugin.so"],
+//!   slurm: (partition: "gpu"),
 //! )
 //! ```
 
 use crate::diag::{Diagnostic, Diagnostics};
+use crate::slurm::SlurmSettings;
 use crate::syntax::{self, SKind, Span, Spanned};
 use std::path::{Path, PathBuf};
 
@@ -107,6 +109,9 @@ pub struct NodeDecl {
     pub kind_span: Span,
     pub params: Vec<ParamDecl>,
     pub inputs: Vec<InputDecl>,
+    /// Its `slurm: (...)` field: options for its Slurm jobs (and, on a node that does
+    /// not fan out, the request to run it as one).
+    pub slurm: Option<SlurmSettings>,
     pub span: Span,
 }
 
@@ -115,6 +120,8 @@ pub struct GraphDecl {
     pub nodes: Vec<NodeDecl>,
     pub targets: Vec<(String, Span)>,
     pub plugins: Vec<(String, Span)>,
+    /// The graph's `slurm: (...)` field: defaults for every Slurm job of the graph.
+    pub slurm: SlurmSettings,
 }
 
 pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
@@ -145,6 +152,7 @@ pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
         nodes: vec![],
         targets: vec![],
         plugins: vec![],
+        slurm: SlurmSettings::default(),
     };
     let mut saw_nodes = false;
     for (name, name_span, value) in fields {
@@ -189,9 +197,15 @@ pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
                 }
                 Err((span, msg)) => diags.push(src.diag(span, format!("`{name}`: {msg}"))),
             },
+            "slurm" => match SlurmSettings::parse(src, value, None) {
+                Ok(s) => graph.slurm = s,
+                Err(mut d) => diags.append(&mut d),
+            },
             other => diags.push(src.diag(
                 *name_span,
-                format!("unknown graph field `{other}`; expected `nodes`, `targets` or `plugins`"),
+                format!(
+                    "unknown graph field `{other}`; expected `nodes`, `targets`, `plugins` or `slurm`"
+                ),
             )),
         }
     }
@@ -260,6 +274,7 @@ fn parse_node(src: &GraphSource, key: &Spanned, v: &Spanned) -> Result<NodeDecl,
     let mut kind = None;
     let mut params = Vec::new();
     let mut inputs = Vec::new();
+    let mut slurm = None;
     for (name, name_span, value) in fields {
         match name.as_str() {
             "kind" => match &value.kind {
@@ -294,10 +309,14 @@ fn parse_node(src: &GraphSource, key: &Spanned, v: &Spanned) -> Result<NodeDecl,
                     format!("node {id:?}: `inputs` must be a struct `(port: \"node.port\", ...)`, found {}", value.shape()),
                 )),
             },
+            "slurm" => match SlurmSettings::parse(src, value, Some(&id)) {
+                Ok(s) => slurm = Some(s),
+                Err(mut d) => diags.append(&mut d),
+            },
             "doc" => {}
             other => diags.push(src.diag(
                 *name_span,
-                format!("node {id:?}: unknown field `{other}`; expected `kind`, `params`, `inputs` or `doc`"),
+                format!("node {id:?}: unknown field `{other}`; expected `kind`, `params`, `inputs`, `slurm` or `doc`"),
             )),
         }
     }
@@ -318,6 +337,7 @@ fn parse_node(src: &GraphSource, key: &Spanned, v: &Spanned) -> Result<NodeDecl,
         kind_span,
         params,
         inputs,
+        slurm,
         span: v.span,
     })
 }

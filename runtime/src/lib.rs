@@ -1,6 +1,7 @@
 //! The ObjectSplat dataflow engine. It knows nothing about 3D: nodes are
 //! functions from input folders to output folders; the engine validates graphs,
-//! caches results by content, schedules work in parallel and loads plugins.
+//! caches results by content, schedules work in parallel (here, or as Slurm jobs)
+//! and loads plugins.
 
 pub mod check;
 pub mod diag;
@@ -14,6 +15,7 @@ pub mod plan;
 pub mod plugin;
 pub mod registry;
 pub mod report;
+pub mod slurm;
 pub mod store;
 pub mod syntax;
 pub mod testing;

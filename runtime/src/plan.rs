@@ -5,6 +5,7 @@ use crate::graph::{GraphDecl, GraphSource, NodeDecl, parse_graph};
 use crate::node::TypeRef;
 use crate::params::{ParamType, Params};
 use crate::registry::{Registered, Registry};
+use crate::slurm::SlurmSettings;
 use crate::syntax::{self, Span};
 use crate::value::Value;
 use petgraph::algo::toposort;
@@ -99,6 +100,8 @@ pub struct PlanNode {
     pub fans_out: bool,
     /// Output types as consumers see them (lifted to collections under fan-out).
     pub outputs: BTreeMap<String, TypeRef>,
+    /// The node's `slurm: (...)` field, if it has one.
+    pub slurm: Option<SlurmSettings>,
 }
 
 #[derive(Clone)]
@@ -109,6 +112,8 @@ pub struct Plan {
     pub order: Vec<usize>,
     pub targets: Vec<usize>,
     pub plugins: Vec<PathBuf>,
+    /// The graph's `slurm: (...)` field (defaults for every Slurm job).
+    pub slurm: SlurmSettings,
 }
 
 impl Plan {
@@ -230,6 +235,7 @@ fn check(
                 inputs: vec![],
                 fans_out: n.inputs.iter().any(|i| i.source.each),
                 outputs: BTreeMap::new(),
+                slurm: n.slurm.clone(),
             })),
             Err(mut d) => {
                 diags.append(&mut d);
@@ -457,6 +463,7 @@ fn check(
             .iter()
             .map(|(p, _)| src.dir().join(p))
             .collect(),
+        slurm: decl.slurm.clone(),
     })
 }
 

@@ -33,6 +33,13 @@ pub struct ItemReport {
     pub queued_seconds: f64,
     #[serde(skip_serializing_if = "Option::is_none")]
     pub reason: Option<String>,
+    /// Where it was computed: `local` or `slurm` (a cache hit: where its record says;
+    /// `null` for records older than this field and for items that never ran).
+    pub executor: Option<String>,
+    /// The Slurm job that computed it (`<array job>_<task>`).
+    pub job_id: Option<String>,
+    /// The machine that computed it.
+    pub host: Option<String>,
     /// The notes this item's run left (each item its own).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub notes: BTreeMap<String, String>,
@@ -50,6 +57,10 @@ pub struct NodeReport {
     pub queued_seconds: f64,
     pub reason: Option<String>,
     pub items: Vec<ItemReport>,
+    /// For a node that does not fan out: where it was computed (as for items).
+    pub executor: Option<String>,
+    pub job_id: Option<String>,
+    pub host: Option<String>,
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub notes: BTreeMap<String, String>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -135,6 +146,9 @@ impl RunReport {
             for (k, v) in &n.notes {
                 s.push_str(&format!("  {:<w$}    {k}: {v}\n", ""));
             }
+            if let Some(line) = slurm_summary(n) {
+                s.push_str(&format!("  {:<w$}    {line}\n", ""));
+            }
             for i in &n.items {
                 for (k, v) in &i.notes {
                     s.push_str(&format!("  {:<w$}    [{}] {k}: {v}\n", "", i.name));
@@ -166,6 +180,45 @@ impl RunReport {
         ));
         s
     }
+}
+
+/// One line on where a node's work ran on Slurm in this run (every item's job and
+/// host is in `--json`): how many jobs, in which arrays, on which hosts.
+fn slurm_summary(n: &NodeReport) -> Option<String> {
+    let mut jobs: Vec<(&str, Option<&str>)> = n
+        .items
+        .iter()
+        .filter(|i| i.status != Status::Cached)
+        .filter(|i| i.executor.as_deref() == Some("slurm"))
+        .filter_map(|i| Some((i.job_id.as_deref()?, i.host.as_deref())))
+        .collect();
+    if n.items.is_empty() && n.status != Status::Cached && n.executor.as_deref() == Some("slurm") {
+        jobs.extend(n.job_id.as_deref().map(|j| (j, n.host.as_deref())));
+    }
+    if jobs.is_empty() {
+        return None;
+    }
+    let mut arrays: Vec<&str> = jobs
+        .iter()
+        .map(|(j, _)| j.split('_').next().unwrap_or(j))
+        .collect();
+    arrays.sort_unstable();
+    arrays.dedup();
+    let mut hosts: Vec<&str> = jobs.iter().filter_map(|(_, h)| *h).collect();
+    hosts.sort_unstable();
+    hosts.dedup();
+    Some(format!(
+        "slurm: {} job{} (array{} {}) on {}",
+        jobs.len(),
+        if jobs.len() == 1 { "" } else { "s" },
+        if arrays.len() == 1 { "" } else { "s" },
+        arrays.join(", "),
+        if hosts.is_empty() {
+            "an unknown node".to_string()
+        } else {
+            hosts.join(", ")
+        }
+    ))
 }
 
 /// After the seconds column: where a cached time comes from, and queue waiting worth

@@ -8,8 +8,9 @@
 //! <cache>/actions/<aa>/<key>.json    one record per node run (or item run), keyed by
 //!                                    the run's cache key; carries its own checksum
 //! <cache>/heads/<graph>.json        the last keys each node of a graph ran with (for `explain`)
-//! <cache>/locks/<key>.lock           held while a key is being computed (cross-process)
+//! <cache>/locks/<aa>/<key>.lock      held while a key is being computed (cross-process)
 //! <cache>/tmp/<pid>-<n>/             staging; renamed into place, never read across processes
+//! <cache>/slurm/                     job files of `--executor slurm` runs (see crate::slurm)
 //! ```
 //!
 //! Every write is temp-file + rename, so a crash leaves either nothing or a whole
@@ -88,6 +89,36 @@ pub struct ActionRecord {
     pub reason: Option<String>,
     pub seconds: f64,
     pub notes: Vec<(String, String)>,
+    /// Where the run happened (absent in records written before this was kept).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub ran_on: Option<RanOn>,
+}
+
+/// Where an action was computed: for the run report and for finding who computed what
+/// when several coordinators or cluster jobs share one cache.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RanOn {
+    /// `local` (in the coordinating process) or `slurm` (a cluster job).
+    pub executor: String,
+    /// The machine's host name (the Slurm node name for a job).
+    pub host: String,
+    /// The Slurm job (`<array job>_<task>`), for `slurm`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub job_id: Option<String>,
+    /// The computing process.
+    pub pid: u32,
+}
+
+impl RanOn {
+    /// This process, computing in the coordinator.
+    pub fn local() -> RanOn {
+        RanOn {
+            executor: "local".into(),
+            host: crate::slurm::host_name(),
+            job_id: None,
+            pid: std::process::id(),
+        }
+    }
 }
 
 #[derive(Serialize, Deserialize)]
@@ -562,19 +593,30 @@ impl Store {
 
     /// A folder that outlives a run of action `key` until that action
     /// succeeds: a long node keeps its progress there, so a killed run resumes
-    /// where it stopped. Only the holder of the key's lock uses it.
+    /// where it stopped. One per key (keys sharing a prefix must never resume
+    /// from each other's progress); only the holder of the key's lock uses it.
     pub fn resume_dir(&self, key: &str) -> PathBuf {
-        self.root.join("resume").join(hex2(key))
+        self.root.join("resume").join(hex2(key)).join(key)
     }
 
-    /// An exclusive cross-process lock on a key while it is computed.
+    /// An exclusive cross-process lock on a key while it is computed. One lock file
+    /// per key: cluster jobs hold theirs for hours, and a job must never wait (holding
+    /// its GPU) for an unrelated key that happens to share a lock.
     pub fn lock_key(&self, key: &str) -> Result<fs::File> {
+        let path = self
+            .root
+            .join("locks")
+            .join(hex2(key))
+            .join(format!("{key}.lock"));
+        self.ensure_parent(&path)?;
         let f = fs::OpenOptions::new()
             .create(true)
             .truncate(false)
             .write(true)
-            .open(self.root.join("locks").join(format!("{}.lock", hex2(key))))?;
-        f.lock()?;
+            .open(&path)
+            .with_context(|| format!("{}: cannot open lock", path.display()))?;
+        f.lock()
+            .with_context(|| format!("{}: cannot lock", path.display()))?;
         Ok(f)
     }
 

@@ -5,6 +5,11 @@
 //!   `error` and `panic` fail politely; `abort`, `segfault`, `stack_overflow` and
 //!   `exit` end the process the library runs in; `hang` never returns; `no_output`
 //!   returns `done` without writing; `huge_error` fails with a 50 MB message;
+//! - node `faulty_item` (Component → File), for fan-out tests (the Slurm executor's):
+//!   writes the item's name and `component.json`; `sleep_s` waits first, `fail_item`
+//!   names an item that fails every time, and `log` (an absolute path) gets a line
+//!   `start|done <item> job=<SLURM_JOB_ID> pid=<pid> ...` per attempt, the record of
+//!   what ran where (never part of the output);
 //! - `OBJECTSPLAT_FAULT_VARIANT` (read when the host loads the library) turns the
 //!   whole library bad: `wrong_abi` (entry table claims ABI v999), `malformed_describe`
 //!   (truncated JSON), `kind_collision` (declares the built-in `load_image`),
@@ -59,6 +64,61 @@ fn faulty_stage(req: &mut Request) -> Result<Outcome> {
     }
 }
 
+/// Appends one line to the `log` param's file (nothing when it is empty).
+fn log_line(req: &Request, event: &str) -> Result<()> {
+    let path: String = req.param("log")?;
+    if path.is_empty() {
+        return Ok(());
+    }
+    let env = |k: &str| std::env::var(k).unwrap_or_else(|_| "-".into());
+    let line = format!(
+        "{event} {} job={} pid={} ppid={} cpus={} partition={} name={}\n",
+        req.item().unwrap_or("-"),
+        match (
+            std::env::var("SLURM_ARRAY_JOB_ID"),
+            std::env::var("SLURM_ARRAY_TASK_ID")
+        ) {
+            (Ok(a), Ok(t)) => format!("{a}_{t}"),
+            _ => env("SLURM_JOB_ID"),
+        },
+        std::process::id(),
+        std::os::unix::process::parent_id(),
+        env("SLURM_CPUS_PER_TASK"),
+        env("SLURM_JOB_PARTITION"),
+        env("SLURM_JOB_NAME"),
+    );
+    use std::io::Write;
+    // One write of a short line to a file opened for appending: lines of concurrent
+    // writers do not interleave.
+    std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(&path)
+        .and_then(|mut f| f.write_all(line.as_bytes()))
+        .map_err(|e| anyhow!("{path}: cannot append: {e}"))
+}
+
+fn faulty_item(req: &mut Request) -> Result<Outcome> {
+    let item = req.item().unwrap_or("").to_string();
+    log_line(req, "start")?;
+    let sleep_s: f64 = req.param("sleep_s")?;
+    let until = std::time::Instant::now() + std::time::Duration::from_secs_f64(sleep_s.max(0.0));
+    while std::time::Instant::now() < until && !req.cancelled() {
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    if req.param::<String>("fail_item")? == item {
+        bail!("injected failure: faulty_item refused item {item}");
+    }
+    let info = std::fs::read(req.input("component")?.join("component.json"))
+        .map_err(|e| anyhow!("component.json: {e}"))?;
+    let out = req.output("file")?;
+    let mut text = format!("{item}\n").into_bytes();
+    text.extend_from_slice(&info);
+    std::fs::write(out.join("item.txt"), text).map_err(|e| anyhow!("item.txt: {e}"))?;
+    log_line(req, "done")?;
+    Ok(Outcome::Done)
+}
+
 fn variant() -> String {
     std::env::var("OBJECTSPLAT_FAULT_VARIANT").unwrap_or_default()
 }
@@ -71,7 +131,17 @@ fn plugin() -> &'static Plugin {
             "unknown_type" => ("faulty_stage", "Picture"),
             _ => ("faulty_stage", "Image"),
         };
-        Plugin::new("fault_injection", "1").node(
+        Plugin::new("fault_injection", "1")
+            .node(
+                NodeDecl::new("faulty_item", faulty_item)
+                    .doc("Writes a component's name and info; sleeps, fails or logs on request.")
+                    .input("component", "Component", "one item of a fan-out")
+                    .output("file", "File", "item.txt: the item's name, then its component.json")
+                    .param("sleep_s", "float", Some("0.0"), "seconds to wait first")
+                    .param("fail_item", "string", Some("\"\""), "the item that fails")
+                    .param("log", "string", Some("\"\""), "absolute path of the attempt log"),
+            )
+            .node(
             NodeDecl::new(kind, faulty_stage)
                 .doc("Copies an image, or fails on purpose in the way `mode` names.")
                 .input("image", port_type, "any image")

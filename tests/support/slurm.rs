@@ -1,0 +1,169 @@
+//! The `--executor slurm` tests' common ground: the one-node cluster that
+//! `scripts/slurm-local-cluster.sh up` starts, a small fan-out graph whose items are
+//! `faulty_item` jobs of the fault-injection plugin, and that plugin's attempt log (the
+//! record of what ran, as which Slurm job, in which process).
+
+use super::plugin_build::{build_plugin, scratch_root};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+use std::time::{Duration, Instant};
+
+/// Whether the local cluster answers. Under `CI=true` a missing cluster fails the test
+/// (CI starts it); elsewhere the test says loudly that it skipped and returns early.
+pub fn cluster_up(test: &str) -> bool {
+    let sinfo = Command::new("sinfo").args(["-h", "-o", "%T"]).output();
+    let state = match &sinfo {
+        Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).to_string(),
+        Ok(o) => String::from_utf8_lossy(&o.stderr).to_string(),
+        Err(e) => e.to_string(),
+    };
+    let up = sinfo.as_ref().is_ok_and(|o| o.status.success())
+        && ["idle", "mixed", "alloc"].iter().any(|s| state.contains(s));
+    if up {
+        return true;
+    }
+    let why = format!(
+        "no Slurm cluster answers (sinfo: {}); start one with `sudo scripts/slurm-local-cluster.sh up`",
+        state.trim()
+    );
+    if std::env::var("CI").as_deref() == Ok("true") {
+        panic!("{why}; CI requires {test}");
+    }
+    eprintln!("\n!!!!! SKIPPED {test}: {why} !!!!!\n");
+    false
+}
+
+/// A fresh folder for one test, with the fault-injection plugin in it.
+pub fn test_dir(name: &str) -> PathBuf {
+    let dir = scratch_root().join("slurm").join(name);
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    build_plugin("fault_injection", &[], &[], &dir.join("fault_injection.so"));
+    dir
+}
+
+/// The test graph: a tiny synthetic room partitioned into its components (seven: six
+/// objects and the background), and `faulty_item` once per component. `item_params`
+/// and `extra` are spliced into the `items` node's params and the graph's top level.
+pub fn fan_out_graph(item_params: &str, item_fields: &str, extra: &str) -> String {
+    format!(
+        r#"(
+  nodes: {{
+    "scene": (kind: "synthetic_scene",
+              params: (views: 4, width: 32, height: 24, points: 300, supersample: 1)),
+    "masks": (kind: "gt_masks", inputs: (frames: "scene.frames", mesh: "scene.mesh")),
+    "parts": (kind: "partition", inputs: (frames: "scene.frames", masks: "masks.masks")),
+    "items": (kind: "faulty_item", inputs: (component: each("parts.components")),
+              params: ({item_params}){item_fields}),
+  }},
+  targets: ["items"],
+  plugins: ["fault_injection.so"],
+  {extra}
+)"#
+    )
+}
+
+/// `objectsplat ARGS` in `cwd`.
+pub fn objectsplat(args: &[&str], cwd: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_objectsplat"))
+        .args(args)
+        .current_dir(cwd)
+        .output()
+        .expect("objectsplat runs")
+}
+
+/// Panics with the run's stderr unless it succeeded.
+pub fn assert_ok(out: &Output, what: &str) {
+    assert!(
+        out.status.success(),
+        "{what} failed:\n{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// One line of the plugin's attempt log.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Attempt {
+    /// `start` or `done`.
+    pub event: String,
+    pub item: String,
+    /// `<array job>_<task>`, or `-` outside Slurm.
+    pub job: String,
+    pub pid: u32,
+    /// The `objectsplat run-action` process that started the plugin's child.
+    pub ppid: u32,
+    pub cpus: String,
+    pub partition: String,
+    pub name: String,
+}
+
+pub fn attempts(log: &Path) -> Vec<Attempt> {
+    let text = std::fs::read_to_string(log).unwrap_or_default();
+    text.lines()
+        .map(|line| {
+            let f: Vec<&str> = line.split(' ').collect();
+            let field = |k: &str| {
+                f.iter()
+                    .find_map(|x| x.strip_prefix(k).and_then(|x| x.strip_prefix('=')))
+                    .unwrap_or_else(|| panic!("no {k} in log line {line:?}"))
+                    .to_string()
+            };
+            Attempt {
+                event: f[0].to_string(),
+                item: f[1].to_string(),
+                job: field("job"),
+                pid: field("pid").parse().unwrap(),
+                ppid: field("ppid").parse().unwrap(),
+                cpus: field("cpus"),
+                partition: field("partition"),
+                name: field("name"),
+            }
+        })
+        .collect()
+}
+
+/// Waits until `pred` holds for the attempt log (panics after `timeout`).
+pub fn wait_for(log: &Path, timeout: Duration, what: &str, pred: impl Fn(&[Attempt]) -> bool) {
+    let t0 = Instant::now();
+    loop {
+        let a = attempts(log);
+        if pred(&a) {
+            return;
+        }
+        assert!(
+            t0.elapsed() < timeout,
+            "timed out waiting for {what}; log so far: {a:#?}"
+        );
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// The jobs Slurm still lists (any state) whose name starts with `prefix`.
+pub fn queued_jobs(prefix: &str) -> Vec<String> {
+    let out = Command::new("squeue")
+        .args(["-h", "-r", "-o", "%i %j %T"])
+        .output()
+        .expect("squeue runs");
+    String::from_utf8_lossy(&out.stdout)
+        .lines()
+        .filter(|l| l.split(' ').nth(1).is_some_and(|n| n.starts_with(prefix)))
+        .map(str::to_string)
+        .collect()
+}
+
+/// Items of `node` in a `--json` report.
+pub fn items(report: &serde_json::Value, node: &str) -> Vec<serde_json::Value> {
+    report["nodes"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|n| n["id"] == node)
+        .unwrap_or_else(|| panic!("no node {node} in the report"))["items"]
+        .as_array()
+        .unwrap()
+        .clone()
+}
+
+pub fn read_json(path: &Path) -> serde_json::Value {
+    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
+}
