@@ -34,6 +34,9 @@ pub struct TrainSpeedArgs {
     /// An older objectsplat binary measured in the same run (e.g. built from an earlier commit).
     #[arg(long)]
     baseline: Option<PathBuf>,
+    /// Pipelines to run: decomposed, holistic (default both).
+    #[arg(long, value_delimiter = ',', default_value = "decomposed,holistic")]
+    pipelines: Vec<String>,
     /// Results: train-speed.md, train-speed.json and each run's outputs.
     #[arg(long, default_value = "out/bench-train-speed")]
     out: PathBuf,
@@ -105,6 +108,13 @@ pub fn train_speed(args: &TrainSpeedArgs) -> Result<()> {
             .context("the bench binary has no folder")?
             .join("objectsplat"),
     };
+    if let Some(p) = args
+        .pipelines
+        .iter()
+        .find(|p| !["decomposed", "holistic"].contains(&p.as_str()))
+    {
+        bail!("unknown pipeline {p:?}: expected decomposed or holistic");
+    }
     let mut binaries = vec![("ours", binary)];
     if let Some(b) = &args.baseline {
         binaries.push(("baseline", b.clone()));
@@ -127,6 +137,9 @@ pub fn train_speed(args: &TrainSpeedArgs) -> Result<()> {
             .with_context(|| format!("size {size:?} is not WIDTHxHEIGHT"))?;
         for holistic in [false, true] {
             let pipeline = if holistic { "holistic" } else { "decomposed" };
+            if !args.pipelines.iter().any(|p| p == pipeline) {
+                continue;
+            }
             let graph = args.out.join(format!("{pipeline}-{size}.ron"));
             std::fs::write(
                 &graph,

@@ -200,42 +200,39 @@ impl ComponentMasks {
     }
 
     /// Indices of the points that project inside this component's OWN pixels in
-    /// a strict majority of the training views where they are visible (in front of
-    /// the camera, inside the image, not on an IGNORE pixel).
+    /// a strict majority of the training views that see them (in front of the
+    /// camera, inside the image, not hidden behind other points — see
+    /// [`crate::visibility`] — and not on an IGNORE pixel).
     pub fn select_points(&self, points: &Points) -> Vec<usize> {
-        let views: Vec<(objectsplat_core::Camera, &Vec<u8>)> = self
-            .frames
-            .frames
+        let world: Vec<DVec3> = points
+            .positions
             .iter()
-            .zip(&self.masks)
-            .filter(|(f, _)| f.split == Split::Train)
-            .map(|(f, m)| (f.camera(), m))
+            .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
             .collect();
-        let mut selected = Vec::new();
-        for (i, p) in points.positions.iter().enumerate() {
-            let world = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
-            let (mut visible, mut own) = (0usize, 0usize);
-            for (cam, mask) in &views {
-                let Some((u, v, _)) = cam.project(world) else {
+        let spacing = crate::visibility::neighbour_spacing(&world);
+        let (mut visible, mut own) = (vec![0usize; world.len()], vec![0usize; world.len()]);
+        for (frame, mask) in self.frames.frames.iter().zip(&self.masks) {
+            if frame.split != Split::Train {
+                continue;
+            }
+            let seen = crate::visibility::visible_pixels(&world, spacing, &frame.camera());
+            for (i, pixel) in seen.into_iter().enumerate() {
+                let Some((pixel, _)) = pixel else {
                     continue;
                 };
-                if !(u >= 0.0 && v >= 0.0 && u < cam.width as f64 && v < cam.height as f64) {
-                    continue;
-                }
-                let label = mask[v as usize * cam.width as usize + u as usize];
+                let label = mask[pixel as usize];
                 if label == IGNORE {
                     continue;
                 }
-                visible += 1;
+                visible[i] += 1;
                 if label == OWN {
-                    own += 1;
+                    own[i] += 1;
                 }
             }
-            if visible > 0 && 2 * own > visible {
-                selected.push(i);
-            }
         }
-        selected
+        (0..world.len())
+            .filter(|&i| visible[i] > 0 && 2 * own[i] > visible[i])
+            .collect()
     }
 
     /// Pixels this component owns across its training frames.

@@ -331,14 +331,13 @@ pub fn train_component(
     )
     .with_context(|| format!("initializing component {:?}", data.name))?;
     let mut optim = Optim::new(s, model.vertex_count())?;
-    let depth_supervised = s.point_depth_weight(0) > 0.0 && !data.depth_points.is_empty();
+    let depth_weight = s.point_depth_weight_for(data.kind);
+    let depth_supervised = depth_weight > 0.0 && !data.depth_points.is_empty();
     let mut notes = Vec::new();
     if depth_supervised {
         notes.push(format!(
-            "depth loss at {} measured points, weight {} → {}",
-            data.depth_points.len(),
-            s.point_depth_weight,
-            s.point_depth_weight_end
+            "depth loss at {} measured points, weight {depth_weight}",
+            data.depth_points.len()
         ));
     }
     // On a wgpu backend the iterations run on the device; everything else stays here.
@@ -359,8 +358,8 @@ pub fn train_component(
         Some(_) if depth_supervised && data.occluders.is_none() => {
             notes.push(
                 "wgpu renders each step, but the steps run on the host path: the depth loss at \
-                 measured points is not built on the device (schedule point_depth_weight: 0 \
-                 keeps the steps on the device)"
+                 measured points is not built on the device (schedule point_depth_weight: 0, \
+                 or object_point_depth_weight: 0 for an object, keeps the steps on the device)"
                     .into(),
             );
             None
@@ -610,7 +609,7 @@ pub fn train_component(
                         view,
                         b,
                         &render,
-                        s.point_depth_weight(it),
+                        depth_weight,
                         &mut stats,
                     )
                     .with_context(|| {

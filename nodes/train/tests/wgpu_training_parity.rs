@@ -112,11 +112,12 @@ fn on_the_annealed_schedule_wgpu_and_cpu_agree_on_average_over_seeds() {
     let plate = plate();
     let cpu = CpuBackend::new(2);
     // Paired differences wgpu − cpu over training seeds: 1σ of one difference measured
-    // 0.24 dB (40 seeds) and 0.35 dB (16 seeds), so the mean of 12 has σ ≈ 0.07–0.10 dB
-    // and 0.4 dB is 4–5.5σ (measured: −0.058 and −0.209 dB in two runs of this test,
-    // −0.025 dB over 16 seeds). A backend that
-    // trains differently (a wrong or missing gradient group, a biased loss) moves every
-    // seed the same way and fails.
+    // 0.24 dB (40 seeds) and 0.35 dB (16 seeds), but the seeds of one process are not
+    // independent (the device's float-atomic order follows its thread layout): the mean
+    // of 12 measured −0.058, −0.209, −0.348, −0.081, −0.150 and +0.416 dB in six runs of
+    // this test (σ ≈ 0.25 dB), so the bound is 1 dB (4σ). The σ = 1 test above holds the
+    // gradients to 0.02 dB; this one catches a backend that trains differently on the
+    // annealed schedule (a biased loss, a stale window) and moves every seed far.
     let seeds = 0..12u64;
     let mut deltas = Vec::new();
     for seed in seeds {
@@ -132,7 +133,7 @@ fn on_the_annealed_schedule_wgpu_and_cpu_agree_on_average_over_seeds() {
         deltas.len()
     );
     assert!(
-        mean.abs() <= 0.4,
+        mean.abs() <= 1.0,
         "mean wgpu − cpu {mean:+.3} dB: {deltas:?}"
     );
 }
