@@ -101,6 +101,8 @@ pub struct Schedule {
     /// it), while the handful of points a small object owns only roughened it
     /// (demo: the ball 16.6 → 12.3 dB on its pixels with weight 1).
     pub object_point_depth_weight: f64,
+    /// The depth loss applies from this iteration on.
+    pub point_depth_start: u64,
 
     /// Held-out evaluation (best checkpoint) every this many iterations.
     pub eval_every: u64,
@@ -181,6 +183,7 @@ impl Schedule {
             final_prune_threshold: 0.5,
             point_depth_weight: 1.0,
             object_point_depth_weight: 0.0,
+            point_depth_start: 0,
             eval_every: every(500),
             patience: every(3000),
         }

@@ -609,7 +609,11 @@ pub fn train_component(
                         view,
                         b,
                         &render,
-                        depth_weight,
+                        if it >= s.point_depth_start {
+                            depth_weight
+                        } else {
+                            0.0
+                        },
                         &mut stats,
                     )
                     .with_context(|| {
