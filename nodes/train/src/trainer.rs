@@ -171,11 +171,17 @@ fn view_roles(data: &ComponentData, checkpoint: Checkpoint, select_on: SelectOn)
     match (checkpoint, select_on) {
         (Checkpoint::Last, _) | (Checkpoint::Best, SelectOn::Test) => test_or_train(train),
         (Checkpoint::Best, SelectOn::Validation) if train.len() >= 8 => {
-            let (validation, train): (Vec<(usize, usize)>, Vec<(usize, usize)>) =
-                train.into_iter().enumerate().partition(|(k, _)| k % 8 == 7);
+            // Every 8th training view (by position) is held out for validation.
+            let held_out = |k: &usize| k % 8 == 7;
             ViewRoles {
-                train: train.into_iter().map(|(_, v)| v).collect(),
-                scored: validation.into_iter().map(|(_, v)| v).collect(),
+                scored: (0..train.len())
+                    .filter(held_out)
+                    .map(|k| train[k])
+                    .collect(),
+                train: (0..train.len())
+                    .filter(|k| !held_out(k))
+                    .map(|k| train[k])
+                    .collect(),
                 scored_on: "validation",
             }
         }
@@ -830,4 +836,58 @@ pub fn train_component(
         notes,
         log,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use objectsplat_core::{Camera, ComponentKind};
+
+    /// Views named by index, split as given.
+    fn data(splits: &[Split]) -> ComponentData {
+        let camera = Camera::look_at(
+            4,
+            4,
+            4.0,
+            4.0,
+            glam::DVec3::new(0.0, 0.0, -1.0),
+            glam::DVec3::ZERO,
+            glam::DVec3::Y,
+        );
+        ComponentData {
+            name: "c".into(),
+            kind: ComponentKind::Object,
+            views: splits
+                .iter()
+                .enumerate()
+                .map(|(k, &split)| View {
+                    name: format!("v{k}"),
+                    camera: camera.clone(),
+                    target: vec![0.0; 48],
+                    labels: vec![0; 16],
+                    split,
+                })
+                .collect(),
+            occluders: None,
+            depth_points: Vec::new(),
+        }
+    }
+
+    #[test]
+    fn validation_holds_out_every_eighth_training_view() {
+        // 17 training views with a test view at index 3.
+        let mut splits = vec![Split::Train; 18];
+        splits[3] = Split::Test;
+        let roles = view_roles(&data(&splits), Checkpoint::Best, SelectOn::Validation);
+        let train: Vec<usize> = (0..18).filter(|&i| i != 3).collect();
+        // Positions 7 and 15 among the training views: views 8 and 16.
+        assert_eq!(roles.scored, vec![8, 16]);
+        assert_eq!(roles.scored_on, "validation");
+        let kept: Vec<usize> = train.into_iter().filter(|v| ![8, 16].contains(v)).collect();
+        assert_eq!(roles.train, kept);
+        // `last` trains on every training view and reports on the test views.
+        let last = view_roles(&data(&splits), Checkpoint::Last, SelectOn::Validation);
+        assert_eq!(last.scored, vec![3]);
+        assert_eq!(last.train.len(), 17);
+    }
 }
