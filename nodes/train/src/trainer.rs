@@ -862,7 +862,7 @@ mod tests {
                 .enumerate()
                 .map(|(k, &split)| View {
                     name: format!("v{k}"),
-                    camera: camera.clone(),
+                    camera,
                     target: vec![0.0; 48],
                     labels: vec![0; 16],
                     split,
