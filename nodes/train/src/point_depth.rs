@@ -80,22 +80,21 @@ impl PointDepth {
             return 0.0;
         };
         let region = out.region;
-        let width = out.width;
-        let inside: Vec<(usize, f32)> = points
-            .iter()
-            .filter_map(|&(pixel, d)| {
-                let (x, y) = (pixel % width, pixel / width);
-                region.contains(x, y).then(|| {
-                    let i = (y - region.y0) as usize * region.width() as usize
-                        + (x - region.x0) as usize;
-                    (i, d)
-                })
+        // The region index of each point inside the render's region (no allocation:
+        // this runs on every training step).
+        let inside = points.iter().filter_map(|&(pixel, d)| {
+            let (x, y) = (pixel % out.width, pixel / out.width);
+            region.contains(x, y).then(|| {
+                let i =
+                    (y - region.y0) as usize * region.width() as usize + (x - region.x0) as usize;
+                (i, d)
             })
-            .collect();
-        if inside.is_empty() {
+        });
+        let count = inside.clone().count();
+        if count == 0 {
             return 0.0;
         }
-        let scale = weight / inside.len() as f64;
+        let scale = weight / count as f64;
         let mut loss = 0.0;
         for (i, d) in inside {
             let alpha = out.alpha[i];
