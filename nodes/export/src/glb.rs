@@ -1,6 +1,6 @@
 //! Binary glTF 2.0 (`.glb`) export of a decomposed scene: one node and one mesh per object.
 //!
-//! Layout (see `docs/formats.md` §8): a root node `scene` carrying the Z-up→Y-up rotation,
+//! Layout (docs/artifacts.md, "glTF export"): a root node `scene` carrying the Z-up→Y-up rotation,
 //! one child node per component named `obj_<id>_<label>` (or `background`) with `extras`
 //! `{"kind", "object_id", "label", "num_faces", "num_vertices"}` and the component's
 //! [`Placement`](crate::Placement) as its translation / rotation / scale (vertices relative

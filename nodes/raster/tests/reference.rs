@@ -1,6 +1,6 @@
 //! The forward pass against independent computations: the analytic pixel set
 //! of one opaque triangle, and a brute-force per-pixel renderer written from
-//! the trainer.md definitions (edge normals, incenter, φ = max of the signed
+//! the definitions in docs/trainer.md (edge normals, incenter, φ = max of the signed
 //! edge distances) instead of the backend's barycentric closed form.
 
 // Colour channels index several parallel arrays at once.
