@@ -54,7 +54,11 @@ fn doc_references(text: &str) -> Vec<String> {
 #[test]
 fn reference_extraction() {
     // Spelled in pieces so that this file names no missing page itself.
-    let text = concat!("see docs", "/one.md. And `docs", "/a-b_c.md`, docs/images/x.png, docs/.");
+    let text = concat!(
+        "see docs",
+        "/one.md. And `docs",
+        "/a-b_c.md`, docs/images/x.png, docs/."
+    );
     assert_eq!(
         doc_references(text),
         vec![concat!("docs", "/one.md"), concat!("docs", "/a-b_c.md")]

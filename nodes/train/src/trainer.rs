@@ -251,15 +251,17 @@ fn screen_sizes(model: &Model<f32>, cameras: &[&objectsplat_core::Camera]) -> Sc
                 continue;
             };
             let (cx, cy) = ((a.0 + b.0 + c.0) / 3.0, (a.1 + b.1 + c.1) / 3.0);
+            // Pixel distances: far from overflow, so `hypot`'s care (and cost) is not needed.
+            let length = |dx: f64, dy: f64| (dx * dx + dy * dy).sqrt();
             let e = [a, b, c]
                 .iter()
-                .map(|p| (p.0 - cx).hypot(p.1 - cy))
+                .map(|p| length(p.0 - cx, p.1 - cy))
                 .fold(0.0, f64::max);
             sizes.extent[f] = sizes.extent[f].max(e);
             let twice_area = ((b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1)).abs();
-            let perimeter = (b.0 - a.0).hypot(b.1 - a.1)
-                + (c.0 - b.0).hypot(c.1 - b.1)
-                + (a.0 - c.0).hypot(a.1 - c.1);
+            let perimeter = length(b.0 - a.0, b.1 - a.1)
+                + length(c.0 - b.0, c.1 - b.1)
+                + length(a.0 - c.0, a.1 - c.1);
             if perimeter > 0.0 {
                 sizes.inradius[f] = sizes.inradius[f].max(twice_area / perimeter);
             }

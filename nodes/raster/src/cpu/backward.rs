@@ -1,17 +1,15 @@
 //! The analytic backward pass.
 //!
-//! Per tile, the forward loop is replayed (same code, same thresholds, same
-//! early stop) storing each pixel's fragments and the transmittance before
-//! each; then the faces are walked back to front. Replaying instead of
-//! recovering T by dividing by (1 − α) keeps the backward exact even after
-//! many near-opaque fragments. Gradients go to a partial per (tile, face)
+//! Per tile, the forward pass kept every blended fragment's window value and
+//! the transmittance before it ([`TileFragments`]); the faces are walked
+//! back to front over them. Keeping T instead of recovering it by dividing
+//! by (1 − α) keeps the backward exact even after many near-opaque fragments. Gradients go to a partial per (tile, face)
 //! entry; faces then sum their partials in tile order and vertices gather
 //! from their faces in face order, so the result does not depend on the
 //! thread count.
 
-use super::binning::TILE_PIXELS;
-use super::binning::{TILE, TileGrid};
-use super::forward::{Fragment, PixelRules, clip_to_tile, evaluate, row_span};
+use super::binning::{TILE, TILE_PIXELS, TileGrid};
+use super::forward::{EntryStats, Fragment, PixelRules, TileFragments, reevaluate};
 use super::preprocess::ScreenFace;
 use crate::real::Real;
 
@@ -55,25 +53,8 @@ pub struct PixelGrads<'a, R: Real> {
     pub median_depth: Option<&'a [R]>,
 }
 
-const NONE: u32 = u32::MAX;
-
-/// A replayed fragment, linked to the previous fragment of the same pixel.
-#[derive(Clone, Copy)]
-pub struct Replayed<R: Real> {
-    frag: Fragment<R>,
-    t_before: R,
-    slot: u32,
-    prev: u32,
-}
-
-/// Per-thread buffers of the backward pass, reused across tiles.
-#[derive(Default)]
-pub struct TileScratch<R: Real> {
-    frags: Vec<Replayed<R>>,
-    hits: Vec<u32>,
-}
-
-/// `background` covers the rendered region (as the gradients do).
+/// `background` covers the rendered region (as the gradients do); `kept` is
+/// what the forward pass of this tile recorded and `stats` its entry statistics.
 #[allow(clippy::too_many_arguments)]
 pub fn backward_tile<R: Real>(
     grid: &TileGrid,
@@ -82,69 +63,16 @@ pub fn backward_tile<R: Real>(
     entries: &[u32],
     background: &[R],
     rules: &PixelRules<R>,
+    kept: &TileFragments<R>,
+    stats: &[EntryStats<R>],
     grads: &PixelGrads<'_, R>,
-    scratch: &mut TileScratch<R>,
     partials: &mut [FacePartial<R>],
     d_background: &mut [[R; 3]],
 ) {
     let rect = grid.tile_rect(tile);
     let [x0, y0, x1, y1] = rect;
     let local = |x: u32, y: u32| ((y - y0) * TILE + (x - x0)) as usize;
-
-    // Replay the forward pass exactly as `render_tile` walks it, keeping every
-    // fragment in a per-pixel linked list (newest first).
-    let frags = &mut scratch.frags;
-    frags.clear();
-    scratch.hits.clear();
-    scratch.hits.resize(entries.len(), 0);
-    let mut head = [NONE; TILE_PIXELS];
-    let mut median = [NONE; TILE_PIXELS];
-    let mut t = [R::one(); TILE_PIXELS];
-    let mut done = [false; TILE_PIXELS];
-    let mut remaining = ((x1 - x0) * (y1 - y0)) as usize;
-    let mut last_slot = 0;
-    for (slot, &fi) in entries.iter().enumerate() {
-        if remaining == 0 {
-            break;
-        }
-        last_slot = slot + 1;
-        let f = &faces[fi as usize];
-        let Some((xa, xb, ya, yb)) = clip_to_tile(f, rect) else {
-            continue;
-        };
-        for y in ya..=yb {
-            let Some((xs, xe)) = row_span(f, y, xa, xb) else {
-                continue;
-            };
-            let py = R::of(y as f64 + 0.5);
-            for x in xs..=xe {
-                let i = local(x, y);
-                if done[i] {
-                    continue;
-                }
-                let Some(frag) = evaluate(f, R::of(x as f64 + 0.5), py, rules) else {
-                    continue;
-                };
-                let idx = frags.len() as u32;
-                if t[i] > rules.half {
-                    median[i] = idx;
-                }
-                frags.push(Replayed {
-                    frag,
-                    t_before: t[i],
-                    slot: slot as u32,
-                    prev: head[i],
-                });
-                head[i] = idx;
-                scratch.hits[slot] += 1;
-                t[i] *= R::one() - frag.alpha;
-                if t[i] < rules.transmittance_min {
-                    done[i] = true;
-                    remaining -= 1;
-                }
-            }
-        }
-    }
+    let t = &kept.transmittance;
 
     // Per pixel: upstream gradients, the background gradient and the running
     // `behind` = Σ_{m>n} h_m w_m + T_final·(b·G_C) − G_A·T_final, where
@@ -167,42 +95,42 @@ pub fn backward_tile<R: Real>(
         }
     }
 
-    // Back to front, face by face: each pixel's newest unprocessed fragment
-    // belongs to the current face exactly when it contributed there.
-    for slot in (0..last_slot).rev() {
-        if scratch.hits[slot] == 0 {
+    // Back to front, entry by entry; an entry's fragments touch distinct
+    // pixels, so their order inside the entry (the forward's) does not
+    // change any pixel's `behind`.
+    let mut end = kept.frags.len();
+    for slot in (0..kept.visited).rev() {
+        let start = end - stats[slot].pixels as usize;
+        if start == end {
             continue;
         }
         let f = &faces[entries[slot] as usize];
-        let Some((xa, xb, ya, yb)) = clip_to_tile(f, rect) else {
-            continue;
-        };
         let mut part = FacePartial::<R>::default();
-        for y in ya..=yb {
-            let Some((xs, xe)) = row_span(f, y, xa, xb) else {
-                continue;
-            };
-            for x in xs..=xe {
-                let i = local(x, y);
-                let idx = head[i];
-                if idx == NONE || frags[idx as usize].slot != slot as u32 {
-                    continue;
-                }
-                let rep = frags[idx as usize];
-                head[i] = rep.prev;
-                let is_median = median[i] == idx;
-                accumulate_fragment(
-                    f,
-                    &rep,
-                    gc[i],
-                    gd[i],
-                    if is_median { gm[i] } else { R::zero() },
-                    &mut behind[i],
-                    &mut part,
-                );
-            }
+        for (idx, k) in kept.frags[start..end].iter().enumerate() {
+            let i = k.pixel as u32;
+            let (x, y) = (x0 + i % TILE, y0 + i / TILE);
+            let frag = reevaluate(
+                f,
+                R::of(x as f64 + 0.5),
+                R::of(y as f64 + 0.5),
+                k.intensity,
+                rules,
+            );
+            let is_median = kept.median[i as usize] == (start + idx) as u32;
+            let i = i as usize;
+            accumulate_fragment(
+                f,
+                &frag,
+                k.t_before,
+                gc[i],
+                gd[i],
+                if is_median { gm[i] } else { R::zero() },
+                &mut behind[i],
+                &mut part,
+            );
         }
         partials[slot] = part;
+        end = start;
     }
 }
 
@@ -211,19 +139,19 @@ pub fn backward_tile<R: Real>(
 #[allow(clippy::too_many_arguments)]
 fn accumulate_fragment<R: Real>(
     f: &ScreenFace<R>,
-    rep: &Replayed<R>,
+    fr: &Fragment<R>,
+    t_before: R,
     gc: [R; 3],
     gd: R,
     gm: R,
     behind: &mut R,
     part: &mut FacePartial<R>,
 ) {
-    let fr = &rep.frag;
     let c = fr.color(f);
     let z = fr.depth(f);
-    let w = fr.alpha * rep.t_before;
+    let w = fr.alpha * t_before;
     let h = c[0] * gc[0] + c[1] * gc[1] + c[2] * gc[2] + z * gd;
-    let d_alpha = rep.t_before * h - *behind / (R::one() - fr.alpha);
+    let d_alpha = t_before * h - *behind / (R::one() - fr.alpha);
     *behind += h * w;
 
     let d_c = gc.map(|g| g * w);
@@ -243,7 +171,7 @@ fn accumulate_fragment<R: Real>(
         // α = o·G^σ.
         part.d_opacity += d_alpha * fr.intensity;
         let d_g = d_alpha * f.opacity * f.sigma * fr.intensity / fr.g;
-        let k = fr.kstar;
+        let k = fr.kstar as usize;
         d_lambda[k] += d_g * f.scale[k];
         part.d_scale[k] += d_g * fr.lambda[k];
     }

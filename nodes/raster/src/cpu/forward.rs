@@ -35,7 +35,7 @@ pub struct Fragment<R: Real> {
     pub lambda: [R; 3],
     /// Window argument `G = min_k λ_k·P/L_k` (φ/φ(s)) and the corner attaining it.
     pub g: R,
-    pub kstar: usize,
+    pub kstar: u8,
     /// Window value `G^σ`.
     pub intensity: R,
     pub alpha: R,
@@ -65,6 +65,31 @@ pub fn evaluate<R: Real>(
     py: R,
     rules: &PixelRules<R>,
 ) -> Option<Fragment<R>> {
+    let (q, lambda, g, kstar) = window_argument(f, px, py);
+    if !(g > R::zero()) {
+        return None;
+    }
+    let frag = fragment(f, q, lambda, g, kstar, g.powf(f.sigma), rules);
+    (frag.alpha >= rules.alpha_min).then_some(frag)
+}
+
+/// The fragment [`evaluate`] returned at `(px, py)`, rebuilt from its window
+/// value `intensity` (the one costly term): same arithmetic, same bits.
+#[inline(always)]
+pub fn reevaluate<R: Real>(
+    f: &ScreenFace<R>,
+    px: R,
+    py: R,
+    intensity: R,
+    rules: &PixelRules<R>,
+) -> Fragment<R> {
+    let (q, lambda, g, kstar) = window_argument(f, px, py);
+    fragment(f, q, lambda, g, kstar, intensity, rules)
+}
+
+/// The pixel's local position, barycentrics, `G = min_k λ_k·P/L_k` and its corner.
+#[inline(always)]
+fn window_argument<R: Real>(f: &ScreenFace<R>, px: R, py: R) -> ([R; 2], [R; 3], R, u8) {
     let q = [px - f.origin[0], py - f.origin[1]];
     let lambda = f.lam.map(|l| l[0] * q[0] + l[1] * q[1] + l[2]);
     let g = [
@@ -79,26 +104,30 @@ pub fn evaluate<R: Real>(
     if g[2] < g[kstar] {
         kstar = 2;
     }
-    let gmin = g[kstar];
-    if !(gmin > R::zero()) {
-        return None;
-    }
-    let intensity = gmin.powf(f.sigma);
+    (q, lambda, g[kstar], kstar as u8)
+}
+
+#[inline(always)]
+fn fragment<R: Real>(
+    f: &ScreenFace<R>,
+    q: [R; 2],
+    lambda: [R; 3],
+    g: R,
+    kstar: u8,
+    intensity: R,
+    rules: &PixelRules<R>,
+) -> Fragment<R> {
     let raw = f.opacity * intensity;
     let clamped = raw > rules.alpha_max;
-    let alpha = if clamped { rules.alpha_max } else { raw };
-    if alpha < rules.alpha_min {
-        return None;
-    }
-    Some(Fragment {
+    Fragment {
         q,
         lambda,
-        g: gmin,
+        g,
         kstar,
         intensity,
-        alpha,
+        alpha: if clamped { rules.alpha_max } else { raw },
         clamped,
-    })
+    }
 }
 
 /// Forward results of one pixel, before scattering to row-major images.
@@ -178,11 +207,40 @@ impl<R: Real> Background<'_, R> {
     }
 }
 
+/// No fragment.
+pub const NONE: u32 = u32::MAX;
+
+/// One blended fragment as its backward pass needs it: the rest is cheap to
+/// recompute from the face and the pixel ([`reevaluate`]).
+#[derive(Clone, Copy)]
+pub struct Kept<R: Real> {
+    pub intensity: R,
+    /// The pixel's transmittance before this fragment.
+    pub t_before: R,
+    /// Row-major index inside the 16×16 tile.
+    pub pixel: u8,
+}
+
+/// What the forward pass of one tile leaves for its backward pass: its
+/// fragments in blending order, entry by entry (entry `e` blended
+/// `EntryStats::pixels` of them), so the backward walks exactly what the
+/// forward blended without scanning or evaluating pixels again.
+#[derive(Default)]
+pub struct TileFragments<R: Real> {
+    pub frags: Vec<Kept<R>>,
+    /// Per tile pixel: the fragment that set its median depth.
+    pub median: Vec<u32>,
+    /// Per tile pixel: the transmittance left after all its fragments.
+    pub transmittance: Vec<R>,
+    /// Entries the pass visited (it stops once every pixel is saturated).
+    pub visited: usize,
+}
+
 /// Composites one tile front to back. Faces are walked in depth order and
 /// each visits only the tile pixels it can cover, keeping per-pixel state;
 /// every pixel therefore sees its fragments in exactly the per-pixel order.
 /// `pixels` is the tile's 16×16 slot buffer (row-major inside the tile),
-/// `stats` parallels the tile's entries.
+/// `stats` parallels the tile's entries, and `kept` receives the fragments.
 #[allow(clippy::too_many_arguments)]
 pub fn render_tile<R: Real>(
     grid: &TileGrid,
@@ -193,6 +251,7 @@ pub fn render_tile<R: Real>(
     rules: &PixelRules<R>,
     pixels: &mut [PixelOut<R>],
     stats: &mut [EntryStats<R>],
+    kept: &mut TileFragments<R>,
 ) {
     debug_assert_eq!(pixels.len(), TILE_PIXELS);
     let rect = grid.tile_rect(tile);
@@ -202,11 +261,16 @@ pub fn render_tile<R: Real>(
     for p in pixels.iter_mut() {
         *p = PixelOut::default();
     }
+    kept.frags.clear();
+    kept.median.clear();
+    kept.median.resize(TILE_PIXELS, NONE);
+    kept.visited = 0;
     let mut remaining = ((x1 - x0) * (y1 - y0)) as usize;
     for (slot, &fi) in entries.iter().enumerate() {
         if remaining == 0 {
             break;
         }
+        kept.visited = slot + 1;
         let f = &faces[fi as usize];
         let Some((xa, xb, ya, yb)) = clip_to_tile(f, rect) else {
             continue;
@@ -233,9 +297,17 @@ pub fn render_tile<R: Real>(
                     out.color[ch] += w * c[ch];
                 }
                 out.depth += w * z;
+                let idx = kept.frags.len() as u32;
                 if t[i] > rules.half {
                     out.median_depth = z;
+                    kept.median[i] = idx;
                 }
+                kept.frags.push(Kept {
+                    intensity: frag.intensity,
+                    t_before: t[i],
+                    // A tile has 256 pixels.
+                    pixel: i as u8,
+                });
                 st.max_weight = st.max_weight.max(w);
                 st.pixels += 1;
                 t[i] *= R::one() - frag.alpha;
@@ -247,6 +319,8 @@ pub fn render_tile<R: Real>(
         }
         stats[slot] = st;
     }
+    kept.transmittance.clear();
+    kept.transmittance.extend_from_slice(&t);
     for y in y0..y1 {
         for x in x0..x1 {
             let i = ((y - y0) * TILE + (x - x0)) as usize;

@@ -16,14 +16,14 @@ use crate::backend::{
     check_buffer,
 };
 use crate::model::{Model, ModelGrads, sigmoid};
-use crate::parallel::{chunk_size, for_chunks_mut, run_iter, run_iter_pooled};
+use crate::parallel::{chunk_size, for_chunks_mut, run_iter};
 use crate::real::Real;
 use crate::sh;
 use anyhow::{Context, Result, bail};
-use backward::{CornerGrads, FacePartial, PixelGrads, TileScratch, backward_tile, face_backward};
+use backward::{CornerGrads, FacePartial, PixelGrads, backward_tile, face_backward};
 use binning::{SplitBy, TILE, TILE_PIXELS, TileGrid, TileLists};
 pub use forward::Background;
-use forward::{EntryStats, PixelOut, PixelRules, render_tile};
+use forward::{EntryStats, PixelOut, PixelRules, TileFragments, render_tile};
 use objectsplat_core::Camera;
 use preprocess::{
     CameraParams, ScreenFace, VertexData, footprint, order_by_tile, preprocess_faces,
@@ -59,6 +59,11 @@ struct ForwardState<R: Real> {
     tiles: TileLists,
     /// The background of the rendered region (its pixels, row-major).
     background: Vec<R>,
+    /// Per entry of `tiles`: its largest blending weight and pixel count.
+    stats: Vec<EntryStats<R>>,
+    /// Per tile, the fragments it blended; never shrunk, so a smaller region
+    /// keeps the larger one's allocations for the next pass.
+    fragments: Vec<TileFragments<R>>,
 }
 
 /// Scratch of the forward pass.
@@ -69,7 +74,6 @@ struct ForwardScratch<R: Real> {
     counts: Vec<usize>,
     used: Vec<bool>,
     pixels: Vec<PixelOut<R>>,
-    stats: Vec<EntryStats<R>>,
 }
 
 /// Scratch of the backward pass.
@@ -83,7 +87,6 @@ struct BackwardScratch<R: Real> {
     corner_grads: Vec<CornerGrads<R>>,
     vertex_offsets: Vec<usize>,
     vertex_corners: Vec<(u32, u8)>,
-    tiles: Vec<TileScratch<R>>,
 }
 
 /// Everything one forward + backward pass needs, kept between passes.
@@ -185,20 +188,24 @@ impl CpuBackend {
             tile_count * TILE_PIXELS,
             PixelOut::default(),
         );
-        refill(&mut fw.stats, tiles.entries.len(), EntryStats::default());
+        refill(&mut st.stats, tiles.entries.len(), EntryStats::default());
+        if st.fragments.len() < tile_count {
+            st.fragments.resize_with(tile_count, TileFragments::default);
+        }
         {
             let jobs = fw
                 .pixels
                 .chunks_mut(TILE_PIXELS)
-                .zip(SplitBy::new(&mut fw.stats[..], &tiles.offsets))
+                .zip(SplitBy::new(&mut st.stats[..], &tiles.offsets))
+                .zip(st.fragments.iter_mut())
                 .enumerate();
             run_iter(
                 threads,
                 jobs,
                 || (),
-                |_, (t, (p, s))| {
+                |_, (t, ((p, s), kept))| {
                     let entries = &tiles.entries[tiles.offsets[t]..tiles.offsets[t + 1]];
-                    render_tile(grid, t, faces, entries, &background, &rules, p, s);
+                    render_tile(grid, t, faces, entries, &background, &rules, p, s, kept);
                 },
             );
         }
@@ -230,7 +237,7 @@ impl CpuBackend {
                 }
             }
         }
-        for (e, s) in fw.stats.iter().enumerate() {
+        for (e, s) in st.stats.iter().enumerate() {
             let f = faces[tiles.entries[e] as usize].face as usize;
             out.face_max_weight[f] = out.face_max_weight[f].max(s.max_weight);
             out.face_pixel_count[f] += s.pixels;
@@ -309,22 +316,22 @@ fn backward_impl<R: Real>(
         let jobs = SplitBy::new(&mut bw.partials[..], &tiles.offsets)
             .zip(bw.d_background.chunks_mut(TILE_PIXELS))
             .enumerate();
-        run_iter_pooled(
+        run_iter(
             threads,
             jobs,
-            &mut bw.tiles,
-            TileScratch::default,
-            |scratch, (t, (p, b))| {
-                let entries = &tiles.entries[tiles.offsets[t]..tiles.offsets[t + 1]];
+            || (),
+            |_, (t, (p, b))| {
+                let range = tiles.offsets[t]..tiles.offsets[t + 1];
                 backward_tile(
                     grid,
                     t,
                     faces,
-                    entries,
+                    &tiles.entries[range.clone()],
                     &st.background,
                     &rules,
+                    &st.fragments[t],
+                    &st.stats[range],
                     &pixel_grads,
-                    scratch,
                     p,
                     b,
                 );
