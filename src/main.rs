@@ -1,6 +1,10 @@
 //! `objectsplat`: the command-line front end. Parsing, display and exit codes only;
 //! the work happens in `objectsplat-runtime` and the node crates.
 
+// The argument structs' doc comments are clap's `--help` text, where `<node>` is a
+// placeholder for the reader, not an HTML tag.
+#![allow(rustdoc::invalid_html_tags)]
+
 mod cluster;
 mod display;
 

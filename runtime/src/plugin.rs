@@ -4,7 +4,7 @@
 //! table (see [`abi`]). The engine never loads it: a child process ([`child`],
 //! started by [`host`] from the engine's own executable) opens the library, checks
 //! the table's ABI version and size, and asks it to `describe` itself (JSON); each
-//! described node kind becomes a [`PluginNode`](node::PluginNode) registered with
+//! described node kind becomes a [`PluginNode`] registered with
 //! `Origin::Plugin`. Every run is another child making one `run` call, so a library
 //! that crashes, aborts, exits or hangs fails its node and nothing else. From then
 //! on the engine validates, caches, schedules and reports plugin nodes exactly like

@@ -9,7 +9,7 @@
 //! `dslr/resized_images` with `dslr/nerfstudio/transforms.json` (or `dslr/colmap`) and
 //! masks from `dslr/resized_anon_masks`, undistorted here when the frames are written.
 //! Poses come from `dslr/colmap/images.txt`, which is in the mesh frame. The nerfstudio JSON lives in another world frame: JSON world = M · mesh world
-//! with M = [[0,1,0],[1,0,0],[0,0,−1]] (M is its own inverse), so a JSON pose maps to the
+//! with `M = [[0,1,0],[1,0,0],[0,0,−1]]` (M is its own inverse), so a JSON pose maps to the
 //! mesh frame as `M · c2w_json`, then to OpenCV axes. When both are present every JSON
 //! camera centre must land within 1 mm of COLMAP's; when only the JSON is present, every
 //! camera centre must fall inside the mesh's bounding box (grown by 1 m), which the

@@ -2,7 +2,7 @@
 //!
 //! - [`raster`]: the multi-threaded z-buffer rasterizer everything here is built on;
 //! - [`gpu_raster`]: the same face ids on wgpu (bit-identical), sharing its triangle setup;
-//! - [`gt_masks`]: per-frame object-id masks from an annotated mesh (`gt_masks` node);
+//! - [`gt_masks`](mod@gt_masks): per-frame object-id masks from an annotated mesh (`gt_masks` node);
 //! - [`partition`]: every pixel to exactly one component (`partition` node);
 //! - [`scene`]: the procedural, geometry-complete demo room (`synthetic_scene` node);
 //! - [`nodes`]: the three node wrappers and [`register`].

@@ -80,7 +80,7 @@ impl SelectOn {
 pub struct TrainSettings {
     pub schedule: Schedule,
     pub seed: u64,
-    /// Draw the background colour uniformly in [0,1]³ every iteration (else `fixed_background`).
+    /// Draw the background colour uniformly in `[0, 1]³` every iteration (else `fixed_background`).
     pub background_randomization: bool,
     pub fixed_background: [f32; 3],
     pub init: InitSettings,

@@ -19,7 +19,7 @@
 //! region are bit-identical to a full render. Compositing, the backward pass
 //! and the outputs cover the region's tiles and pixels only.
 //!
-//! Buffers live in pools ([`RasterPool`], [`GradPool`]) that grow to the
+//! Buffers live in pools (`RasterPool`, `GradPool`) that grow to the
 //! largest model and image seen; the training loop keeps its own across steps.
 
 use crate::atomics::{FloatAtomics, accumulator_wgsl};

@@ -7,7 +7,7 @@
 //! - [`Method::Telea`] weights by `1/|r|³`, by level-set closeness and by direction
 //!   along the front's normal, and adds a normalised gradient correction.
 //!
-//! The fill order depends only on the mask ([`march`]), so it is computed once and
+//! The fill order depends only on the mask (`march`), so it is computed once and
 //! then replayed; channels are independent given the order, and so are groups of
 //! holes farther apart than the sampling reach, so either can run on separate
 //! threads with bit-identical results. Pixels outside the mask are copied unchanged.
