@@ -95,6 +95,12 @@ const VARIANTS: &[Variant] = &[
         params: r#"schedule: {"point_depth_weight": 0}"#,
     },
     Variant {
+        name: "object_point_depth",
+        what: "the depth loss at the measured points for the objects too (weight 1)",
+        layout: Layout::BehindObjects,
+        params: r#"schedule: {"object_point_depth_weight": 1}"#,
+    },
+    Variant {
         name: "reference_lr",
         what: "the reference's vertex learning rates (1.5e-3 → 1.5e-5)",
         layout: Layout::BehindObjects,
