@@ -70,7 +70,11 @@ pub fn evaluate<R: Real>(
         return None;
     }
     let frag = fragment(f, q, lambda, g, kstar, g.powf(f.sigma), rules);
-    (frag.alpha >= rules.alpha_min).then_some(frag)
+    // Written as `<` so that a NaN α is kept and shows in the output (never dropped silently).
+    if frag.alpha < rules.alpha_min {
+        return None;
+    }
+    Some(frag)
 }
 
 /// The fragment [`evaluate`] returned at `(px, py)`, rebuilt from its window
