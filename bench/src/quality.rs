@@ -95,6 +95,12 @@ const VARIANTS: &[Variant] = &[
         params: r#"schedule: {"point_depth_weight": 0}"#,
     },
     Variant {
+        name: "point_depth_0.1",
+        what: "the background's depth loss at weight 0.1 (default 1)",
+        layout: Layout::BehindObjects,
+        params: r#"schedule: {"point_depth_weight": 0.1}"#,
+    },
+    Variant {
         name: "object_point_depth",
         what: "the depth loss at the measured points for the objects too (weight 1)",
         layout: Layout::BehindObjects,
