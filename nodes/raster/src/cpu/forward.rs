@@ -211,8 +211,8 @@ impl<R: Real> Background<'_, R> {
     }
 }
 
-/// No fragment.
-pub const NONE: u32 = u32::MAX;
+/// No fragment (a pixel nothing was blended into has no median fragment).
+const NONE: u32 = u32::MAX;
 
 /// One blended fragment as its backward pass needs it: the rest is cheap to
 /// recompute from the face and the pixel ([`reevaluate`]).
