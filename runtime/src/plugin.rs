@@ -12,16 +12,16 @@
 //! digest of the library file ([`spec::node_version`]); the child refuses to run a
 //! library whose digest changed since it was described.
 
-pub mod abi;
 pub mod child;
 pub mod host;
 pub mod library;
 pub mod node;
-pub mod protocol;
 pub mod spec;
 pub mod wire;
 
 pub use host::set_host_program;
+/// The boundary's types, declared once for the host and the SDK.
+pub use objectsplat_plugin_abi::{abi, protocol};
 
 use crate::registry::{Origin, Registry};
 use node::PluginNode;

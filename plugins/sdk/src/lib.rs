@@ -21,7 +21,7 @@ pub mod abi;
 pub mod artifacts;
 pub mod declare;
 pub mod export;
-pub mod protocol;
+pub use objectsplat_plugin_abi::protocol;
 pub mod request;
 pub mod testing;
 

@@ -1,5 +1,6 @@
 //! The JSON messages that cross the boundary (ABI v1). docs/plugins.md shows them
-//! with examples; runtime/src/plugin/protocol.rs reads and writes the same shapes.
+//! with examples. Fields a plugin in another language may leave out default when
+//! read; anything that changes meaning bumps the ABI version instead.
 
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -16,9 +17,12 @@ pub struct Description {
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct NodeDescription {
     pub kind: String,
+    #[serde(default)]
     pub doc: String,
+    #[serde(default)]
     pub inputs: Vec<PortDescription>,
     pub outputs: Vec<PortDescription>,
+    #[serde(default)]
     pub params: Vec<ParamDescription>,
 }
 
@@ -28,6 +32,7 @@ pub struct PortDescription {
     /// A registry type name (`Image`, `Frames`...) or a collection (`[Component]`).
     #[serde(rename = "type")]
     pub ty: String,
+    #[serde(default)]
     pub doc: String,
     #[serde(default)]
     pub optional: bool,
@@ -40,7 +45,9 @@ pub struct ParamDescription {
     #[serde(rename = "type")]
     pub ty: String,
     /// RON text; absent = required.
+    #[serde(default)]
     pub default: Option<String>,
+    #[serde(default)]
     pub doc: String,
 }
 
