@@ -107,6 +107,42 @@ const VARIANTS: &[Variant] = &[
         params: r#"schedule: {"object_point_depth_weight": 1}"#,
     },
     Variant {
+        name: "no_depth_smoothness",
+        what: "no planarity prior on the background's rendered depth (default weight 3)",
+        layout: Layout::BehindObjects,
+        params: r#"schedule: {"depth_smoothness_weight": 0}"#,
+    },
+    Variant {
+        name: "holistic_no_depth_smoothness",
+        what: "the holistic baseline without the planarity prior",
+        layout: Layout::Holistic,
+        params: r#"schedule: {"depth_smoothness_weight": 0}"#,
+    },
+    Variant {
+        name: "depth_smoothness_from_start",
+        what: "the planarity prior from the first iteration (default: from the connectivity step)",
+        layout: Layout::BehindObjects,
+        params: r#"schedule: {"depth_smoothness_start": 0}"#,
+    },
+    Variant {
+        name: "depth_smoothness_1",
+        what: "the planarity prior at weight 1 (default 3)",
+        layout: Layout::BehindObjects,
+        params: r#"schedule: {"depth_smoothness_weight": 1}"#,
+    },
+    Variant {
+        name: "depth_smoothness_10",
+        what: "the planarity prior at weight 10 (default 3)",
+        layout: Layout::BehindObjects,
+        params: r#"schedule: {"depth_smoothness_weight": 10}"#,
+    },
+    Variant {
+        name: "depth_smoothness_30",
+        what: "the planarity prior at weight 30 (default 3)",
+        layout: Layout::BehindObjects,
+        params: r#"schedule: {"depth_smoothness_weight": 30}"#,
+    },
+    Variant {
         name: "reference_lr",
         what: "the reference's vertex learning rates (1.5e-3 → 1.5e-5)",
         layout: Layout::BehindObjects,

@@ -612,6 +612,7 @@ mod tests {
                     b,
                     &render,
                     0.0,
+                    0.0,
                     &mut host_stats,
                 )
                 .unwrap(),

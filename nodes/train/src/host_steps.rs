@@ -9,12 +9,14 @@
 //! the whole frame; for an object it is its neighbourhood. On the CPU backend
 //! every buffer lives in a workspace reused from step to step.
 
+use crate::depth_smoothness::{self, DepthImage};
 use crate::face_stats::FaceWeights;
 use crate::optim::Optim;
 use crate::point_depth::PointDepth;
 use crate::supervision::{ComponentData, ViewSummary, fill_region};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::Camera;
+use objectsplat_core::component::OWN;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::cpu::{Background, CpuWorkspace};
 use objectsplat_raster::loss::{
@@ -343,7 +345,7 @@ impl<'a> HostSteps<'a> {
     }
 
     /// One iteration: render view `view` over `b`, loss (with the depth loss at
-    /// weight `depth_weight`), backward, Adam. The render's per-face weights go
+    /// weight `depth_weight` and the planarity prior at `smoothness_weight`), backward, Adam. The render's per-face weights go
     /// into `stats`. Returns the photometric loss.
     #[allow(clippy::too_many_arguments)]
     pub fn step(
@@ -355,6 +357,7 @@ impl<'a> HostSteps<'a> {
         b: [f32; 3],
         render: &RenderSettings,
         depth_weight: f64,
+        smoothness_weight: f64,
         stats: &mut FaceWeights,
     ) -> Result<f64> {
         let (loss, _) = self.render_and_score(model, data, view, b, render, true)?;
@@ -374,8 +377,8 @@ impl<'a> HostSteps<'a> {
             Some(c) => &c.merged,
             None => &*model,
         };
-        let with_depth = depth_weight > 0.0 && self.point_depth.count(view) > 0;
-        let grads = if with_depth {
+        let with_points = depth_weight > 0.0 && self.point_depth.count(view) > 0;
+        let grads = if with_points || smoothness_weight > 0.0 {
             let out = match &self.renderer {
                 Renderer::Cpu { ws, .. } => &ws.output,
                 Renderer::Other(r) => &r.out,
@@ -385,13 +388,39 @@ impl<'a> HostSteps<'a> {
             self.d_depth.resize(pixels, 0.0);
             self.d_alpha.clear();
             self.d_alpha.resize(pixels, 0.0);
-            self.point_depth.add_gradient(
-                view,
-                out,
-                depth_weight,
-                &mut self.d_depth,
-                &mut self.d_alpha,
-            );
+            if with_points {
+                self.point_depth.add_gradient(
+                    view,
+                    out,
+                    depth_weight,
+                    &mut self.d_depth,
+                    &mut self.d_alpha,
+                );
+            }
+            if smoothness_weight > 0.0 {
+                let region = out.region;
+                let region_width = region.width() as usize;
+                let labels = &data.views[view].labels;
+                let frame_width = camera.width as usize;
+                depth_smoothness::add_gradient(
+                    &DepthImage {
+                        width: region_width,
+                        height: region.height() as usize,
+                        depth: &out.depth,
+                        alpha: &out.alpha,
+                    },
+                    |i| {
+                        let (x, y) = (
+                            region.x0 as usize + i % region_width,
+                            region.y0 as usize + i / region_width,
+                        );
+                        labels[y * frame_width + x] == OWN
+                    },
+                    smoothness_weight,
+                    &mut self.d_depth,
+                    &mut self.d_alpha,
+                );
+            }
             self.renderer.backward(
                 rendered,
                 &OutputGrads {

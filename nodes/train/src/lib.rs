@@ -4,7 +4,9 @@
 //! - [`schedule`]: every scheduled number, scaled to the iteration budget;
 //! - [`densify`]: midpoint-subdivision densification and pruning;
 //! - [`delaunay`] + [`connectivity`]: the restricted Delaunay connectivity step;
-//! - [`init`]: triangles from sparse points, and a component's point selection.
+//! - [`init`]: triangles from sparse points, and a component's point selection;
+//! - [`point_depth`] and [`depth_smoothness`]: depth at the measured points and the
+//!   background's planar prior, the two geometric losses.
 
 // Negated comparisons are deliberate: NaN must fail every acceptance test.
 // Numerical loops index several parallel arrays with one index.
@@ -15,6 +17,7 @@ pub mod checkpoint;
 pub mod connectivity;
 pub mod delaunay;
 pub mod densify;
+pub mod depth_smoothness;
 mod device_steps;
 pub mod face_stats;
 mod host_steps;

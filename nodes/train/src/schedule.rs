@@ -103,6 +103,13 @@ pub struct Schedule {
     pub object_point_depth_weight: f64,
     /// The depth loss applies from this iteration on.
     pub point_depth_start: u64,
+    /// Weight of the planarity prior on a background component's rendered depth
+    /// (see `crate::depth_smoothness`); objects never carry it. 0 turns it off.
+    pub depth_smoothness_weight: f64,
+    /// The planarity prior applies from this iteration on (by default the
+    /// connectivity step's: from the start it slowed the early growth of
+    /// coverage, −2.7 dB at 1000 iterations on the dense bench).
+    pub depth_smoothness_start: u64,
 
     /// Held-out evaluation (best checkpoint) every this many iterations.
     pub eval_every: u64,
@@ -184,6 +191,8 @@ impl Schedule {
             point_depth_weight: 1.0,
             object_point_depth_weight: 0.0,
             point_depth_start: 0,
+            depth_smoothness_weight: 3.0,
+            depth_smoothness_start: at(11_000) + 1,
             eval_every: every(500),
             patience: every(3000),
         }
@@ -236,6 +245,7 @@ impl Schedule {
             ("final_prune_threshold", self.final_prune_threshold),
             ("point_depth_weight", self.point_depth_weight),
             ("object_point_depth_weight", self.object_point_depth_weight),
+            ("depth_smoothness_weight", self.depth_smoothness_weight),
             ("densify_min_inradius", self.densify_min_inradius),
             (
                 "connectivity_cleanup_threshold",
@@ -285,6 +295,14 @@ impl Schedule {
         match kind {
             ComponentKind::Background => self.point_depth_weight,
             ComponentKind::Object => self.object_point_depth_weight,
+        }
+    }
+
+    /// The planarity prior's weight for a component of `kind` (backgrounds only).
+    pub fn depth_smoothness_weight_for(&self, kind: ComponentKind) -> f64 {
+        match kind {
+            ComponentKind::Background => self.depth_smoothness_weight,
+            ComponentKind::Object => 0.0,
         }
     }
 

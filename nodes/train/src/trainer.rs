@@ -341,6 +341,7 @@ pub fn train_component(
     let mut optim = Optim::new(s, model.vertex_count())?;
     let depth_weight = s.point_depth_weight_for(data.kind);
     let depth_supervised = depth_weight > 0.0 && !data.depth_points.is_empty();
+    let smoothness_weight = s.depth_smoothness_weight_for(data.kind);
     let mut notes = Vec::new();
     if depth_supervised {
         notes.push(format!(
@@ -348,6 +349,13 @@ pub fn train_component(
             data.depth_points.len()
         ));
     }
+    if smoothness_weight > 0.0 {
+        notes.push(format!(
+            "planarity prior on the rendered depth, weight {smoothness_weight}"
+        ));
+    }
+    // Both depth terms are built only on the host path.
+    let host_depth_terms = depth_supervised || smoothness_weight > 0.0;
     // On a wgpu backend the iterations run on the device; everything else stays here.
     // Training behind frozen occluders renders a composite, which only the host path builds.
     let mut device = match backend
@@ -355,7 +363,7 @@ pub fn train_component(
         .and_then(|b| b.downcast_ref::<WgpuBackend>())
     {
         // Depth supervision at measured points, too, is built only on the host.
-        Some(gpu) if data.occluders.is_none() && !depth_supervised => Some(DeviceSteps::new(
+        Some(gpu) if data.occluders.is_none() && !host_depth_terms => Some(DeviceSteps::new(
             gpu,
             data,
             &train,
@@ -363,11 +371,12 @@ pub fn train_component(
             &optim,
             settings.crop,
         )?),
-        Some(_) if depth_supervised && data.occluders.is_none() => {
+        Some(_) if host_depth_terms && data.occluders.is_none() => {
             notes.push(
                 "wgpu renders each step, but the steps run on the host path: the depth loss at \
-                 measured points is not built on the device (schedule point_depth_weight: 0, \
-                 or object_point_depth_weight: 0 for an object, keeps the steps on the device)"
+                 measured points and the planarity prior are not built on the device (schedule \
+                 point_depth_weight: 0 and depth_smoothness_weight: 0, or \
+                 object_point_depth_weight: 0 for an object, keep the steps on the device)"
                     .into(),
             );
             None
@@ -619,6 +628,11 @@ pub fn train_component(
                         &render,
                         if it >= s.point_depth_start {
                             depth_weight
+                        } else {
+                            0.0
+                        },
+                        if it >= s.depth_smoothness_start {
+                            smoothness_weight
                         } else {
                             0.0
                         },
