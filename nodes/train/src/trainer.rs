@@ -305,6 +305,41 @@ impl ViewOrder {
     }
 }
 
+/// What a [`StepHook`] is shown after each training iteration.
+pub struct Step<'a> {
+    /// Iterations done, this one included (1-based).
+    pub iteration: u64,
+    pub total: u64,
+    /// The index into `ComponentData::views` of the view this iteration rendered
+    /// (None on the device path, which picks views on the device).
+    pub view: Option<usize>,
+    /// The photometric loss of that view (host path only).
+    pub loss: Option<f64>,
+    /// The model after this iteration's update. On the device path it is copied
+    /// back only for a hook that asks ([`StepHook::wants_model`]), which is slow.
+    pub model: Option<&'a Model<f32>>,
+}
+
+/// Watches a training run step by step — for probes and studies that would
+/// otherwise copy the training loop — and may interrupt it.
+pub trait StepHook {
+    /// Whether [`Step::model`] should be filled on the device path too.
+    fn wants_model(&self) -> bool {
+        false
+    }
+    /// Called after every iteration; false interrupts the run (an error).
+    fn after_step(&mut self, step: &Step) -> bool;
+}
+
+/// A progress callback `(done, total) -> keep going` as a hook.
+struct ProgressHook<F>(F);
+
+impl<F: FnMut(u64, u64) -> bool> StepHook for ProgressHook<F> {
+    fn after_step(&mut self, step: &Step) -> bool {
+        (self.0)(step.iteration, step.total)
+    }
+}
+
 /// Trains one component from its sparse points. `progress(done, total)` returns
 /// false to interrupt the run (an error).
 pub fn train_component(
@@ -312,7 +347,18 @@ pub fn train_component(
     data: &ComponentData,
     points: &Points,
     settings: &TrainSettings,
-    mut progress: impl FnMut(u64, u64) -> bool,
+    progress: impl FnMut(u64, u64) -> bool,
+) -> Result<TrainReport> {
+    train_component_with_hook(backend, data, points, settings, &mut ProgressHook(progress))
+}
+
+/// [`train_component`] with a [`StepHook`] shown every iteration.
+pub fn train_component_with_hook(
+    backend: &dyn RenderBackend<f32>,
+    data: &ComponentData,
+    points: &Points,
+    settings: &TrainSettings,
+    hook: &mut dyn StepHook,
 ) -> Result<TrainReport> {
     let s = &settings.schedule;
     s.validate()?;
@@ -597,6 +643,8 @@ pub fn train_component(
                 }
             }
         }
+        let mut step_view = None;
+        let mut step_loss = None;
         let b = if settings.background_randomization {
             [
                 rng.random::<f32>(),
@@ -648,6 +696,8 @@ pub fn train_component(
                         )
                     })?;
                 window_loss += loss;
+                step_view = Some(view);
+                step_loss = Some(loss);
             }
         }
         it += 1;
@@ -664,7 +714,17 @@ pub fn train_component(
             });
             window_loss = 0.0;
         }
-        if !progress(it, s.iterations) {
+        if let Some(device) = device.as_mut().filter(|_| hook.wants_model()) {
+            device.pull(&mut model, &mut optim, data)?;
+        }
+        let shown = Step {
+            iteration: it,
+            total: s.iterations,
+            view: step_view,
+            loss: step_loss,
+            model: (device.is_none() || hook.wants_model()).then_some(&model),
+        };
+        if !hook.after_step(&shown) {
             bail!(
                 "training of {:?} was interrupted at iteration {it}",
                 data.name

@@ -1,0 +1,99 @@
+//! A step hook sees every iteration of a run, in order, with the view it trained
+//! on, its loss and the model; it agrees with the run's own log and can stop it.
+
+mod common;
+
+use objectsplat_core::frames::Split;
+use objectsplat_raster::CpuBackend;
+use objectsplat_train::init::ComponentMasks;
+use objectsplat_train::trainer::{ComponentData, Step, StepHook, train_component_with_hook};
+
+/// Records what it is shown; stops after `stop_after` steps when set.
+#[derive(Default)]
+struct Recorder {
+    seen: Vec<(u64, u64, Option<usize>, Option<f64>, Option<usize>)>,
+    stop_after: Option<u64>,
+}
+
+impl StepHook for Recorder {
+    fn after_step(&mut self, step: &Step) -> bool {
+        self.seen.push((
+            step.iteration,
+            step.total,
+            step.view,
+            step.loss,
+            step.model.map(|m| m.face_count()),
+        ));
+        self.stop_after.is_none_or(|n| step.iteration < n)
+    }
+}
+
+#[test]
+fn the_hook_sees_every_step_and_matches_the_log() {
+    let dir = tempfile::tempdir().unwrap();
+    common::write_component(dir.path());
+    let masks = ComponentMasks::read(dir.path()).unwrap();
+    let points = masks.component_points(&common::points()).unwrap();
+    let data = ComponentData::read(dir.path()).unwrap();
+    // 400 iterations: the log averages windows of two steps.
+    let iterations = 400;
+    let settings = common::short_run_settings(iterations, 2, serde_json::json!({}));
+    let backend = CpuBackend::new(1);
+    let mut hook = Recorder::default();
+    let report = train_component_with_hook(&backend, &data, &points, &settings, &mut hook).unwrap();
+
+    let iterations_seen: Vec<u64> = hook.seen.iter().map(|s| s.0).collect();
+    assert_eq!(iterations_seen, (1..=iterations).collect::<Vec<_>>());
+    assert!(hook.seen.iter().all(|s| s.1 == iterations));
+    for &(it, _, view, loss, faces) in &hook.seen {
+        let view = view.expect("the host path names the view");
+        assert_eq!(
+            data.views[view].split,
+            Split::Train,
+            "iteration {it} trained on a test view"
+        );
+        assert!(loss.is_some_and(f64::is_finite) && faces.is_some_and(|f| f > 0));
+    }
+    // The log's loss is the mean over each window of the losses the hook saw.
+    let mut window_start = 0;
+    for record in &report.log.steps {
+        let end = record.iteration as usize;
+        let losses: Vec<f64> = hook.seen[window_start..end]
+            .iter()
+            .map(|s| s.3.unwrap())
+            .collect();
+        let mean = losses.iter().sum::<f64>() / losses.len() as f64;
+        assert!(
+            (mean - record.loss).abs() <= 1e-12 * mean.abs().max(1.0),
+            "window ending at {end}: hook mean {mean}, log {}",
+            record.loss
+        );
+        assert_eq!(hook.seen[end - 1].4, Some(record.faces));
+        window_start = end;
+    }
+    assert_eq!(window_start, iterations as usize);
+    // The final prune only removes faces from the model the last step showed.
+    assert!(report.model.face_count() <= hook.seen.last().unwrap().4.unwrap());
+}
+
+#[test]
+fn a_hook_that_says_stop_interrupts_the_run() {
+    let dir = tempfile::tempdir().unwrap();
+    common::write_component(dir.path());
+    let masks = ComponentMasks::read(dir.path()).unwrap();
+    let points = masks.component_points(&common::points()).unwrap();
+    let data = ComponentData::read(dir.path()).unwrap();
+    let settings = common::short_run_settings(50, 2, serde_json::json!({}));
+    let mut hook = Recorder {
+        stop_after: Some(7),
+        ..Default::default()
+    };
+    let err = train_component_with_hook(&CpuBackend::new(1), &data, &points, &settings, &mut hook)
+        .err()
+        .expect("a stopped run is an error, not a partial model");
+    assert!(
+        format!("{err}").contains("interrupted at iteration 7"),
+        "{err}"
+    );
+    assert_eq!(hook.seen.len(), 7);
+}
