@@ -8,10 +8,13 @@ use objectsplat_raster::CpuBackend;
 use objectsplat_train::init::ComponentMasks;
 use objectsplat_train::trainer::{ComponentData, Step, StepHook, train_component_with_hook};
 
+/// (iteration, total, view, loss, faces of the model shown).
+type Seen = (u64, u64, Option<usize>, Option<f64>, Option<usize>);
+
 /// Records what it is shown; stops after `stop_after` steps when set.
 #[derive(Default)]
 struct Recorder {
-    seen: Vec<(u64, u64, Option<usize>, Option<f64>, Option<usize>)>,
+    seen: Vec<Seen>,
     stop_after: Option<u64>,
 }
 
