@@ -11,7 +11,7 @@ mod display;
 use anyhow::{Context as _, Result, anyhow};
 use clap::{Parser, Subcommand};
 use objectsplat_export::report::{
-    GraphEdge, REPORT_FILE, RunSummary, read_run_summary, write_with_run_summary,
+    GraphEdge, RunSummary, read_run_summary, write_run_files, write_with_run_summary,
 };
 use objectsplat_runtime::check;
 use objectsplat_runtime::exec::{self, RunOptions};
@@ -218,21 +218,21 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             )?;
             observer.finish();
             eprint!("{}", report.render_table());
-            let edges = graph_edges(&plan, &report);
+            let mut value = serde_json::to_value(&report)?;
+            value["edges"] = serde_json::to_value(graph_edges(&plan, &report))?;
             if let Some(path) = json {
-                let mut value = serde_json::to_value(&report)?;
-                value["edges"] = serde_json::to_value(&edges)?;
                 let text = serde_json::to_string_pretty(&value)?;
                 std::fs::write(&path, text)
                     .with_context(|| format!("{}: cannot write report", path.display()))?;
             }
             if report.out.is_some() {
                 // Another run may be writing the same --out: take its turn.
-                match objectsplat_runtime::outdir::lock(&out) {
-                    Ok(_lock) => fill_report_pages(&plan, &report, &out, edges),
-                    Err(e) => {
-                        eprintln!("warning: the run summary was not added to the reports: {e:#}")
-                    }
+                let written = objectsplat_runtime::outdir::lock(&out).and_then(|_lock| {
+                    let summary: RunSummary = serde_json::from_value(value.clone())?;
+                    write_run_files(&out, &value, &summary)
+                });
+                if let Err(e) = written {
+                    eprintln!("warning: the run summary was not written beside the outputs: {e:#}")
                 }
             }
             if report.ok {
@@ -376,37 +376,4 @@ fn graph_edges(plan: &Plan, report: &RunReport) -> Vec<GraphEdge> {
         }
     }
     edges
-}
-
-/// Fills the run summary into every materialized page of a `report` target. The page is
-/// replaced by a new file, so the cache's copy keeps its placeholder. A page that cannot be
-/// filled is a warning: the run's outputs are complete without it.
-fn fill_report_pages(plan: &Plan, report: &RunReport, out: &Path, edges: Vec<GraphEdge>) {
-    // The page reads the same JSON shape `--json` writes.
-    let summary = serde_json::to_value(report).and_then(serde_json::from_value::<RunSummary>);
-    let summary = match summary {
-        Ok(s) => RunSummary { edges, ..s },
-        Err(e) => {
-            eprintln!("warning: the run summary was not added to the reports: {e}");
-            return;
-        }
-    };
-    for &t in &plan.targets {
-        let node = &plan.nodes[t];
-        if node.kind != "report" {
-            continue;
-        }
-        let Some(done) = report.node(&node.id) else {
-            continue;
-        };
-        for port in done.outputs.keys() {
-            let page = out.join(&node.id).join(port).join(REPORT_FILE);
-            if !page.is_file() {
-                continue;
-            }
-            if let Err(e) = write_with_run_summary(&page, &summary, &page) {
-                eprintln!("warning: the run summary was not added to the report: {e:#}");
-            }
-        }
-    }
 }

@@ -1,7 +1,8 @@
 //! The report embeds the viewer's 3D view of a composed scene (trained for real on a tiny
 //! synthetic room): in headless Chromium the report's view starts, lists the composed
 //! members, draws them (the centre of the view picks a member), and the page logs no
-//! error and requests nothing but itself. `objectsplat run` still fills in the run summary.
+//! error and requests nothing but itself and the run summary `objectsplat run` wrote beside
+//! the outputs (`run.js`), which the page shows in place of its placeholder.
 
 mod support;
 
@@ -63,8 +64,8 @@ fn report_shows_the_composed_scene_in_3d() {
         "no 3D view section"
     );
     assert!(
-        !html.contains("<p class=\"placeholder\">The run summary"),
-        "the run summary was not filled in"
+        html.contains("<p class=\"placeholder\">The run summary"),
+        "the materialized page is the cached one, placeholder included"
     );
     if let Some(keep) = std::env::var_os("OBJECTSPLAT_KEEP_REPORT") {
         std::fs::copy(&report, keep).unwrap();
@@ -77,10 +78,23 @@ fn report_shows_the_composed_scene_in_3d() {
     );
     let names: Vec<&Value> = expected.iter().map(|m| &m["name"]).collect();
     assert!(names.contains(&&centre), "the view's centre picks {centre}");
+    // The run section came from run.js: one row per node, no placeholder left.
+    assert_eq!(
+        page.eval("document.querySelectorAll('#run tr[data-node]').length"),
+        json!(7)
+    );
+    assert_eq!(
+        page.eval("document.querySelector('#run .placeholder') === null"),
+        json!(true)
+    );
     page.eval("1");
     assert!(page.errors().is_empty(), "{:#?}", page.errors());
     let own = format!("file://{}", report.display());
+    let run_script = format!("file://{}", dir.join("out/run.js").display());
     for url in page.requests() {
-        assert!(url == own || url.starts_with("data:"), "requested {url}");
+        assert!(
+            url == own || url == run_script || url.starts_with("data:"),
+            "requested {url}"
+        );
     }
 }

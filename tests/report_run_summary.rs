@@ -1,6 +1,7 @@
-//! `objectsplat run` fills the run summary (graph, each node's status and time) into the
-//! materialized page of a `report` target, without touching the cached page; a cached rerun
-//! shows the nodes as cached; `objectsplat report` refills a page from a saved `--json` report.
+//! `objectsplat run` writes the run summary (graph, each node's status and time) beside its
+//! outputs as data (`run.json`, and `run.js` that the report page loads), and rewrites no
+//! output: the materialized page is the cached one, byte for byte; a cached rerun shows the
+//! nodes as cached; `objectsplat report` fills a page from a saved `--json` report.
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -50,6 +51,25 @@ fn run(dir: &Path, json: &str) {
 
 fn page(dir: &Path) -> PathBuf {
     dir.join("out/report/file/index.html")
+}
+
+/// The run section that `out/run.js` hands the page.
+fn run_section(dir: &Path) -> String {
+    let script = std::fs::read_to_string(dir.join("out/run.js")).unwrap();
+    let json = script
+        .strip_prefix("window.objectsplatRun = ")
+        .and_then(|s| s.strip_suffix(";\n"))
+        .unwrap_or_else(|| panic!("run.js is not one assignment: {script}"));
+    let value: serde_json::Value = serde_json::from_str(json).unwrap();
+    value["section"].as_str().unwrap().to_string()
+}
+
+/// `out/run.json` is the report `--json` wrote to `json`.
+fn assert_run_json_matches(dir: &Path, json: &str) {
+    let read = |p: PathBuf| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
+    };
+    assert_eq!(read(dir.join("out/run.json")), read(dir.join(json)));
 }
 
 /// Every file of the cache with its content.
@@ -106,15 +126,18 @@ fn assert_cache_pages_are_pure(cache: &BTreeMap<PathBuf, Vec<u8>>) {
 }
 
 #[test]
-fn run_fills_the_summary_into_the_materialized_report_only() {
+fn run_writes_the_summary_beside_the_outputs_and_rewrites_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
     std::fs::write(d.join("g.ron"), GRAPH).unwrap();
 
     run(d, "r1.json");
-    let first = std::fs::read_to_string(page(d)).unwrap();
+    let page_text = std::fs::read_to_string(page(d)).unwrap();
+    assert!(page_text.contains(PLACEHOLDER));
+    assert!(page_text.contains("<script src=\"../../run.js\"></script>"));
+    assert_run_json_matches(d, "r1.json");
+    let first = run_section(d);
     assert_eq!(node_rows(&first), all("ran"));
-    assert!(!first.contains(PLACEHOLDER));
     assert!(first.contains("5 nodes: 5 ran, 0 cached, 0 skipped, 0 failed"));
     // The drawing has an arrow per data dependency (scene feeds masks, parts and train).
     for (from, to) in [
@@ -133,7 +156,7 @@ fn run_fills_the_summary_into_the_materialized_report_only() {
     // The trainer's logs reach the page: one table row per trained component.
     for component in ["obj_8_box", "obj_10_ball", "background"] {
         assert!(
-            first.contains(&format!(
+            page_text.contains(&format!(
                 "<tr data-component=\"{component}\"><td>{component}</td><td class=\"num\">40</td>"
             )),
             "{component}"
@@ -141,15 +164,24 @@ fn run_fills_the_summary_into_the_materialized_report_only() {
     }
     let cache_after_first = snapshot(&d.join("cache"));
     assert_cache_pages_are_pure(&cache_after_first);
+    // Nothing rewrote the output: the materialized page is the cached one.
+    assert!(
+        cache_after_first
+            .values()
+            .any(|bytes| bytes == page_text.as_bytes())
+    );
 
-    // A second run is fully cached, and its page says so; the cache is byte-identical.
+    // A second run is fully cached, and its summary says so; the cache is byte-identical.
     run(d, "r2.json");
-    let second = std::fs::read_to_string(page(d)).unwrap();
+    assert_run_json_matches(d, "r2.json");
+    let second = run_section(d);
     assert_eq!(node_rows(&second), all("cached"));
     assert!(second.contains("5 nodes: 0 ran, 5 cached"));
+    assert_eq!(std::fs::read_to_string(page(d)).unwrap(), page_text);
     assert_eq!(snapshot(&d.join("cache")), cache_after_first);
 
-    // `report` refills a page from the first run's saved report, in place and to a new file.
+    // `report` fills a page from the first run's saved report, to a new file and in place,
+    // without touching the cache the page is linked to.
     let out = objectsplat(
         d,
         &[
@@ -167,14 +199,10 @@ fn run_fills_the_summary_into_the_materialized_report_only() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert_eq!(
-        std::fs::read_to_string(d.join("first.html")).unwrap(),
-        first
-    );
-    assert_eq!(
-        node_rows(&std::fs::read_to_string(page(d)).unwrap()),
-        all("cached")
-    );
+    let filled = std::fs::read_to_string(d.join("first.html")).unwrap();
+    assert_eq!(node_rows(&filled), all("ran"));
+    assert!(filled.contains(&first));
+    assert_eq!(std::fs::read_to_string(page(d)).unwrap(), page_text);
     let out = objectsplat(
         d,
         &[
@@ -190,7 +218,7 @@ fn run_fills_the_summary_into_the_materialized_report_only() {
         "{}",
         String::from_utf8_lossy(&out.stderr)
     );
-    assert_eq!(std::fs::read_to_string(page(d)).unwrap(), first);
+    assert_eq!(std::fs::read_to_string(page(d)).unwrap(), filled);
     assert_eq!(snapshot(&d.join("cache")), cache_after_first);
 }
 

@@ -3,8 +3,8 @@
 //! `report`: metrics, test views and trained models' training logs (all optional) → an HTML
 //! report folder. Inside a graph the node cannot see the run's own node table (nodes
 //! downstream or beside it have not finished), so its "Run" section is a marked placeholder
-//! that `objectsplat run` fills in on the materialized copy
-//! ([`crate::report::write_with_run_summary`]).
+//! that the page fills in when opened, from the `run.js` that `objectsplat run` writes beside
+//! the outputs ([`crate::report::write_run_files`]).
 //!
 //! `export_gltf` is not wrapped yet: it needs the Model encoding inside a Scene
 //! (`objects/<name>/model.ply`), which is not documented yet.

@@ -23,7 +23,9 @@ fn placeholder_is_replaced_by_every_node_with_its_status() {
     let dir = tempfile::tempdir().unwrap();
     let page = std::fs::read_to_string(node_page(dir.path())).unwrap();
     assert_eq!(page.matches(RUN_SUMMARY_BEGIN).count(), 1);
-    assert!(section(&page, "run").contains("is added by <code>objectsplat run</code>"));
+    assert!(section(&page, "run").contains(
+        "comes from <code>run.js</code> beside the outputs of <code>objectsplat run</code>"
+    ));
 
     let run = run_summary(dir.path());
     let filled = inject_run_summary(&page, &run).unwrap();

@@ -18,6 +18,6 @@ pub use data::{
 pub use objectsplat_raster::{EvalRecord, StepRecord, TrainingLog};
 pub use page::{REPORT_FILE, render_report, report_html};
 pub use run_summary::{
-    RUN_SUMMARY_BEGIN, RUN_SUMMARY_END, inject_run_summary, read_run_summary,
-    write_with_run_summary,
+    RUN_DATA_FILE, RUN_SCRIPT_FILE, RUN_SUMMARY_BEGIN, RUN_SUMMARY_END, inject_run_summary,
+    read_run_summary, run_loader, write_run_files, write_with_run_summary,
 };

@@ -6,7 +6,7 @@ use super::data::{MetricValues, ReportData};
 use super::escape::escape;
 use super::images::render_triplet;
 use super::plot::{PlotSpec, Series, line_plot_svg};
-use super::run_summary::run_section;
+use super::run_summary::{run_loader, run_section};
 use super::training::{finite_points, section_training};
 use crate::viewer::{read_viewer, viewer_fragment, viewer_style};
 use anyhow::{Context, Result, ensure};
@@ -170,6 +170,7 @@ pub fn report_html(data: &ReportData) -> Result<String> {
         "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\"><title>{title}</title><style>{STYLE}{viewer_style}</style></head><body><h1>{title}</h1>"
     );
     html.push_str(&run_section(&data.run)?);
+    html.push_str(&run_loader());
     section_scene(data, &mut html)?;
     section_metrics(data, &mut html);
     section_views(data, &mut html)?;

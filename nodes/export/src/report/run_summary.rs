@@ -1,10 +1,13 @@
 //! The report's "Run" section: the graph with each node's status and time, and a node table.
 //!
 //! A `report` node runs inside the run it reports on, so it cannot know how the run ends;
-//! it writes a placeholder between [`RUN_SUMMARY_BEGIN`] and [`RUN_SUMMARY_END`] and the CLI
-//! fills it in after the run ([`write_with_run_summary`]). The filled-in page is a new file:
-//! the cached artifact keeps the placeholder, so the cache stays a pure function of the
-//! node's inputs.
+//! it writes a placeholder between [`RUN_SUMMARY_BEGIN`] and [`RUN_SUMMARY_END`]. After the
+//! run the CLI writes the run summary beside the outputs as data ([`write_run_files`]:
+//! `OUT/run.json`, and `OUT/run.js` for pages opened from disk, which may load a script but
+//! not read a JSON file), and the page's loader puts it in place when the page is opened.
+//! Nothing rewrites the page: the materialized copy is the cached artifact, byte for byte.
+//! `objectsplat report --run RUN.json --html PAGE` fills a page in place instead
+//! ([`write_with_run_summary`]), for pages moved away from their run.
 
 use super::dag::{dag_svg, status_colour};
 use super::data::{NodeStatus, RunSummary};
@@ -19,10 +22,40 @@ pub const RUN_SUMMARY_BEGIN: &str = "<!-- objectsplat:run-summary -->";
 /// Closes the run section.
 pub const RUN_SUMMARY_END: &str = "<!-- /objectsplat:run-summary -->";
 
+/// The run report as data, written beside a run's outputs.
+pub const RUN_DATA_FILE: &str = "run.json";
+/// The same run as a script that sets `window.objectsplatRun`, for pages opened from disk.
+pub const RUN_SCRIPT_FILE: &str = "run.js";
+
 fn placeholder() -> String {
     format!(
-        "{RUN_SUMMARY_BEGIN}<section id=\"run\"><h2>Run</h2><p class=\"placeholder\">The run summary (each node's status and time) is added by <code>objectsplat run</code>, or afterwards by <code>objectsplat report --run RUN.json --html index.html</code>.</p></section>{RUN_SUMMARY_END}"
+        "{RUN_SUMMARY_BEGIN}<section id=\"run\"><h2>Run</h2><p class=\"placeholder\">The run summary (each node's status and time) comes from <code>{RUN_SCRIPT_FILE}</code> beside the outputs of <code>objectsplat run</code>, or is filled in by <code>objectsplat report --run RUN.json --html index.html</code>.</p></section>{RUN_SUMMARY_END}"
     )
+}
+
+/// The page's loader: a materialized page lies at `OUT/<node>/<port>/index.html`, so the
+/// run's script is two folders up. The placeholder is replaced only while it is one (a page
+/// filled in by `objectsplat report` keeps its run).
+pub fn run_loader() -> String {
+    format!(
+        "<script src=\"../../{RUN_SCRIPT_FILE}\"></script><script>(function(){{var r=window.objectsplatRun,s=document.getElementById(\"run\");if(r&&s&&s.querySelector(\".placeholder\")){{s.outerHTML=r.section;}}}})();</script>"
+    )
+}
+
+/// Writes `OUT/run.json` (`report`, the JSON `objectsplat run --json` writes) and
+/// `OUT/run.js` (`run`'s rendered section, for the page's loader).
+pub fn write_run_files(out: &Path, report: &serde_json::Value, run: &RunSummary) -> Result<()> {
+    let section = run_section(run)?;
+    let data = serde_json::to_string_pretty(report).context("serialising the run report")?;
+    let script = format!(
+        "window.objectsplatRun = {{\"section\": {}}};\n",
+        serde_json::to_string(&section).context("serialising the run section")?
+    );
+    for (name, text) in [(RUN_DATA_FILE, data), (RUN_SCRIPT_FILE, script)] {
+        let path = out.join(name);
+        std::fs::write(&path, text).with_context(|| format!("{}: cannot write", path.display()))?;
+    }
+    Ok(())
 }
 
 /// The run section between its markers; the placeholder when `run` has no nodes.
