@@ -120,7 +120,7 @@ const VARIANTS: &[Variant] = &[
     },
     Variant {
         name: "depth_smoothness_from_start",
-        what: "the planarity prior from the first iteration (default: from the connectivity step)",
+        what: "the planarity prior from the first iteration (default: after the cleanup that follows the connectivity step)",
         layout: Layout::BehindObjects,
         params: r#"schedule: {"depth_smoothness_start": 0}"#,
     },

@@ -69,7 +69,7 @@ fn training_logs(items: &[(String, std::path::PathBuf)]) -> Result<Vec<ModelTrai
 
 impl Node for ReportNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("report", "2")
+        NodeSpec::new("report", "3")
             .doc("A self-contained HTML report (index.html): the run's graph with each node's status and time (filled in by `objectsplat run` on the materialized copy), the interactive 3D view of the scene (when a `viewer` folder is wired), metrics table, test-view triplets (ground truth / render / error heatmap), training curves of the models; no external resources.")
             .optional_input("metrics", "Metrics", "the evaluation (metrics.json)")
             .optional_input("frames", "Frames", "the capture; its test-split frames are the ground truth of the views")

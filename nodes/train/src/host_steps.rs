@@ -345,8 +345,9 @@ impl<'a> HostSteps<'a> {
     }
 
     /// One iteration: render view `view` over `b`, loss (with the depth loss at
-    /// weight `depth_weight` and the planarity prior at `smoothness_weight`), backward, Adam. The render's per-face weights go
-    /// into `stats`. Returns the photometric loss.
+    /// weight `depth_weight` and the planarity prior at `smoothness_weight`),
+    /// backward, Adam. The render's per-face weights go into `stats`. Returns the
+    /// photometric loss.
     #[allow(clippy::too_many_arguments)]
     pub fn step(
         &mut self,

@@ -108,7 +108,8 @@ pub struct Schedule {
     pub depth_smoothness_weight: f64,
     /// The planarity prior applies from this iteration on (by default the
     /// connectivity step's: from the start it slowed the early growth of
-    /// coverage, −2.7 dB at 1000 iterations on the dense bench).
+    /// coverage, −2.7 dB at 1000 iterations on the dense bench), and never
+    /// while the cleanup after the connectivity step is pending.
     pub depth_smoothness_start: u64,
 
     /// Held-out evaluation (best checkpoint) every this many iterations.

@@ -679,7 +679,12 @@ pub fn train_component_with_hook(
                         } else {
                             0.0
                         },
-                        if it >= s.depth_smoothness_start {
+                        // Not while the cleanup after the connectivity step is pending: the
+                        // prior would decide which faces never show (at 320×240 the cleanup
+                        // then took upper walls with it; −2.5 dB).
+                        if it >= s.depth_smoothness_start
+                            && !(cleanup_pending && s.connectivity_cleanup_threshold > 0.0)
+                        {
                             smoothness_weight
                         } else {
                             0.0
