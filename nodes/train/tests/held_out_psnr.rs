@@ -5,8 +5,7 @@
 mod common;
 
 use objectsplat_raster::CpuBackend;
-use objectsplat_train::init::ComponentMasks;
-use objectsplat_train::trainer::{ComponentData, TrainSettings, held_out_eval, train_component};
+use objectsplat_train::trainer::{TrainSettings, held_out_eval, train_component};
 
 const ITERATIONS: u64 = 300;
 /// Held-out PSNR the plate must reach (dB, supervised pixels of the test view, black
@@ -27,11 +26,7 @@ fn settings(seed: u64) -> TrainSettings {
 
 #[test]
 fn the_plate_reaches_the_stated_held_out_psnr_and_training_is_deterministic() {
-    let dir = tempfile::tempdir().unwrap();
-    common::write_component(dir.path());
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let points = masks.component_points(&common::points()).unwrap();
-    let data = ComponentData::read(dir.path()).unwrap();
+    let (_dir, data, points) = common::plate();
     let backend = CpuBackend::new(2);
     let first = train_component(&backend, &data, &points, &settings(7), |_, _| true).unwrap();
     let psnr = held_out_eval(&backend, &first.model, &data, &settings(7))

@@ -4,16 +4,11 @@
 mod common;
 
 use objectsplat_raster::CpuBackend;
-use objectsplat_train::init::ComponentMasks;
-use objectsplat_train::trainer::{ComponentData, TrainSettings, train_component};
+use objectsplat_train::trainer::{TrainSettings, train_component};
 
 #[test]
 fn an_interrupted_run_resumes_to_the_same_model() {
-    let dir = tempfile::tempdir().unwrap();
-    common::write_component(dir.path());
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let points = masks.component_points(&common::points()).unwrap();
-    let data = ComponentData::read(dir.path()).unwrap();
+    let (_dir, data, points) = common::plate();
     let backend = CpuBackend::new(2);
     let base = common::short_run_settings(200, 4, serde_json::json!({}));
     let bits = |m: &objectsplat_raster::Model<f32>| -> Vec<u32> {

@@ -5,8 +5,7 @@ mod common;
 
 use objectsplat_core::frames::Split;
 use objectsplat_raster::CpuBackend;
-use objectsplat_train::init::ComponentMasks;
-use objectsplat_train::trainer::{ComponentData, Step, StepHook, train_component_with_hook};
+use objectsplat_train::trainer::{Step, StepHook, train_component_with_hook};
 
 /// (iteration, total, view, loss, faces of the model shown).
 type Seen = (u64, u64, Option<usize>, Option<f64>, Option<usize>);
@@ -33,11 +32,7 @@ impl StepHook for Recorder {
 
 #[test]
 fn the_hook_sees_every_step_and_matches_the_log() {
-    let dir = tempfile::tempdir().unwrap();
-    common::write_component(dir.path());
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let points = masks.component_points(&common::points()).unwrap();
-    let data = ComponentData::read(dir.path()).unwrap();
+    let (_dir, data, points) = common::plate();
     // 400 iterations: the log averages windows of two steps.
     let iterations = 400;
     let settings = common::short_run_settings(iterations, 2, serde_json::json!({}));
@@ -81,11 +76,7 @@ fn the_hook_sees_every_step_and_matches_the_log() {
 
 #[test]
 fn a_hook_that_says_stop_interrupts_the_run() {
-    let dir = tempfile::tempdir().unwrap();
-    common::write_component(dir.path());
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let points = masks.component_points(&common::points()).unwrap();
-    let data = ComponentData::read(dir.path()).unwrap();
+    let (_dir, data, points) = common::plate();
     let settings = common::short_run_settings(50, 2, serde_json::json!({}));
     let mut hook = Recorder {
         stop_after: Some(7),

@@ -57,6 +57,21 @@ pub fn write_component(dir: &Path) {
     write_component_sized(dir, W, H)
 }
 
+/// The plate component written to a temporary folder and read back as a trainer
+/// would: (the folder, which must outlive the data; the data; the plate's points).
+pub fn plate() -> (
+    tempfile::TempDir,
+    objectsplat_train::trainer::ComponentData,
+    Points,
+) {
+    let dir = tempfile::tempdir().unwrap();
+    write_component(dir.path());
+    let masks = objectsplat_train::init::ComponentMasks::read(dir.path()).unwrap();
+    let points = masks.component_points(&points()).unwrap();
+    let data = objectsplat_train::trainer::ComponentData::read(dir.path()).unwrap();
+    (dir, data, points)
+}
+
 /// The plate component with `w`×`h` views.
 pub fn write_component_sized(dir: &Path, w: u32, h: u32) {
     let info = ComponentInfo::object(1, "plate");
