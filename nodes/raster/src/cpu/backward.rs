@@ -3,7 +3,8 @@
 //! Per tile, the forward pass kept every blended fragment's window value and
 //! the transmittance before it ([`TileFragments`]); the faces are walked
 //! back to front over them. Keeping T instead of recovering it by dividing
-//! by (1 − α) keeps the backward exact even after many near-opaque fragments. Gradients go to a partial per (tile, face)
+//! by (1 − α) keeps the backward exact even after many near-opaque
+//! fragments. Gradients go to a partial per (tile, face)
 //! entry; faces then sum their partials in tile order and vertices gather
 //! from their faces in face order, so the result does not depend on the
 //! thread count.
