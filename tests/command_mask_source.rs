@@ -8,6 +8,7 @@
 //! caught by `objectsplat check` at its file:line:column.
 
 use image::{Rgb, RgbImage};
+use objectsplat_core::artifact::OBJECTS_JSON;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -138,8 +139,7 @@ fn assert_masks(dir: &Path, keys: usize) {
         }
     }
     let objects: Value =
-        serde_json::from_str(&std::fs::read_to_string(masks.join("objects.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(masks.join(OBJECTS_JSON)).unwrap()).unwrap();
     assert_eq!(objects.as_object().unwrap().len(), keys);
 }
 

@@ -6,6 +6,7 @@
 //! build lock) and an unoptimised profile, since the test images are tiny and the
 //! build time dominates.
 
+use objectsplat_core::artifact::OBJECTS_JSON;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
@@ -68,7 +69,7 @@ fn median_fixture(name: &str) -> PathBuf {
 #[test]
 fn median_plugin_runs_in_a_graph_is_cached_and_reruns_when_its_code_version_changes() {
     let dir = fresh_dir("median");
-    for f in ["input.png", "mask.png", "expected.png"] {
+    for f in ["input.png", "hole.png", "expected.png"] {
         std::fs::copy(median_fixture(f), dir.join(f)).unwrap();
     }
     let lib = dir.join("median_inpaint.so");
@@ -79,7 +80,7 @@ fn median_plugin_runs_in_a_graph_is_cached_and_reruns_when_its_code_version_chan
   plugins: ["median_inpaint.so"],
   nodes: {
     "photo":    (kind: "load_image", params: (path: "input.png")),
-    "hole":     (kind: "load_mask", params: (path: "mask.png")),
+    "hole":     (kind: "load_mask", params: (path: "hole.png")),
     "fill":     (kind: "median_inpaint", inputs: (image: "photo.image", mask: "hole.mask")),
     "save":     (kind: "save_image", inputs: (image: "fill.image"), params: (path: "filled.png")),
     "oracle":   (kind: "load_image", params: (path: "expected.png")),
@@ -198,8 +199,7 @@ fn colorkey_plugin_is_listed_with_its_interface_and_runs_through_the_host() {
     let masks = &run.outputs["masks"];
     assert!(masks.join("view_a.png").is_file() && masks.join("view_b.png").is_file());
     let labels: Value =
-        serde_json::from_str(&std::fs::read_to_string(masks.join("objects.json")).unwrap())
-            .unwrap();
+        serde_json::from_str(&std::fs::read_to_string(masks.join(OBJECTS_JSON)).unwrap()).unwrap();
     assert_eq!(labels, serde_json::json!({"3": "chair"}));
     let chair_pixels: u64 = run
         .notes

@@ -16,6 +16,7 @@
 
 mod support;
 
+use objectsplat_core::artifact::{MODEL_PLY, TRAINING_JSON};
 use objectsplat_runtime::graph::{GraphSource, parse_graph};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -164,17 +165,17 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
     for t in &trainers {
         let models = a
             .keys()
-            .filter(|k| k.starts_with(&format!("{t}/")) && k.ends_with("model.ply"))
+            .filter(|k| k.starts_with(&format!("{t}/")) && k.ends_with(MODEL_PLY))
             .count();
         assert!(models >= 1, "no models of {t}: {:?}", a.keys());
     }
-    let logs = a.keys().filter(|k| k.ends_with("training.json")).count();
+    let logs = a.keys().filter(|k| k.ends_with(TRAINING_JSON)).count();
     assert!(logs >= 5, "{:?}", a.keys());
     for (name, bytes) in &a {
         if RUN_FILES.contains(&name.as_str()) {
             continue;
         }
-        if name.ends_with("training.json") {
+        if name.ends_with(TRAINING_JSON) {
             let untimed = |bytes: &[u8]| without_times(serde_json::from_slice(bytes).unwrap());
             assert_eq!(untimed(bytes), untimed(&b[name]), "{name}");
         } else {

@@ -11,6 +11,7 @@
 
 mod support;
 
+use objectsplat_core::artifact::PAGE_HTML;
 use objectsplat_runtime::testing::run_node;
 use serde_json::{Value, json};
 use std::collections::HashMap;
@@ -32,7 +33,7 @@ fn viewer_page(tmp: &Path) -> PathBuf {
         None,
     )
     .unwrap();
-    run.outputs["file"].join("index.html")
+    run.outputs["file"].join(PAGE_HTML)
 }
 
 fn canvas_rect(page: &mut Page) -> [f64; 4] {
@@ -456,7 +457,7 @@ fn viewer_draws_what_render_draws() {
     let (_, view) = objectsplat_export::viewer::read_viewer(&dir).unwrap();
     let start = view.camera.unwrap();
 
-    let page_path = dir.join("index.html");
+    let page_path = dir.join(PAGE_HTML);
     let mut page = browser.open(&page_path, WIDTH, HEIGHT);
     page.eval("window.objectsplat.ready");
     let rect = canvas_rect(&mut page);

@@ -2,6 +2,7 @@
 
 use anyhow::{Result, bail};
 use objectsplat_core::Image;
+use objectsplat_core::artifact::{IMAGE_PNG, MASK_PNG};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
 use std::sync::Arc;
 
@@ -20,7 +21,7 @@ impl Node for LoadImage {
         let path: String = ctx.param("path")?;
         let img = Image::load(std::path::Path::new(&path))?;
         img.check_finite(&path)?;
-        let out = ctx.output("image")?.join("image.png");
+        let out = ctx.output("image")?.join(IMAGE_PNG);
         if is_16_bit(std::path::Path::new(&path)) {
             img.save_png16(&out)?
         } else {
@@ -77,7 +78,7 @@ impl Node for LoadMask {
                 .collect(),
         };
         let set = mask.data.iter().filter(|&&v| v > 0.0).count();
-        mask.save_png8(&ctx.output("mask")?.join("mask.png"))?;
+        mask.save_png8(&ctx.output("mask")?.join(MASK_PNG))?;
         ctx.note("set_pixels", set);
         Ok(Outcome::Done)
     }
@@ -97,7 +98,7 @@ impl Node for ResizeImage {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let img = Image::load(&ctx.input("image")?.join("image.png"))?;
+        let img = Image::load(&ctx.input("image")?.join(IMAGE_PNG))?;
         let factor: u32 = ctx.param("factor")?;
         let max_width: Option<u32> = ctx.param("max_width")?;
         let mut w = (img.width / factor).max(1);
@@ -113,7 +114,7 @@ impl Node for ResizeImage {
         } else {
             img.resize_area(w, h)
         };
-        out.save_png8(&ctx.output("image")?.join("image.png"))?;
+        out.save_png8(&ctx.output("image")?.join(IMAGE_PNG))?;
         ctx.note("size", format!("{w}×{h}"));
         Ok(Outcome::Done)
     }
@@ -133,7 +134,7 @@ impl Node for SaveImage {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let img = Image::load(&ctx.input("image")?.join("image.png"))?;
+        let img = Image::load(&ctx.input("image")?.join(IMAGE_PNG))?;
         let rel: String = ctx.param("path")?;
         if !rel.to_ascii_lowercase().ends_with(".png") {
             bail!("path {rel:?} must end in .png");

@@ -40,20 +40,10 @@ use std::time::Duration;
 pub const KIND: &str = "command";
 const OPTIONS_FILE: &str = "options.json";
 
-/// The file each type's folder is defined by (docs/artifacts.md); types not listed
-/// (File, Images) only need to be non-empty.
-const DEFINING_FILE: [(&str, &str); 10] = [
-    ("Image", "image.png"),
-    ("Mask", "mask.png"),
-    ("Frames", "frames.json"),
-    ("Points", "points.ply"),
-    ("Mesh", "mesh.ply"),
-    ("Masks", "objects.json"),
-    ("Component", "component.json"),
-    ("Model", "model.ply"),
-    ("Scene", "scene.json"),
-    ("Metrics", "metrics.json"),
-];
+/// The file a folder of type `name` is defined by (docs/artifacts.md).
+fn defining_file(name: &str) -> Option<&'static str> {
+    objectsplat_core::artifact::find(name).and_then(|t| t.defining_file)
+}
 
 pub struct CommandNode;
 
@@ -357,8 +347,8 @@ fn check_output(port: &str, ty: &TypeRef, dir: &Path, program: &str, stderr: &st
             dir.display()
         );
     }
-    if let (TypeRef::One(t), Some((_, file))) =
-        (ty, DEFINING_FILE.iter().find(|(t, _)| t == &ty.element()))
+    // Types without a defining file (File, Images) only need to be non-empty.
+    if let (TypeRef::One(t), Some(file)) = (ty, defining_file(ty.element()))
         && !dir.join(file).is_file()
     {
         bail!(

@@ -6,12 +6,13 @@
 //! (owned by an object) are filled; ignored pixels are left alone. Every such frame
 //! gets a fill image `<frame stem>.png` (unchanged where there was nothing to fill).
 
-use crate::component_io::{ComponentDir, load_rgb8, save_rgb8};
+use crate::component_io::ComponentDir;
 use crate::external::{ExternalCommand, FillRequest, composite};
 use crate::inpaint::{Method, Options, Raster, inpaint};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::component::OTHER;
 use objectsplat_core::frames::frame_stem;
+use objectsplat_core::image::{read_rgb8, write_rgb8};
 use objectsplat_core::{ComponentKind, Frames};
 use std::path::{Path, PathBuf};
 
@@ -73,7 +74,7 @@ pub fn inpaint_background(
             .map(|&v| u8::from(v == OTHER))
             .collect();
         let path = frames.image_path(frame);
-        let (w, h, rgb) = load_rgb8(&path)?;
+        let (w, h, rgb) = read_rgb8(&path)?;
         if (w, h) != (frame.width, frame.height) {
             bail!(
                 "{}: image is {w}×{h} but frames.json says {}×{}",
@@ -129,7 +130,7 @@ pub fn inpaint_background(
                         r.stem
                     );
                 }
-                let (w, h, rgb) = load_rgb8(&path)?;
+                let (w, h, rgb) = read_rgb8(&path)?;
                 if (w, h) != (r.width, r.height) {
                     bail!(
                         "{}: fill is {w}×{h} but the frame is {}×{}",
@@ -151,7 +152,7 @@ pub fn inpaint_background(
     for r in &requests {
         let data = filled.remove(&r.stem).unwrap_or_else(|| r.rgb.clone());
         let path = out.join(format!("{}.png", r.stem));
-        save_rgb8(&path, &data, r.width, r.height)
+        write_rgb8(&path, &data, r.width, r.height)
             .with_context(|| format!("writing the fill of frame {:?}", r.stem))?;
     }
     Ok(report)

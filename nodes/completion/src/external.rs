@@ -22,9 +22,9 @@
 //! node. Files the program opens on its own (weights it finds by itself, say) cannot
 //! be known in advance and are not part of the key: name them in the argv.
 
-use crate::component_io::{load_rgb8, save_gray8, save_rgb8};
 use anyhow::{Context, Result, bail};
 use objectsplat_command::process::Program;
+use objectsplat_core::image::{read_rgb8, write_gray8, write_rgb8};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -89,7 +89,7 @@ impl ExternalCommand {
             if r.stem.is_empty() || r.stem.contains(['/', '\\']) || r.stem.starts_with('.') {
                 bail!("frame stem {:?} cannot be used as a file name", r.stem);
             }
-            save_rgb8(
+            write_rgb8(
                 &input.join(format!("{}.png", r.stem)),
                 &r.rgb,
                 r.width,
@@ -100,7 +100,7 @@ impl ExternalCommand {
                 .iter()
                 .map(|&m| if m != 0 { 255 } else { 0 })
                 .collect();
-            save_gray8(
+            write_gray8(
                 &input.join(format!("{}_mask.png", r.stem)),
                 &mask,
                 r.width,
@@ -142,7 +142,7 @@ impl ExternalCommand {
             .iter()
             .map(|r| {
                 let path = output.join(format!("{}.png", r.stem));
-                let (w, h, filled) = load_rgb8(&path)?;
+                let (w, h, filled) = read_rgb8(&path)?;
                 if (w, h) != (r.width, r.height) {
                     bail!(
                         "{}: the inpainting command wrote a {w}×{h} image for a {}×{} input",

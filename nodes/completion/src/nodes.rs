@@ -8,14 +8,12 @@ use crate::inpaint::{Method, Options, Raster, Sample, inpaint};
 use crate::surface::{SurfaceParams, complete_surfaces};
 use crate::surface_mesh::{SurfaceMeshParams, complete_scene_surfaces};
 use anyhow::{Context as _, Result, bail};
+use objectsplat_core::artifact::{IMAGE_PNG, MASK_PNG};
 use objectsplat_core::{Frames, Points};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params, Registry};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
-
-const IMAGE_PNG: &str = "image.png";
-const MASK_PNG: &str = "mask.png";
 
 pub fn register(reg: &mut Registry) {
     let nodes: [Arc<dyn Node>; 5] = [
@@ -64,7 +62,7 @@ fn load_mask(dir: &Path) -> Result<(u32, u32, Vec<bool>)> {
 
 fn save_mask(dir: &Path, w: u32, h: u32, set: &[bool]) -> Result<()> {
     let data: Vec<u8> = set.iter().map(|&s| if s { 255 } else { 0 }).collect();
-    crate::component_io::save_gray8(&dir.join(MASK_PNG), &data, w, h)
+    objectsplat_core::image::write_gray8(&dir.join(MASK_PNG), &data, w, h)
 }
 
 pub struct InpaintNode;
@@ -211,7 +209,7 @@ impl Node for SurfaceCompletionNode {
         Frames::read(ctx.input("frames")?)?;
         let points = match ctx.input_opt("points") {
             Some(dir) => Some(Points::read_ply(
-                &dir.join(objectsplat_core::mesh_io::POINTS_PLY),
+                &dir.join(objectsplat_core::artifact::POINTS_PLY),
             )?),
             None => None,
         };
@@ -280,7 +278,7 @@ impl Node for CompleteSurfacesNode {
         Frames::read(ctx.input("frames")?)?;
         let points = match ctx.input_opt("points") {
             Some(dir) => Some(Points::read_ply(
-                &dir.join(objectsplat_core::mesh_io::POINTS_PLY),
+                &dir.join(objectsplat_core::artifact::POINTS_PLY),
             )?),
             None => None,
         };

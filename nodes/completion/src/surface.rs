@@ -24,8 +24,8 @@ use crate::inpaint::{Method, Options, Raster, inpaint};
 use crate::plane::fit_plane;
 use anyhow::{Context, Result, bail};
 use glam::DVec3;
-use objectsplat_core::component::{OTHER, OWN};
-use objectsplat_core::frames::frame_stem;
+use objectsplat_core::component::{self, OTHER, OWN};
+use objectsplat_core::image::read_rgb8;
 use objectsplat_core::{ComponentKind, Frame, Points};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -359,18 +359,9 @@ pub fn complete_surfaces(
     for (index, frames_done) in &completed {
         let c = &components[*index];
         let dir = out.join(&c.name);
-        let targets = dir.join("targets");
-        std::fs::create_dir_all(&targets)
-            .with_context(|| format!("{}: cannot create folder", targets.display()))?;
         for (frame, done) in frames_done {
-            component_io::save_gray8(
-                &component_io::mask_path(&dir, frame),
-                &done.mask,
-                frame.width,
-                frame.height,
-            )?;
-            let target = targets.join(format!("{}.png", frame_stem(&frame.name)));
-            component_io::save_rgb8(&target, &done.target, frame.width, frame.height)?;
+            component::write_mask(&dir, frame, &done.mask)?;
+            component::write_target(&dir, frame, &done.target)?;
         }
         let outcome = surfaces.iter().find(|s| s.component == c.name);
         let path = dir.join(COMPLETION_JSON);
@@ -404,7 +395,7 @@ fn complete_one(
         }
     }
     let image_path = surface.frames.image_path(frame);
-    let (iw, ih, rgb) = component_io::load_rgb8(&image_path)?;
+    let (iw, ih, rgb) = read_rgb8(&image_path)?;
     if (iw, ih) != (frame.width, frame.height) {
         bail!(
             "{}: image is {iw}×{ih} but frames.json says {}×{}",

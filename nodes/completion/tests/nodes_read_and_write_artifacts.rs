@@ -7,6 +7,7 @@
 mod common;
 
 use objectsplat_completion::nodes::{FillHolesNode, InpaintBackgroundNode, InpaintNode};
+use objectsplat_core::artifact::{IMAGE_PNG, MASK_PNG};
 use objectsplat_runtime::Outcome;
 use objectsplat_runtime::testing::run_node;
 use std::path::{Path, PathBuf};
@@ -30,13 +31,13 @@ fn inpaint_node_reproduces_opencv_on_an_rgb_photo() {
     let image = artifact(
         tmp.path(),
         "image",
-        "image.png",
+        IMAGE_PNG,
         &fixture("inpaint/images/coffee.png"),
     );
     let mask = artifact(
         tmp.path(),
         "mask",
-        "mask.png",
+        MASK_PNG,
         &fixture("inpaint/masks/blobs.png"),
     );
     let run = run_node(
@@ -48,7 +49,7 @@ fn inpaint_node_reproduces_opencv_on_an_rgb_photo() {
     )
     .unwrap();
     assert_eq!(run.outcome, Outcome::Done);
-    let out = image::open(run.outputs["image"].join("image.png"))
+    let out = image::open(run.outputs["image"].join(IMAGE_PNG))
         .unwrap()
         .to_rgb8()
         .into_raw();
@@ -75,7 +76,7 @@ fn inpaint_node_keeps_sixteen_bit_depth() {
     std::fs::create_dir_all(&dir).unwrap();
     let bytes: Vec<u8> = samples.iter().flat_map(|v| v.to_ne_bytes()).collect();
     image::save_buffer_with_format(
-        dir.join("image.png"),
+        dir.join(IMAGE_PNG),
         &bytes,
         w,
         h,
@@ -88,7 +89,7 @@ fn inpaint_node_keeps_sixteen_bit_depth() {
     let mut mask = vec![0u8; (w * h) as usize];
     mask[30] = 255;
     image::save_buffer_with_format(
-        mdir.join("mask.png"),
+        mdir.join(MASK_PNG),
         &mask,
         w,
         h,
@@ -104,7 +105,7 @@ fn inpaint_node_keeps_sixteen_bit_depth() {
         None,
     )
     .unwrap();
-    let out = image::open(run.outputs["image"].join("image.png")).unwrap();
+    let out = image::open(run.outputs["image"].join(IMAGE_PNG)).unwrap();
     let image::DynamicImage::ImageLuma16(buf) = out else {
         panic!("bit depth lost: {:?}", out.color())
     };
@@ -128,13 +129,13 @@ fn inpaint_node_rejects_a_mask_of_another_size() {
     let image = artifact(
         tmp.path(),
         "image",
-        "image.png",
+        IMAGE_PNG,
         &fixture("inpaint/images/camera.png"),
     );
     let mask = artifact(
         tmp.path(),
         "mask",
-        "mask.png",
+        MASK_PNG,
         &fixture("fill_holes/horse.png"),
     );
     let err = run_node(
@@ -155,7 +156,7 @@ fn fill_holes_node_matches_scipy_on_the_horse() {
     let mask = artifact(
         tmp.path(),
         "mask",
-        "mask.png",
+        MASK_PNG,
         &fixture("fill_holes/horse.png"),
     );
     for n in [4, 8] {
@@ -168,7 +169,7 @@ fn fill_holes_node_matches_scipy_on_the_horse() {
             None,
         )
         .unwrap();
-        let got = image::open(run.outputs["mask"].join("mask.png"))
+        let got = image::open(run.outputs["mask"].join(MASK_PNG))
             .unwrap()
             .to_luma8()
             .into_raw();

@@ -12,9 +12,13 @@
 //! - `targets/<frame stem>.png` (optional): replacement target colours, used for owned
 //!   pixels instead of the frame image (set by surface completion for filled pixels).
 
+use crate::artifact::{COMPONENT_JSON, COMPONENT_MASKS_DIR, COMPONENT_TARGETS_DIR};
+use crate::frames::{Frame, frame_stem};
+use crate::image::{read_gray8, write_gray8, write_rgb8};
+use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
 
-pub const COMPONENT_JSON: &str = "component.json";
 pub const OWN: u8 = 255;
 pub const OTHER: u8 = 0;
 pub const IGNORE: u8 = 128;
@@ -51,6 +55,64 @@ impl ComponentInfo {
             object_id: None,
             label: None,
         }
+    }
+}
+
+impl ComponentInfo {
+    /// Reads `component.json` from a Component folder.
+    pub fn read(dir: &Path) -> Result<ComponentInfo> {
+        let path = dir.join(COMPONENT_JSON);
+        let text = std::fs::read_to_string(&path)
+            .with_context(|| format!("{}: cannot read", path.display()))?;
+        serde_json::from_str(&text)
+            .with_context(|| format!("{}: not a valid component description", path.display()))
+    }
+
+    /// Writes `component.json` into a Component folder.
+    pub fn write(&self, dir: &Path) -> Result<()> {
+        let path = dir.join(COMPONENT_JSON);
+        std::fs::write(&path, serde_json::to_string_pretty(self)?)
+            .with_context(|| format!("{}: cannot write", path.display()))
+    }
+}
+
+/// Where a Component folder keeps its ownership mask for `frame`.
+pub fn mask_path(dir: &Path, frame: &Frame) -> PathBuf {
+    dir.join(COMPONENT_MASKS_DIR)
+        .join(format!("{}.png", frame_stem(&frame.name)))
+}
+
+/// Where a Component folder keeps its completed target colours for `frame`, if any.
+pub fn target_path(dir: &Path, frame: &Frame) -> PathBuf {
+    dir.join(COMPONENT_TARGETS_DIR)
+        .join(format!("{}.png", frame_stem(&frame.name)))
+}
+
+/// The [`OWN`]/[`OTHER`]/[`IGNORE`] mask of `frame`, checked against the frame's size.
+pub fn read_mask(dir: &Path, frame: &Frame) -> Result<Vec<u8>> {
+    read_gray8(&mask_path(dir, frame), frame.width, frame.height)
+}
+
+/// Writes the mask of `frame` (creating `masks/`), replacing any file already there.
+pub fn write_mask(dir: &Path, frame: &Frame, mask: &[u8]) -> Result<()> {
+    let path = mask_path(dir, frame);
+    create_parent(&path)?;
+    write_gray8(&path, mask, frame.width, frame.height)
+}
+
+/// Writes the completed target colours (8-bit RGB) of `frame` (creating `targets/`),
+/// replacing any file already there.
+pub fn write_target(dir: &Path, frame: &Frame, rgb: &[u8]) -> Result<()> {
+    let path = target_path(dir, frame);
+    create_parent(&path)?;
+    write_rgb8(&path, rgb, frame.width, frame.height)
+}
+
+fn create_parent(path: &Path) -> Result<()> {
+    match path.parent() {
+        Some(parent) => std::fs::create_dir_all(parent)
+            .with_context(|| format!("{}: cannot create folder", parent.display())),
+        None => Ok(()),
     }
 }
 

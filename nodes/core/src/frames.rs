@@ -5,12 +5,11 @@
 //! `image` is a path relative to the folder, `world_to_camera` is 4×4 row-major
 //! (OpenCV axes) and `split` is `"train"` or `"test"`; the images sit beside it.
 
+use crate::artifact::FRAMES_JSON;
 use crate::{Camera, Image};
 use anyhow::{Context, Result, bail};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-
-pub const FRAMES_JSON: &str = "frames.json";
 
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

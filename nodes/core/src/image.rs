@@ -7,6 +7,64 @@
 use anyhow::{Context, Result, bail};
 use std::path::Path;
 
+/// Writes a PNG, replacing (not modifying) a file already at `path`: an output folder may
+/// hold hard links to input artifacts (see `objectsplat_runtime`'s store), and writing
+/// through one would change the input.
+fn write_png(
+    path: &Path,
+    raw: &[u8],
+    width: u32,
+    height: u32,
+    color: image::ExtendedColorType,
+) -> Result<()> {
+    match std::fs::remove_file(path) {
+        Err(e) if e.kind() != std::io::ErrorKind::NotFound => {
+            return Err(e).with_context(|| format!("{}: cannot replace", path.display()));
+        }
+        _ => {}
+    }
+    image::save_buffer_with_format(path, raw, width, height, color, image::ImageFormat::Png)
+        .with_context(|| format!("{}: cannot write PNG", path.display()))
+}
+
+/// Writes 8-bit grey pixels as a PNG.
+pub fn write_gray8(path: &Path, data: &[u8], width: u32, height: u32) -> Result<()> {
+    write_png(path, data, width, height, image::ExtendedColorType::L8)
+}
+
+/// Writes 8-bit RGB pixels as a PNG.
+pub fn write_rgb8(path: &Path, data: &[u8], width: u32, height: u32) -> Result<()> {
+    write_png(path, data, width, height, image::ExtendedColorType::Rgb8)
+}
+
+/// An 8-bit grey PNG of the given size (other formats are refused: masks are 8-bit grey).
+pub fn read_gray8(path: &Path, width: u32, height: u32) -> Result<Vec<u8>> {
+    let img = image::open(path).with_context(|| format!("{}: cannot read mask", path.display()))?;
+    let (w, h) = (img.width(), img.height());
+    let image::DynamicImage::ImageLuma8(buf) = img else {
+        bail!(
+            "{}: expected an 8-bit grey mask, found {:?}",
+            path.display(),
+            img.color()
+        );
+    };
+    if (w, h) != (width, height) {
+        bail!(
+            "{}: mask is {w}×{h} but its frame is {width}×{height}",
+            path.display()
+        );
+    }
+    Ok(buf.into_raw())
+}
+
+/// An image as 8-bit RGB (grey is replicated, alpha dropped, 16-bit reduced).
+pub fn read_rgb8(path: &Path) -> Result<(u32, u32, Vec<u8>)> {
+    let img =
+        image::open(path).with_context(|| format!("{}: cannot read image", path.display()))?;
+    let rgb = img.to_rgb8();
+    Ok((rgb.width(), rgb.height(), rgb.into_raw()))
+}
+
 /// A row-major, channel-interleaved float image.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Image {
@@ -128,15 +186,7 @@ impl Image {
             4 => image::ExtendedColorType::Rgba8,
             c => bail!("cannot save a {c}-channel image as PNG"),
         };
-        image::save_buffer_with_format(
-            path,
-            &raw,
-            self.width,
-            self.height,
-            color,
-            image::ImageFormat::Png,
-        )
-        .with_context(|| format!("{}: cannot write PNG", path.display()))
+        write_png(path, &raw, self.width, self.height, color)
     }
 
     /// Saves as a 16-bit PNG.
@@ -153,15 +203,7 @@ impl Image {
             4 => image::ExtendedColorType::Rgba16,
             c => bail!("cannot save a {c}-channel image as PNG"),
         };
-        image::save_buffer_with_format(
-            path,
-            &raw,
-            self.width,
-            self.height,
-            color,
-            image::ImageFormat::Png,
-        )
-        .with_context(|| format!("{}: cannot write PNG", path.display()))
+        write_png(path, &raw, self.width, self.height, color)
     }
 
     /// Box-filter (area) downscale to `width`×`height`; exact for integer factors.

@@ -4,6 +4,7 @@
 //! encoding (see `docs/artifacts.md`); this crate reads and writes the ones that
 //! describe captures: cameras, frames, images, object masks, meshes and components.
 
+pub mod artifact;
 pub mod camera;
 pub mod component;
 pub mod frames;

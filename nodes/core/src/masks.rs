@@ -5,11 +5,11 @@
 //! the source scan; partition gives it to the background); plus `objects.json`,
 //! a JSON object mapping object id (as a string) to its label.
 
+use crate::artifact::OBJECTS_JSON;
 use anyhow::{Context, Result, bail};
 use std::collections::BTreeMap;
 use std::path::Path;
 
-pub const OBJECTS_JSON: &str = "objects.json";
 /// Marks pixels that no surface owns. Never an object id.
 pub const UNOWNED: u16 = u16::MAX;
 pub const NO_OBJECT: u16 = 0;

@@ -11,14 +11,12 @@
 //! (id → label). Object ids are −1 (none) or 1..=65534, the same id space as masks,
 //! and every id used by a vertex must have a label.
 
+use crate::artifact::{MESH_PLY, OBJECTS_JSON};
 use crate::geometry::{Mesh, Points};
 use crate::masks::{self, NO_OBJECT, ObjectLabels, UNOWNED};
 use crate::ply::{Column, Element, Format, Ply, Property, ScalarType};
 use anyhow::{Context, Result, bail};
 use std::path::Path;
-
-pub const MESH_PLY: &str = "mesh.ply";
-pub const POINTS_PLY: &str = "points.ply";
 
 fn at(path: &Path, message: String) -> anyhow::Error {
     anyhow::anyhow!("{}: {message}", path.display())
@@ -269,7 +267,7 @@ fn check_ids(mesh: &Mesh, labels: &ObjectLabels) -> Result<(), String> {
 /// Reads a Mesh artifact folder: the mesh and its object labels (empty when unannotated).
 pub fn read_mesh_artifact(dir: &Path) -> Result<(Mesh, ObjectLabels)> {
     let mesh = Mesh::read_ply(&dir.join(MESH_PLY))?;
-    let labels = if dir.join(masks::OBJECTS_JSON).exists() {
+    let labels = if dir.join(OBJECTS_JSON).exists() {
         masks::read_objects(dir)?
     } else {
         ObjectLabels::new()
@@ -293,6 +291,7 @@ pub fn write_mesh_artifact(dir: &Path, mesh: &Mesh, labels: &ObjectLabels) -> Re
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::artifact::POINTS_PLY;
 
     fn annotated() -> (Mesh, ObjectLabels) {
         let mesh = Mesh {

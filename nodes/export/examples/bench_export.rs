@@ -6,6 +6,7 @@
 
 use anyhow::{Context, Result};
 use objectsplat_core::Image;
+use objectsplat_core::artifact::SCENE_GLB;
 use objectsplat_export::ply::write_component_plys;
 use objectsplat_export::report::{ReportData, ViewTriplet, render_report};
 use objectsplat_export::{ExportObject, SrgbColors, write_glb};
@@ -79,7 +80,7 @@ fn main() -> Result<()> {
     let scene: Vec<ExportObject> = (1..=objects).map(|id| grid(id, n)).collect();
     let triangles: usize = scene.iter().map(|o| o.faces.len()).sum();
 
-    let glb = out.join("scene.glb");
+    let glb = out.join(SCENE_GLB);
     let t_glb = median_seconds(|| write_glb(&glb, &scene, None).map(|_| ()))?;
     let t_ply = median_seconds(|| write_component_plys(&out.join("ply"), &scene).map(|_| ()))?;
 

@@ -12,13 +12,12 @@
 use crate::report::{MetricsTable, ModelTraining, ReportData, ViewTriplet, render_report};
 use anyhow::{Context as _, Result};
 use objectsplat_core::Frames;
+use objectsplat_core::artifact::METRICS_JSON;
 use objectsplat_core::frames::{Split, frame_stem};
 use objectsplat_raster::TrainingLog;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
 use std::path::Path;
 use std::sync::Arc;
-
-pub const METRICS_JSON: &str = "metrics.json";
 
 /// Writes `index.html` from a Metrics artifact and, when wired, test views.
 pub struct ReportNode;

@@ -8,6 +8,7 @@
 
 mod common;
 
+use objectsplat_core::artifact::SCENE_GLB;
 use objectsplat_export::glb::build_glb;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
@@ -87,7 +88,7 @@ fn exported_scene_has_no_validator_errors_or_warnings() {
         [0.0; 3],
         common::CORNER_COLOURS,
     ));
-    let path = dir.path().join("scene.glb");
+    let path = dir.path().join(SCENE_GLB);
     objectsplat_export::write_glb(
         &path,
         &objects,

@@ -4,6 +4,7 @@
 mod common;
 
 use common::synthetic_report::{ground_truth_image, render_image};
+use objectsplat_core::artifact::{METRICS_JSON, PAGE_HTML};
 use objectsplat_core::frames::Split;
 use objectsplat_core::{Camera, Frame, Frames};
 use objectsplat_export::nodes::ReportNode;
@@ -14,7 +15,7 @@ fn write_inputs(root: &Path) {
     let metrics = root.join("metrics");
     std::fs::create_dir_all(&metrics).unwrap();
     std::fs::write(
-        metrics.join("metrics.json"),
+        metrics.join(METRICS_JSON),
         r#"{"psnr": 23.5, "ssim": 0.75, "lpips": null, "fscore": 0.5, "precision": 0.6, "recall": 0.4, "tau": 0.05,
             "objects": [{"object_id": 4, "label": "sofa", "psnr": 25.0, "ssim": 0.8, "lpips": null,
                          "fscore": 0.7, "precision": 0.7, "recall": 0.7, "tau": 0.05}]}"#,
@@ -73,7 +74,7 @@ fn report_node_writes_metrics_and_the_rendered_test_views() {
         None,
     )
     .unwrap();
-    let html = std::fs::read_to_string(run.outputs["file"].join("index.html")).unwrap();
+    let html = std::fs::read_to_string(run.outputs["file"].join(PAGE_HTML)).unwrap();
     assert!(html.contains("<title>room 7</title>"));
     assert!(html.contains("<td class=\"num\">23.5000</td>") && html.contains("obj_4_sofa"));
     // Test frames with renders are 1, 2, 4; two spread evenly are 1 and 2 (indices 0 and 1 of 3).
@@ -99,7 +100,7 @@ fn report_node_without_views_still_reports_metrics() {
         None,
     )
     .unwrap();
-    let html = std::fs::read_to_string(run.outputs["file"].join("index.html")).unwrap();
+    let html = std::fs::read_to_string(run.outputs["file"].join(PAGE_HTML)).unwrap();
     assert!(html.contains("<title>ObjectSplat run</title>") && html.contains("No test views."));
 }
 
@@ -116,8 +117,8 @@ fn report_node_output_is_deterministic() {
     let a = run_node(&ReportNode, &inputs, "()", &dir.path().join("a"), None).unwrap();
     let b = run_node(&ReportNode, &inputs, "()", &dir.path().join("b"), None).unwrap();
     assert_eq!(
-        std::fs::read(a.outputs["file"].join("index.html")).unwrap(),
-        std::fs::read(b.outputs["file"].join("index.html")).unwrap()
+        std::fs::read(a.outputs["file"].join(PAGE_HTML)).unwrap(),
+        std::fs::read(b.outputs["file"].join(PAGE_HTML)).unwrap()
     );
 }
 
@@ -126,7 +127,7 @@ fn unreadable_metrics_name_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let m = dir.path().join("metrics");
     std::fs::create_dir_all(&m).unwrap();
-    std::fs::write(m.join("metrics.json"), "{not json").unwrap();
+    std::fs::write(m.join(METRICS_JSON), "{not json").unwrap();
     let e = run_node(
         &ReportNode,
         &[("metrics", &m)],
@@ -138,7 +139,7 @@ fn unreadable_metrics_name_the_file() {
     .expect("must fail");
     let e = format!("{e:#}");
     assert!(
-        e.contains("metrics.json") && e.contains("not a valid metrics file"),
+        e.contains(METRICS_JSON) && e.contains("not a valid metrics file"),
         "{e}"
     );
 }

@@ -6,6 +6,7 @@ mod common;
 
 use common::svg::{best_ring, polylines, section, stop_line, svg_blocks};
 use common::synthetic_report::{fixture_models, fixture_training};
+use objectsplat_core::artifact::{MODEL_JSON, TRAINING_JSON};
 use objectsplat_export::nodes::ReportNode;
 use objectsplat_export::report::*;
 use objectsplat_runtime::testing::run_node;
@@ -218,13 +219,13 @@ fn models_collection(root: &std::path::Path) -> std::path::PathBuf {
     for name in ["obj_3_chair", "background"] {
         std::fs::create_dir_all(models.join(name)).unwrap();
         std::fs::copy(
-            fixture_models().join(name).join("training.json"),
-            models.join(name).join("training.json"),
+            fixture_models().join(name).join(TRAINING_JSON),
+            models.join(name).join(TRAINING_JSON),
         )
         .unwrap();
     }
     std::fs::create_dir_all(models.join("obj_5_lamp")).unwrap();
-    std::fs::write(models.join("obj_5_lamp/model.json"), "{}").unwrap();
+    std::fs::write(models.join("obj_5_lamp").join(MODEL_JSON), "{}").unwrap();
     models
 }
 
@@ -267,7 +268,7 @@ fn a_broken_training_log_names_the_model_and_the_file() {
     let dir = tempfile::tempdir().unwrap();
     let models = models_collection(dir.path());
     std::fs::write(
-        models.join("background/training.json"),
+        models.join("background").join(TRAINING_JSON),
         "{\"component\": 3}",
     )
     .unwrap();
@@ -282,7 +283,7 @@ fn a_broken_training_log_names_the_model_and_the_file() {
     };
     let msg = format!("{e:#}");
     assert!(
-        msg.contains("models item \"background\"") && msg.contains("training.json"),
+        msg.contains("models item \"background\"") && msg.contains(TRAINING_JSON),
         "{msg}"
     );
 }

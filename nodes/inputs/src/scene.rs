@@ -331,5 +331,5 @@ fn write_valid_mask(binary: &Image, dst: &Path, target: (u32, u32)) -> Result<()
 /// Writes the Points artifact (`points.ply`) into `out`.
 pub fn write_points(out: &Path, points: &Points) -> Result<()> {
     std::fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
-    points.write_ply(&out.join(objectsplat_core::mesh_io::POINTS_PLY))
+    points.write_ply(&out.join(objectsplat_core::artifact::POINTS_PLY))
 }

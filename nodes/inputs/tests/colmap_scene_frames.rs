@@ -1,6 +1,7 @@
 //! A COLMAP model becomes a Frames artifact (split, downscaled, intrinsics scaled with
 //! the pixel grid) and a Points artifact with the model's colours.
 
+use objectsplat_core::artifact::POINTS_PLY;
 use objectsplat_core::{Frames, Points, Split, SplitPolicy};
 use objectsplat_inputs::scene::{self, Resolution, SplitChoice};
 use objectsplat_inputs::{colmap, colmap_scene};
@@ -81,7 +82,7 @@ fn points_keep_positions_and_colours() {
     let model = colmap::read_model(&fixture("rig_txt")).unwrap();
     let out = tempfile::tempdir().unwrap();
     scene::write_points(out.path(), &colmap_scene::points(&model)).unwrap();
-    let pts = Points::read_ply(&out.path().join("points.ply")).unwrap();
+    let pts = Points::read_ply(&out.path().join(POINTS_PLY)).unwrap();
     assert_eq!(pts.positions.len(), model.points.len());
     for (p, (got, col)) in model
         .points

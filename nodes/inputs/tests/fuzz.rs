@@ -11,6 +11,7 @@
 //! whole import.
 
 use objectsplat_core::Frames;
+use objectsplat_core::artifact::{FRAMES_JSON, OBJECTS_JSON};
 use objectsplat_inputs::masks_import::{self, MaskFormat, OverlapPolicy};
 use objectsplat_inputs::{colmap, label_png, nerfstudio};
 use proptest::prelude::*;
@@ -157,9 +158,9 @@ proptest! {
     #[test]
     fn frames_json(edits in edits(), numbers in numeric_edits()) {
         let dir = tempfile::tempdir().unwrap();
-        let valid = std::fs::read(fixture("masks/frames/frames.json")).unwrap();
+        let valid = std::fs::read(fixture("masks/frames").join(FRAMES_JSON)).unwrap();
         let text = String::from_utf8_lossy(&mutate(valid, &edits)).into_owned();
-        std::fs::write(dir.path().join("frames.json"), splice(&text, &numbers)).unwrap();
+        std::fs::write(dir.path().join(FRAMES_JSON), splice(&text, &numbers)).unwrap();
         let _ = Frames::read(dir.path());
     }
 
@@ -176,10 +177,10 @@ proptest! {
     #[test]
     fn objects_json(text in "\\PC{0,80}", edits in edits()) {
         let dir = tempfile::tempdir().unwrap();
-        std::fs::write(dir.path().join("objects.json"), &text).unwrap();
+        std::fs::write(dir.path().join(OBJECTS_JSON), &text).unwrap();
         let _ = objectsplat_core::masks::read_objects(dir.path());
         let valid = br#"{"1": "chair", "7": "table", "65535": "x"}"#.to_vec();
-        std::fs::write(dir.path().join("objects.json"), mutate(valid, &edits)).unwrap();
+        std::fs::write(dir.path().join(OBJECTS_JSON), mutate(valid, &edits)).unwrap();
         let _ = objectsplat_core::masks::read_objects(dir.path());
     }
 }

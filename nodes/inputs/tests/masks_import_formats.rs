@@ -1,6 +1,7 @@
 //! Every mask format imports to the id maps and labels computed independently (with numpy)
 //! in tests/fixtures/masks/make_fixtures.py, under each overlap policy.
 
+use objectsplat_core::artifact::OBJECTS_JSON;
 use objectsplat_core::masks::{IdMap, read_objects};
 use objectsplat_inputs::masks_import::{self, MaskFormat, OverlapPolicy};
 use serde_json::Value;
@@ -166,7 +167,7 @@ fn spilling_to_disk_gives_the_same_artifact_as_holding_in_memory() {
             )
             .unwrap();
         }
-        for f in ["f000.png", "f001.png", "f002.png", "objects.json"] {
+        for f in ["f000.png", "f001.png", "f002.png", OBJECTS_JSON] {
             let a = std::fs::read(held.path().join(f)).unwrap();
             let b = std::fs::read(spilled.path().join(f)).unwrap();
             assert!(a == b, "{source}: {f} differs");

@@ -1,5 +1,6 @@
 //! The dataflow nodes run on fixture inputs and write artifacts in the documented encodings.
 
+use objectsplat_core::artifact::{OBJECTS_JSON, POINTS_PLY};
 use objectsplat_core::{Frames, IdMap, Points, Split};
 use objectsplat_inputs::nodes::{ColmapScene, ImportMasks, NerfstudioScene, ScannetppScene};
 use objectsplat_runtime::testing::run_node;
@@ -48,7 +49,7 @@ fn colmap_scene_writes_frames_and_points() {
             .iter()
             .all(|f| (f.width, f.height) == (32, 24))
     );
-    let pts = Points::read_ply(&run.outputs["points"].join("points.ply")).unwrap();
+    let pts = Points::read_ply(&run.outputs["points"].join(POINTS_PLY)).unwrap();
     assert_eq!(pts.positions.len(), 6);
     assert!(
         run.notes
@@ -148,7 +149,7 @@ fn import_masks_reads_a_wired_source_or_a_path_never_both() {
         None,
     )
     .unwrap();
-    for f in ["f000.png", "f001.png", "objects.json"] {
+    for f in ["f000.png", "f001.png", OBJECTS_JSON] {
         assert_eq!(
             std::fs::read(from_path.path().join("masks").join(f)).unwrap(),
             std::fs::read(from_source.path().join("masks").join(f)).unwrap(),

@@ -25,11 +25,9 @@
 //! tau); empty cells mean null.
 
 use anyhow::{Context, Result};
+use objectsplat_core::artifact::{METRICS_CSV, METRICS_JSON};
 use serde::{Deserialize, Serialize, Serializer};
 use std::path::Path;
-
-pub const METRICS_JSON: &str = "metrics.json";
-pub const METRICS_CSV: &str = "metrics.csv";
 
 /// Writes non-finite numbers as null.
 fn finite_or_null<S: Serializer>(v: &Option<f64>, s: S) -> std::result::Result<S::Ok, S::Error> {

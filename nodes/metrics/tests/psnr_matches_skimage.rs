@@ -7,7 +7,7 @@ use objectsplat_metrics::{Mask, psnr};
 #[test]
 fn psnr_matches_skimage_on_photo_pairs() {
     let fx = fixture_json("image_metrics.json");
-    let mask = Mask::from_image(&image("mask.png")).unwrap();
+    let mask = Mask::from_image(&image("region.png")).unwrap();
     let pairs = fx["pairs"].as_array().unwrap();
     assert!(pairs.len() >= 12);
     for p in pairs {

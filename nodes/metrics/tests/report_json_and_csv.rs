@@ -2,8 +2,9 @@
 mod common;
 
 use common::image;
+use objectsplat_core::artifact::{METRICS_CSV, METRICS_JSON};
 use objectsplat_core::{IdMap, ObjectLabels};
-use objectsplat_metrics::report::{METRICS_CSV, METRICS_JSON, ThresholdMetrics};
+use objectsplat_metrics::report::ThresholdMetrics;
 use objectsplat_metrics::{
     FScore, MeshFScores, MetricsReport, ObjectFScore, SsimMode, TestImage, assemble_report,
     evaluate_image, psnr, ssim,

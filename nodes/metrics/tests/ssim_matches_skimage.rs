@@ -8,7 +8,7 @@ use objectsplat_metrics::{Mask, SsimMode, ssim};
 #[test]
 fn ssim_matches_skimage_and_3dgs_on_photo_pairs() {
     let fx = fixture_json("image_metrics.json");
-    let mask = Mask::from_image(&image("mask.png")).unwrap();
+    let mask = Mask::from_image(&image("region.png")).unwrap();
     for p in fx["pairs"].as_array().unwrap() {
         let a = image(p["reference"].as_str().unwrap());
         let b = image(p["distorted"].as_str().unwrap());

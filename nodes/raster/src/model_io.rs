@@ -5,13 +5,12 @@ use crate::model::{MAX_SH_DEGREE, Model, SH_COEFFS};
 use crate::sh::SH_DC;
 use anyhow::{Context, Result, bail};
 use objectsplat_core::Ply;
+use objectsplat_core::artifact::{MODEL_JSON, MODEL_PLY};
 use objectsplat_core::ply::{Column, Element, Format, Property, ScalarType};
 use serde::{Deserialize, Serialize};
 use serde_json::{Map, Value};
 use std::path::Path;
 
-pub const PLY_FILE: &str = "model.ply";
-pub const JSON_FILE: &str = "model.json";
 /// Number of `f_rest_*` properties (15 coefficients × 3 channels).
 const REST: usize = (SH_COEFFS - 1) * 3;
 
@@ -93,21 +92,21 @@ pub fn save_model(model: &Model<f32>, dir: &Path) -> Result<()> {
     }
     std::fs::create_dir_all(dir)
         .with_context(|| format!("cannot create model folder {}", dir.display()))?;
-    model_to_ply(model).write(&dir.join(PLY_FILE), Format::BinaryLittleEndian)?;
+    model_to_ply(model).write(&dir.join(MODEL_PLY), Format::BinaryLittleEndian)?;
     let json = ModelJson {
         sh_degree: model.sh_degree,
         opacity_floor: model.opacity_floor,
         sigma: model.sigma,
         metadata: model.metadata.clone(),
     };
-    let path = dir.join(JSON_FILE);
+    let path = dir.join(MODEL_JSON);
     std::fs::write(&path, serde_json::to_string_pretty(&json)?)
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
 /// Reads a model folder written by [`save_model`] and validates it.
 pub fn load_model(dir: &Path) -> Result<Model<f32>> {
-    let json_path = dir.join(JSON_FILE);
+    let json_path = dir.join(MODEL_JSON);
     let text = std::fs::read_to_string(&json_path)
         .with_context(|| format!("cannot read {}", json_path.display()))?;
     let meta: ModelJson = serde_json::from_str(&text)
@@ -119,7 +118,7 @@ pub fn load_model(dir: &Path) -> Result<Model<f32>> {
             meta.sh_degree
         );
     }
-    let ply_path = dir.join(PLY_FILE);
+    let ply_path = dir.join(MODEL_PLY);
     let ply = Ply::read(&ply_path)?;
     let in_ply = |m: String| anyhow::anyhow!("{}: {m}", ply_path.display());
     let vertex = ply.element("vertex").map_err(in_ply)?;

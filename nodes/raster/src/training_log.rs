@@ -2,10 +2,9 @@
 //! Model folder): the curves the report plots and the benchmarks read.
 
 use anyhow::{Context, Result, bail};
+use objectsplat_core::artifact::TRAINING_JSON;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
-
-pub const TRAINING_LOG_FILE: &str = "training.json";
 
 /// Loss and size of the model over a window of training steps.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -70,7 +69,7 @@ pub struct TrainingLog {
 
 impl TrainingLog {
     pub fn save(&self, model_dir: &Path) -> Result<()> {
-        let path = model_dir.join(TRAINING_LOG_FILE);
+        let path = model_dir.join(TRAINING_JSON);
         let text = serde_json::to_string_pretty(self).context("serialising the training log")?;
         std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))
     }
@@ -78,7 +77,7 @@ impl TrainingLog {
     /// Reads `training.json` from a Model folder; `Ok(None)` when the model has
     /// none (models built by hand or by other tools).
     pub fn load(model_dir: &Path) -> Result<Option<TrainingLog>> {
-        let path = model_dir.join(TRAINING_LOG_FILE);
+        let path = model_dir.join(TRAINING_JSON);
         if !path.exists() {
             return Ok(None);
         }

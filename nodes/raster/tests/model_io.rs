@@ -5,6 +5,7 @@ mod common;
 
 use common::*;
 use objectsplat_core::Ply;
+use objectsplat_core::artifact::{MODEL_JSON, MODEL_PLY};
 use objectsplat_raster::model_io::dc_to_u8;
 use objectsplat_raster::{load_model, save_model};
 
@@ -32,7 +33,7 @@ fn ply_has_the_documented_layout() {
     let dir = tempfile::tempdir().unwrap();
     let model = sample_model();
     save_model(&model, dir.path()).unwrap();
-    let bytes = std::fs::read(dir.path().join("model.ply")).unwrap();
+    let bytes = std::fs::read(dir.path().join(MODEL_PLY)).unwrap();
     let header_end = bytes
         .windows(11)
         .position(|w| w == b"end_header\n")
@@ -64,7 +65,7 @@ fn ply_has_the_documented_layout() {
         .collect();
     assert_eq!(lines, want);
 
-    let ply = Ply::read(&dir.path().join("model.ply")).unwrap();
+    let ply = Ply::read(&dir.path().join(MODEL_PLY)).unwrap();
     let v = ply.element("vertex").unwrap();
     let red = v.scalar_u8("red").unwrap();
     for (i, r) in red.iter().enumerate() {
@@ -83,19 +84,19 @@ fn ply_has_the_documented_layout() {
 fn broken_model_folders_are_rejected_with_the_file_named() {
     let dir = tempfile::tempdir().unwrap();
     let err = format!("{:#}", load_model(dir.path()).unwrap_err());
-    assert!(err.contains("model.json"), "{err}");
+    assert!(err.contains(MODEL_JSON), "{err}");
     save_model(&sample_model(), dir.path()).unwrap();
     std::fs::write(
-        dir.path().join("model.json"),
+        dir.path().join(MODEL_JSON),
         "{\"sh_degree\": 7, \"opacity_floor\": 0, \"sigma\": 1}",
     )
     .unwrap();
     let err = format!("{:#}", load_model(dir.path()).unwrap_err());
     assert!(err.contains("sh_degree"), "{err}");
     save_model(&sample_model(), dir.path()).unwrap();
-    let ply = dir.path().join("model.ply");
+    let ply = dir.path().join(MODEL_PLY);
     let bytes = std::fs::read(&ply).unwrap();
     std::fs::write(&ply, &bytes[..bytes.len() - 10]).unwrap();
     let err = format!("{:#}", load_model(dir.path()).unwrap_err());
-    assert!(err.contains("model.ply"), "{err}");
+    assert!(err.contains(MODEL_PLY), "{err}");
 }

@@ -4,8 +4,9 @@
 use crate::scene::Scene;
 use crate::surface::visible_mesh;
 use anyhow::{Context, Result, bail};
+use objectsplat_core::artifact::OBJECTS_JSON;
 use objectsplat_core::frames::frame_stem;
-use objectsplat_core::masks::{OBJECTS_JSON, read_objects};
+use objectsplat_core::masks::read_objects;
 use objectsplat_core::{Frames, IdMap, Image, Mesh, ObjectLabels, Split};
 use objectsplat_metrics::surface::sample_surface;
 use objectsplat_metrics::{

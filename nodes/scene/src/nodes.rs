@@ -6,11 +6,10 @@
 use crate::edit::{apply_edits, edit_item_problem, parse_edits};
 use crate::evaluate::{EvaluateSettings, GroundTruth, GtSurface, evaluate_scene};
 use crate::render::{Backdrop, focus_bounds, orbit_cameras, render_view};
-use crate::scene::{
-    FILLS_DIR, Scene, SceneEntry, SceneObject, component_of_item, load_scene, save_scene,
-};
+use crate::scene::{Scene, SceneEntry, SceneObject, component_of_item, load_scene, save_scene};
 use crate::surface::{display_colors, visible_faces};
 use anyhow::{Context as _, Result, bail};
+use objectsplat_core::artifact::{SCENE_FILLS_DIR, SCENE_GLB};
 use objectsplat_core::frames::frame_stem;
 use objectsplat_core::{Frames, Image, Split, read_mesh_artifact};
 use objectsplat_export::viewer::{ViewerCamera, ViewerMember, ViewerScene, write_viewer};
@@ -84,8 +83,8 @@ impl Node for LoadScene {
         let scene = load_scene(&dir)?;
         let out = ctx.output("scene")?;
         save_scene(&scene, &out)?;
-        if dir.join(FILLS_DIR).is_dir() {
-            let fills = copy_pngs(&dir.join(FILLS_DIR), &out.join(FILLS_DIR))?;
+        if dir.join(SCENE_FILLS_DIR).is_dir() {
+            let fills = copy_pngs(&dir.join(SCENE_FILLS_DIR), &out.join(SCENE_FILLS_DIR))?;
             ctx.note("background fills", fills);
         }
         ctx.note("members", scene.objects.len());
@@ -202,10 +201,10 @@ impl Node for EditScene {
         save_scene(&scene, &out)?;
         let fills = match ctx.input_opt("fills") {
             Some(dir) => Some(dir.to_path_buf()),
-            None => Some(input.join(FILLS_DIR)).filter(|d| d.is_dir()),
+            None => Some(input.join(SCENE_FILLS_DIR)).filter(|d| d.is_dir()),
         };
         let fill_count = match &fills {
-            Some(dir) => copy_pngs(dir, &out.join(FILLS_DIR))?,
+            Some(dir) => copy_pngs(dir, &out.join(SCENE_FILLS_DIR))?,
             None => 0,
         };
         ctx.note("edits", edits.len());
@@ -269,7 +268,7 @@ impl Node for Render {
         let merged = scene.merged_model()?.model;
         let fills = match ctx.input_opt("fills") {
             Some(dir) => Some(dir.to_path_buf()),
-            None => Some(scene_dir.join(FILLS_DIR)).filter(|d| d.is_dir()),
+            None => Some(scene_dir.join(SCENE_FILLS_DIR)).filter(|d| d.is_dir()),
         };
         let out = ctx.output("images")?;
 
@@ -467,7 +466,6 @@ pub fn scene_glb(scene: &Scene) -> Result<(Vec<u8>, Vec<ExportedComponent>)> {
 /// `export_gltf`: the scene as one .glb plus one PLY per member.
 pub struct ExportGltf;
 
-pub const GLB_FILE: &str = "scene.glb";
 pub const PLY_DIR: &str = "ply";
 
 /// The scene's members as export objects: model-frame vertices with the member's
@@ -499,7 +497,7 @@ impl Node for ExportGltf {
         let objects = export_objects(&scene);
         let out = ctx.output("file")?;
         ctx.progress(0, 2, "writing scene.glb");
-        let glb_path = out.join(GLB_FILE);
+        let glb_path = out.join(SCENE_GLB);
         let (bytes, written) = scene_glb(&scene)
             .with_context(|| format!("{}: cannot export the scene", glb_path.display()))?;
         std::fs::write(&glb_path, bytes)

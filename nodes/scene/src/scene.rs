@@ -13,6 +13,7 @@
 use crate::sh_rotation::ShRotation;
 use anyhow::{Context, Result, bail, ensure};
 use glam::DMat3;
+use objectsplat_core::artifact::{SCENE_JSON, SCENE_OBJECTS_DIR};
 use objectsplat_core::{ComponentInfo, ComponentKind};
 use objectsplat_export::Placement;
 use objectsplat_raster::{Model, load_model, save_model};
@@ -20,10 +21,6 @@ use serde::{Deserialize, Serialize};
 use std::borrow::Cow;
 use std::collections::HashSet;
 use std::path::Path;
-
-pub const SCENE_JSON: &str = "scene.json";
-pub const OBJECTS_DIR: &str = "objects";
-pub const FILLS_DIR: &str = "fills";
 
 /// One entry of `scene.json`.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -288,10 +285,10 @@ pub fn save_scene(scene: &Scene, dir: &Path) -> Result<()> {
         .context("refusing to save an invalid scene")?;
     let mut sorted = scene.clone();
     sorted.objects.sort_by_key(|o| o.entry.order_key());
-    std::fs::create_dir_all(dir.join(OBJECTS_DIR))
+    std::fs::create_dir_all(dir.join(SCENE_OBJECTS_DIR))
         .with_context(|| format!("{}: cannot create scene folder", dir.display()))?;
     for o in &sorted.objects {
-        save_model(&o.model, &dir.join(OBJECTS_DIR).join(&o.entry.name))
+        save_model(&o.model, &dir.join(SCENE_OBJECTS_DIR).join(&o.entry.name))
             .with_context(|| format!("{}: scene member {:?}", dir.display(), o.entry.name))?;
     }
     let json = SceneJson {
@@ -323,7 +320,7 @@ pub fn load_scene(dir: &Path) -> Result<Scene> {
             path.display(),
             entry.name
         );
-        let model = load_model(&dir.join(OBJECTS_DIR).join(&entry.name))
+        let model = load_model(&dir.join(SCENE_OBJECTS_DIR).join(&entry.name))
             .with_context(|| format!("{}: member {:?}", path.display(), entry.name))?;
         objects.push(SceneObject { entry, model });
     }

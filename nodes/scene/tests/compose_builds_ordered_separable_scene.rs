@@ -4,6 +4,7 @@
 mod common;
 
 use objectsplat_core::ComponentKind;
+use objectsplat_core::artifact::SCENE_JSON;
 use objectsplat_raster::{load_model, save_model};
 use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::load_scene;
@@ -38,7 +39,7 @@ fn members_are_ordered_named_and_keep_their_models() {
     assert_eq!(merged.model.face_count(), 8);
     assert_eq!(merged.face_owner, [0, 0, 1, 1, 2, 2, 3, 3]);
     let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(scene_dir.join("scene.json")).unwrap())
+        serde_json::from_str(&std::fs::read_to_string(scene_dir.join(SCENE_JSON)).unwrap())
             .unwrap();
     assert_eq!(json["objects"][1]["label"], "chair");
     assert_eq!(json["objects"][0]["kind"], "background");

@@ -4,6 +4,7 @@
 mod common;
 
 use objectsplat_core::Split;
+use objectsplat_core::artifact::METRICS_JSON;
 use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::nodes::{Evaluate, Render};
 
@@ -39,7 +40,7 @@ fn a_missing_render_is_an_error_and_no_mesh_means_no_fscore() {
         None,
     )
     .unwrap();
-    let text = std::fs::read_to_string(run.outputs["metrics"].join("metrics.json")).unwrap();
+    let text = std::fs::read_to_string(run.outputs["metrics"].join(METRICS_JSON)).unwrap();
     let m: serde_json::Value = serde_json::from_str(&text).unwrap();
     assert!(m["fscore"].is_null() && m["psnr"].is_number());
     assert_eq!(m["images"].as_array().unwrap().len(), 2);

@@ -6,6 +6,7 @@
 
 mod common;
 
+use objectsplat_core::artifact::{METRICS_CSV, METRICS_JSON};
 use objectsplat_core::masks::{IdMap, write_objects};
 use objectsplat_core::{Mesh, ObjectLabels, Split, write_mesh_artifact};
 use objectsplat_runtime::testing::run_node;
@@ -120,8 +121,8 @@ fn psnr_and_fscore_match_their_analytic_values() {
     .unwrap();
     let dir = &run.outputs["metrics"];
     let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("metrics.json")).unwrap()).unwrap();
-    assert!(dir.join("metrics.csv").is_file());
+        serde_json::from_str(&std::fs::read_to_string(dir.join(METRICS_JSON)).unwrap()).unwrap();
+    assert!(dir.join(METRICS_CSV).is_file());
 
     let d = OFFSET as f64 / 255.0;
     let region = ((x1 - x0) * (y1 - y0)) as f64;

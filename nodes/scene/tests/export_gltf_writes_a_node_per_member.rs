@@ -5,6 +5,7 @@
 mod common;
 
 use objectsplat_core::Mesh;
+use objectsplat_core::artifact::SCENE_GLB;
 use objectsplat_export::glb::triangles_per_node;
 use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::nodes::ExportGltf;
@@ -14,7 +15,7 @@ use std::path::Path;
 fn export(scene: &Path, out: &Path) -> (BTreeMap<String, usize>, std::path::PathBuf) {
     let run = run_node(&ExportGltf, &[("scene", scene)], "()", out, None).unwrap();
     let dir = run.outputs["file"].clone();
-    let glb = std::fs::read(dir.join("scene.glb")).unwrap();
+    let glb = std::fs::read(dir.join(SCENE_GLB)).unwrap();
     (triangles_per_node(&glb).unwrap(), dir)
 }
 
@@ -35,7 +36,7 @@ fn duplicating_doubles_and_removing_drops_an_objects_triangles() {
     assert_eq!(base, want);
     let ply = Mesh::read_ply(&dir.join("ply").join("obj_3_chair.ply")).unwrap();
     assert_eq!(ply.faces.len(), 2);
-    let document = gltf::Gltf::from_slice(&std::fs::read(dir.join("scene.glb")).unwrap()).unwrap();
+    let document = gltf::Gltf::from_slice(&std::fs::read(dir.join(SCENE_GLB)).unwrap()).unwrap();
     let chair = document
         .nodes()
         .find(|n| n.name() == Some("obj_3_chair"))

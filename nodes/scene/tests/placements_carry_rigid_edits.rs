@@ -8,6 +8,7 @@
 mod common;
 
 use objectsplat_core::Mesh;
+use objectsplat_core::artifact::{MODEL_JSON, MODEL_PLY, SCENE_GLB, SCENE_JSON};
 use objectsplat_export::Placement;
 use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::nodes::ExportGltf;
@@ -18,7 +19,7 @@ use std::path::Path;
 const EDITS: &str = "[Move(target: Id(3), by: (0.5, 0, -1)), Rotate(target: Label(\"lamp\"), axis: (0, 0, 2), degrees: 90), Scale(target: Name(\"obj_5_cup\"), factor: 2), Duplicate(target: Id(4), offset: (0, 1, 0))]";
 
 fn scene_json(dir: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join("scene.json")).unwrap()).unwrap()
+    serde_json::from_str(&std::fs::read_to_string(dir.join(SCENE_JSON)).unwrap()).unwrap()
 }
 
 fn placement(json: &Value, name: &str) -> Option<Placement> {
@@ -44,7 +45,7 @@ fn rigid_edits_change_placements_not_models() {
         assert_eq!(&new[path], bytes, "{path} was rewritten");
     }
     // The copy's model is the lamp's, byte for byte.
-    for file in ["model.ply", "model.json"] {
+    for file in [MODEL_PLY, MODEL_JSON] {
         assert_eq!(
             new[&format!("obj_6_lamp/{file}")],
             old[&format!("obj_4_lamp/{file}")]
@@ -150,7 +151,7 @@ fn export_writes_placements_as_node_transforms() {
     )
     .unwrap();
     let dir = &run.outputs["file"];
-    let doc = gltf::Gltf::from_slice(&std::fs::read(dir.join("scene.glb")).unwrap()).unwrap();
+    let doc = gltf::Gltf::from_slice(&std::fs::read(dir.join(SCENE_GLB)).unwrap()).unwrap();
     let blob = doc.blob.as_deref().unwrap();
     for o in &scene.objects {
         let node = doc

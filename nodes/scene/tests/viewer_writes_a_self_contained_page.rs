@@ -6,6 +6,7 @@
 mod common;
 
 use objectsplat_core::Split;
+use objectsplat_core::artifact::{PAGE_HTML, SCENE_GLB};
 use objectsplat_export::viewer::{ViewerScene, read_viewer};
 use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::load_scene;
@@ -33,7 +34,7 @@ fn viewer_folder_holds_page_glb_and_scene_description() {
     )
     .unwrap();
     let dir = &run.outputs["file"];
-    let page = std::fs::read_to_string(dir.join("index.html")).unwrap();
+    let page = std::fs::read_to_string(dir.join(PAGE_HTML)).unwrap();
     for external in ["http:", "https:", "src=", "href=\"http", "@import", "url("] {
         assert!(!page.contains(external), "the page refers to {external}");
     }
@@ -53,7 +54,7 @@ fn viewer_folder_holds_page_glb_and_scene_description() {
     let (glb, view): (Vec<u8>, ViewerScene) = read_viewer(dir).unwrap();
     assert_eq!(
         glb,
-        std::fs::read(exported.outputs["file"].join("scene.glb")).unwrap()
+        std::fs::read(exported.outputs["file"].join(SCENE_GLB)).unwrap()
     );
 
     let scene = load_scene(&edited).unwrap();

@@ -9,9 +9,9 @@ use crate::partition::{PartitionParams, partition_folders};
 use crate::raster::RasterOptions;
 use crate::scene::{SyntheticParams, generate};
 use anyhow::{Result, anyhow, bail};
+use objectsplat_core::artifact::{FRAMES_JSON, MESH_PLY, OBJECTS_JSON};
 use objectsplat_core::frames::frame_stem;
-use objectsplat_core::masks::{NO_OBJECT, OBJECTS_JSON, UNOWNED};
-use objectsplat_core::mesh_io::MESH_PLY;
+use objectsplat_core::masks::{NO_OBJECT, UNOWNED};
 use objectsplat_core::{Frames, SplitPolicy, read_mesh_artifact};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
 use objectsplat_wgpu::device::{AdapterChoice, GpuContext};
@@ -217,7 +217,7 @@ impl Node for GtMasksNode {
             if !stems.insert(stem.to_string()) {
                 bail!(
                     "{}: two frames share the mask name {stem}.png",
-                    frames_dir.join("frames.json").display()
+                    frames_dir.join(FRAMES_JSON).display()
                 );
             }
             let camera = frame.camera();
@@ -236,7 +236,7 @@ impl Node for GtMasksNode {
             .map_err(|e| {
                 anyhow!(
                     "{}: frame {:?}: {e:#}",
-                    frames_dir.join("frames.json").display(),
+                    frames_dir.join(FRAMES_JSON).display(),
                     frame.name
                 )
             })?;

@@ -11,7 +11,8 @@
 //! that owns every pixel of every frame, masks ignored.
 
 use anyhow::{Context, Result, bail};
-use objectsplat_core::component::{COMPONENT_JSON, OTHER, OWN};
+use objectsplat_core::artifact::FRAMES_JSON;
+use objectsplat_core::component::{OTHER, OWN};
 use objectsplat_core::frames::{check_relative, frame_stem};
 use objectsplat_core::masks::{NO_OBJECT, UNOWNED};
 use objectsplat_core::{ComponentInfo, ComponentKind, Frame, Frames, IdMap, ObjectLabels};
@@ -280,14 +281,9 @@ pub fn write_partition(
     for component in &plan.components {
         let dir = out.join(&component.info.name);
         let images_dir = dir.join("images");
-        let masks_out = dir.join("masks");
-        for d in [&images_dir, &masks_out] {
-            std::fs::create_dir_all(d)
-                .with_context(|| format!("{}: cannot create folder", d.display()))?;
-        }
-        let info_path = dir.join(COMPONENT_JSON);
-        std::fs::write(&info_path, serde_json::to_string_pretty(&component.info)?)
-            .with_context(|| format!("{}: cannot write", info_path.display()))?;
+        std::fs::create_dir_all(&images_dir)
+            .with_context(|| format!("{}: cannot create folder", images_dir.display()))?;
+        component.info.write(&dir)?;
         let mut listed = Vec::with_capacity(component.frames.len());
         for &f in &component.frames {
             let frame = &frames.frames[f];
@@ -304,9 +300,11 @@ pub fn write_partition(
                 image: image_names[f].clone(),
                 ..frame.clone()
             });
-            let own = plan.component_mask(component, &masks[f]);
-            let mask_path = masks_out.join(format!("{}.png", frame_stem(&frame.name)));
-            write_gray8(&mask_path, &own, frame.width, frame.height)?;
+            objectsplat_core::component::write_mask(
+                &dir,
+                frame,
+                &plan.component_mask(component, &masks[f]),
+            )?;
         }
         Frames::write_json(&dir, &listed)?;
         if component.info.kind == ComponentKind::Background {
@@ -326,7 +324,7 @@ fn component_image_names(frames: &Frames) -> Result<Vec<String>> {
         check_relative(&frame.image).with_context(|| {
             format!(
                 "{}: frame {:?}",
-                frames.root.join("frames.json").display(),
+                frames.root.join(FRAMES_JSON).display(),
                 frame.name
             )
         })?;
@@ -338,23 +336,11 @@ fn component_image_names(frames: &Frames) -> Result<Vec<String>> {
         if let Some(other) = seen.insert(name.clone(), frame.name.clone()) {
             bail!(
                 "{}: frames {other:?} and {:?} would both be stored as {name}",
-                frames.root.join("frames.json").display(),
+                frames.root.join(FRAMES_JSON).display(),
                 frame.name
             );
         }
         names.push(name);
     }
     Ok(names)
-}
-
-fn write_gray8(path: &Path, data: &[u8], width: u32, height: u32) -> Result<()> {
-    image::save_buffer_with_format(
-        path,
-        data,
-        width,
-        height,
-        image::ExtendedColorType::L8,
-        image::ImageFormat::Png,
-    )
-    .with_context(|| format!("{}: cannot write mask", path.display()))
 }

@@ -4,6 +4,7 @@ mod common;
 
 use common::{Aabb, boxes_mesh, camera, labels};
 use glam::DVec3;
+use objectsplat_core::artifact::OBJECTS_JSON;
 use objectsplat_core::{Frame, Frames, IdMap, Image, Split, masks::write_objects};
 use objectsplat_synth::partition::partition_folders;
 use objectsplat_synth::raster::RasterOptions;
@@ -165,11 +166,11 @@ fn partition_names_a_missing_mask_and_an_unknown_id() {
         err.contains("id 9") && err.contains(&masks.display().to_string()),
         "{err}"
     );
-    std::fs::remove_file(masks.join("objects.json")).unwrap();
+    std::fs::remove_file(masks.join(OBJECTS_JSON)).unwrap();
     let err = partition_folders(&frames, &masks, &out, &PartitionParams::default())
         .unwrap_err()
         .to_string();
-    assert!(err.contains("objects.json"), "{err}");
+    assert!(err.contains(OBJECTS_JSON), "{err}");
 }
 
 #[test]

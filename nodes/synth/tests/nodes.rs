@@ -1,6 +1,7 @@
 //! The node wrappers end to end: synthetic_scene → gt_masks → partition, through the
 //! runtime's single-node runner, checking the documented encodings on disk.
 
+use objectsplat_core::artifact::{COMPONENT_JSON, OBJECTS_JSON, POINTS_PLY};
 use objectsplat_core::component::{OTHER, OWN};
 use objectsplat_core::masks::read_objects;
 use objectsplat_core::{ComponentInfo, ComponentKind, Frames, IdMap, Image, read_mesh_artifact};
@@ -48,7 +49,7 @@ fn scene_masks_and_partition_chain_through_folders() {
     let (mesh, labels) = read_mesh_artifact(mesh_dir).unwrap();
     assert!(mesh.faces.len() > 1000 && labels.len() >= 9);
     let points =
-        objectsplat_core::Points::read_ply(&scene.outputs["points"].join("points.ply")).unwrap();
+        objectsplat_core::Points::read_ply(&scene.outputs["points"].join(POINTS_PLY)).unwrap();
     assert_eq!(points.positions.len(), 200);
 
     let masks = run_node(
@@ -86,7 +87,7 @@ fn scene_masks_and_partition_chain_through_folders() {
         let mut owners = vec![0u32; 48 * 36];
         for name in &names {
             let info: ComponentInfo = serde_json::from_str(
-                &std::fs::read_to_string(out.join(name).join("component.json")).unwrap(),
+                &std::fs::read_to_string(out.join(name).join(COMPONENT_JSON)).unwrap(),
             )
             .unwrap();
             assert_eq!(info.kind == ComponentKind::Background, name == "background");
@@ -149,7 +150,7 @@ fn node_errors_name_the_file() {
     .expect("an unknown label is an error")
     .to_string();
     assert!(
-        err.contains("objects.json") && err.contains("\"sofa\""),
+        err.contains(OBJECTS_JSON) && err.contains("\"sofa\""),
         "{err}"
     );
 }

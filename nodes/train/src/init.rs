@@ -5,7 +5,7 @@ use anyhow::{Context, Result, bail};
 use glam::{DQuat, DVec3};
 use kiddo::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
-use objectsplat_core::component::{COMPONENT_JSON, IGNORE, OWN};
+use objectsplat_core::component::{self, IGNORE, OWN};
 use objectsplat_core::{ComponentInfo, Frames, Points, Split};
 use objectsplat_raster::Model;
 use objectsplat_raster::model::{SH_COEFFS, inverse_sigmoid};
@@ -160,38 +160,14 @@ pub struct ComponentMasks {
 }
 
 impl ComponentMasks {
-    /// The component's `component.json` alone.
-    pub fn read_info(dir: &Path) -> Result<ComponentInfo> {
-        let info_path = dir.join(COMPONENT_JSON);
-        let text = std::fs::read_to_string(&info_path)
-            .with_context(|| format!("{}: cannot read", info_path.display()))?;
-        serde_json::from_str(&text)
-            .with_context(|| format!("{}: not a component description", info_path.display()))
-    }
-
     pub fn read(dir: &Path) -> Result<ComponentMasks> {
-        let info = Self::read_info(dir)?;
+        let info = ComponentInfo::read(dir)?;
         let frames = Frames::read(dir)?;
-        let mut masks = Vec::with_capacity(frames.frames.len());
-        for f in &frames.frames {
-            let stem = objectsplat_core::frames::frame_stem(&f.name);
-            let path = dir.join("masks").join(format!("{stem}.png"));
-            let img = image::open(&path)
-                .with_context(|| format!("{}: cannot read the component mask", path.display()))?
-                .to_luma8();
-            if img.width() != f.width || img.height() != f.height {
-                bail!(
-                    "{}: mask is {}×{} but frame {:?} is {}×{}",
-                    path.display(),
-                    img.width(),
-                    img.height(),
-                    f.name,
-                    f.width,
-                    f.height
-                );
-            }
-            masks.push(img.into_raw());
-        }
+        let masks = frames
+            .frames
+            .iter()
+            .map(|f| component::read_mask(dir, f))
+            .collect::<Result<Vec<_>>>()?;
         Ok(ComponentMasks {
             info,
             frames,

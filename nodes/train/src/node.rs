@@ -6,8 +6,8 @@ use crate::schedule::Schedule;
 use crate::trainer::{Checkpoint, ComponentData, SelectOn, TrainSettings, train_component};
 use anyhow::Context as _;
 use anyhow::{Result, bail};
-use objectsplat_core::ComponentKind;
-use objectsplat_core::Points;
+use objectsplat_core::artifact::POINTS_PLY;
+use objectsplat_core::{ComponentInfo, ComponentKind, Points};
 use objectsplat_raster::save_model;
 use objectsplat_raster::{Model, load_model};
 use objectsplat_runtime::{
@@ -198,7 +198,7 @@ impl Node for TrainNode {
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let component_dir = ctx.input("component")?.to_path_buf();
-        let info = ComponentMasks::read_info(&component_dir)?;
+        let info = ComponentInfo::read(&component_dir)?;
         let wanted = match ctx.param::<String>("components")?.as_str() {
             "objects" => info.kind == ComponentKind::Object,
             "background" => info.kind == ComponentKind::Background,
@@ -241,7 +241,7 @@ impl Node for TrainNode {
         let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
         let (backend, why) = objectsplat_wgpu::backend_for(&backend_name, ctx.threads())?;
         ctx.note("backend", why);
-        let points_path = ctx.input("points")?.join("points.ply");
+        let points_path = ctx.input("points")?.join(POINTS_PLY);
         let all_points = Points::read_ply(&points_path)?;
         let masks = ComponentMasks::read(&component_dir)?;
         // Nothing to fit: an empty component, or one no training view sees.

@@ -47,8 +47,7 @@ impl ComponentData {
         let mut views = Vec::new();
         for (frame, labels) in masks.frames.frames.iter().zip(&masks.masks) {
             let mut target = masks.frames.load_rgb(frame)?.data;
-            let stem = objectsplat_core::frames::frame_stem(&frame.name);
-            let replacement = dir.join("targets").join(format!("{stem}.png"));
+            let replacement = objectsplat_core::component::target_path(dir, frame);
             if replacement.exists() {
                 let img = Image::load(&replacement)?.to_rgb();
                 if img.width != frame.width || img.height != frame.height {

@@ -1,7 +1,7 @@
 //! A component is seeded by the points inside its own mask in most training views.
 
 use glam::DVec3;
-use objectsplat_core::component::{IGNORE, OTHER, OWN};
+use objectsplat_core::component::{self, IGNORE, OTHER, OWN};
 use objectsplat_core::{Camera, ComponentInfo, Frame, Frames, Points, Split};
 use objectsplat_train::init::ComponentMasks;
 use std::path::Path;
@@ -25,22 +25,17 @@ fn camera() -> Camera {
 /// label of the left and right image halves in frame i.
 fn write_component(dir: &Path, masks: &[(u8, u8, Split)]) {
     let info = ComponentInfo::object(3, "chair");
-    std::fs::write(
-        dir.join("component.json"),
-        serde_json::to_string(&info).unwrap(),
-    )
-    .unwrap();
-    std::fs::create_dir_all(dir.join("masks")).unwrap();
+    info.write(dir).unwrap();
     let cam = camera();
     let mut frames = Vec::new();
     for (i, &(left, right, split)) in masks.iter().enumerate() {
         let name = format!("f{i}");
-        frames.push(Frame::new(&name, format!("images/{name}.png"), &cam, split));
-        let img = image::GrayImage::from_fn(W, H, |x, _| {
-            image::Luma([if x < W / 2 { left } else { right }])
-        });
-        img.save(dir.join("masks").join(format!("{name}.png")))
-            .unwrap();
+        let frame = Frame::new(&name, format!("images/{name}.png"), &cam, split);
+        let mask: Vec<u8> = (0..H)
+            .flat_map(|_| (0..W).map(|x| if x < W / 2 { left } else { right }))
+            .collect();
+        component::write_mask(dir, &frame, &mask).unwrap();
+        frames.push(frame);
     }
     Frames::write_json(dir, &frames).unwrap();
 }

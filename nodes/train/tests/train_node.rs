@@ -2,6 +2,7 @@
 
 mod common;
 
+use objectsplat_core::artifact::POINTS_PLY;
 use objectsplat_runtime::testing::run_node;
 use objectsplat_train::node::TrainNode;
 
@@ -14,7 +15,7 @@ fn train_node_writes_a_model_and_its_training_log() {
     std::fs::create_dir_all(&points).unwrap();
     common::write_component(&component);
     common::points()
-        .write_ply(&points.join("points.ply"))
+        .write_ply(&points.join(POINTS_PLY))
         .unwrap();
     let inputs = [
         ("component", component.as_path()),
@@ -78,7 +79,7 @@ fn train_node_writes_a_model_and_its_training_log() {
         positions: vec![[5.0, 5.0, 0.0]],
         colors: vec![[0, 0, 0]],
     }
-    .write_ply(&empty.join("points.ply"))
+    .write_ply(&empty.join(POINTS_PLY))
     .unwrap();
     let inputs = [
         ("component", component.as_path()),
@@ -105,7 +106,7 @@ fn a_component_unseen_in_every_training_view_is_skipped_with_a_reason() {
     std::fs::create_dir_all(&points).unwrap();
     common::write_component(&component);
     common::points()
-        .write_ply(&points.join("points.ply"))
+        .write_ply(&points.join(POINTS_PLY))
         .unwrap();
     // Give every pixel of every mask to other components.
     for entry in std::fs::read_dir(component.join("masks")).unwrap() {

@@ -6,15 +6,15 @@
 //! [`read_json`]/[`write_json`] cover their JSON parts.
 
 use anyhow::{Context as _, Result, bail};
+pub use objectsplat_core::artifact::{
+    COMPONENT_JSON, FRAMES_JSON, IMAGE_PNG, MASK_PNG, METRICS_JSON, MODEL_JSON, MODEL_PLY,
+    POINTS_PLY, SCENE_JSON,
+};
 use objectsplat_core::masks::{read_objects, write_objects};
 use objectsplat_core::{ComponentInfo, Frame, Frames, IdMap, Image, Mesh, ObjectLabels, Points};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::path::{Path, PathBuf};
-
-pub const IMAGE_PNG: &str = "image.png";
-pub const MASK_PNG: &str = "mask.png";
-pub const POINTS_PLY: &str = "points.ply";
 
 /// Frames: `frames.json` plus the images it names (validated: unique names, sane cameras).
 pub fn read_frames(dir: &Path) -> Result<Frames> {
@@ -166,11 +166,11 @@ pub fn write_points(dir: &Path, points: &Points) -> Result<()> {
 /// Component: `component.json` (its frames are a Frames encoding in the same folder,
 /// its masks are `masks/<frame stem>.png`).
 pub fn read_component_info(dir: &Path) -> Result<ComponentInfo> {
-    read_json(&dir.join(objectsplat_core::component::COMPONENT_JSON))
+    read_json(&dir.join(COMPONENT_JSON))
 }
 
 pub fn write_component_info(dir: &Path, info: &ComponentInfo) -> Result<()> {
-    write_json(&dir.join(objectsplat_core::component::COMPONENT_JSON), info)
+    write_json(&dir.join(COMPONENT_JSON), info)
 }
 
 /// Images: the `<stem>.png` files of the folder, sorted by name.

@@ -47,14 +47,14 @@
 pub mod grid;
 pub mod triangulate;
 
-use crate::component_io::{self, ComponentDir};
+use crate::component_io::ComponentDir;
 use crate::plane::fit_plane;
 use crate::surface::{COMPLETION_JSON, RANSAC_ITERATIONS, surface_points};
 use anyhow::{Context, Result, bail};
 use glam::{DMat3, DVec2, DVec3};
 use grid::{Grid, PlaneFrame};
-use objectsplat_core::component::OWN;
-use objectsplat_core::frames::frame_stem;
+use objectsplat_core::component::{self, OWN};
+use objectsplat_core::image::read_rgb8;
 use objectsplat_core::{ComponentKind, Points};
 use objectsplat_raster::Model;
 use objectsplat_raster::model::inverse_sigmoid;
@@ -665,16 +665,13 @@ fn vertex_colours(
         if !pixels.iter().flatten().any(|&p| mask[p] == OWN) {
             continue;
         }
-        let target = surface
-            .dir
-            .join("targets")
-            .join(format!("{}.png", frame_stem(&frame.name)));
+        let target = component::target_path(&surface.dir, frame);
         let source = if target.is_file() {
             target
         } else {
             surface.frames.image_path(frame)
         };
-        let (iw, ih, rgb) = component_io::load_rgb8(&source)?;
+        let (iw, ih, rgb) = read_rgb8(&source)?;
         if (iw, ih) != (frame.width, frame.height) {
             bail!(
                 "{}: image is {iw}×{ih} but its frame is {}×{}",

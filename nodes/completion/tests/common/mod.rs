@@ -4,7 +4,7 @@
 //! pixel showing through a gap in the tabletop, and the background around them.
 #![allow(dead_code)] // each test file uses a different part
 
-use objectsplat_core::component::{COMPONENT_JSON, OTHER, OWN};
+use objectsplat_core::component::{self, OTHER, OWN};
 use objectsplat_core::{Camera, ComponentInfo, Frame, Frames, Split};
 use std::path::{Path, PathBuf};
 
@@ -79,15 +79,7 @@ fn frame_rgb(f: usize) -> Vec<u8> {
 }
 
 fn write_rgb(path: &Path, data: &[u8]) {
-    image::save_buffer_with_format(
-        path,
-        data,
-        W,
-        H,
-        image::ExtendedColorType::Rgb8,
-        image::ImageFormat::Png,
-    )
-    .unwrap();
+    objectsplat_core::image::write_rgb8(path, data, W, H).unwrap();
 }
 
 /// Builds the scene; the table component carries `table_label`.
@@ -120,26 +112,13 @@ pub fn build(table_label: &str) -> Scene {
     for (info, who) in parts {
         let dir = components.join(&info.name);
         std::fs::create_dir_all(dir.join("images")).unwrap();
-        std::fs::create_dir_all(dir.join("masks")).unwrap();
-        std::fs::write(
-            dir.join(COMPONENT_JSON),
-            serde_json::to_string(&info).unwrap(),
-        )
-        .unwrap();
-        for f in 0..2 {
+        info.write(&dir).unwrap();
+        for (f, frame) in frames.iter().enumerate() {
             write_rgb(&dir.join(format!("images/f{f}.png")), &frame_rgb(f));
             let mask: Vec<u8> = (0..H)
                 .flat_map(|y| (0..W).map(move |x| if owner(f, x, y) == who { OWN } else { OTHER }))
                 .collect();
-            image::save_buffer_with_format(
-                dir.join(format!("masks/f{f}.png")),
-                &mask,
-                W,
-                H,
-                image::ExtendedColorType::L8,
-                image::ImageFormat::Png,
-            )
-            .unwrap();
+            component::write_mask(&dir, frame, &mask).unwrap();
         }
         Frames::write_json(&dir, &frames).unwrap();
     }

@@ -10,10 +10,11 @@ use super::run_summary::{run_loader, run_section};
 use super::training::{finite_points, section_training};
 use crate::viewer::{read_viewer, viewer_fragment, viewer_style};
 use anyhow::{Context, Result, ensure};
+use objectsplat_core::artifact::PAGE_HTML;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
-pub const REPORT_FILE: &str = "index.html";
+pub const REPORT_FILE: &str = PAGE_HTML;
 
 /// Default error drawn with the hottest heatmap colour (mean absolute RGB error).
 pub const DEFAULT_ERROR_SCALE: f64 = 0.25;

@@ -22,11 +22,12 @@ use crate::placement::Placement;
 use anyhow::{Context, Result, ensure};
 use base64::Engine as _;
 use objectsplat_core::ComponentKind;
+use objectsplat_core::artifact::PAGE_HTML;
+use objectsplat_core::artifact::SCENE_GLB;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 
-pub const VIEWER_PAGE: &str = "index.html";
-pub const VIEWER_GLB: &str = "scene.glb";
+pub const VIEWER_PAGE: &str = PAGE_HTML;
 pub const VIEWER_JSON: &str = "viewer.json";
 
 const SCRIPT: &str = include_str!("viewer.js");
@@ -126,7 +127,7 @@ pub fn write_viewer(dir: &Path, glb: &[u8], scene: &ViewerScene) -> Result<PathB
         let path = dir.join(name);
         std::fs::write(&path, bytes).with_context(|| format!("{}: cannot write", path.display()))
     };
-    write(VIEWER_GLB, glb)?;
+    write(SCENE_GLB, glb)?;
     write(
         VIEWER_JSON,
         (serde_json::to_string_pretty(scene)? + "\n").as_bytes(),
@@ -137,7 +138,7 @@ pub fn write_viewer(dir: &Path, glb: &[u8], scene: &ViewerScene) -> Result<PathB
 
 /// Reads the `.glb` and the scene description of a folder written by [`write_viewer`].
 pub fn read_viewer(dir: &Path) -> Result<(Vec<u8>, ViewerScene)> {
-    let glb_path = dir.join(VIEWER_GLB);
+    let glb_path = dir.join(SCENE_GLB);
     let glb = std::fs::read(&glb_path).with_context(|| {
         format!(
             "{}: cannot read (is this a `viewer` node's folder?)",

@@ -192,7 +192,7 @@ impl SyntheticScene {
         Frames::write_json(frames_dir, &self.frames)?;
         objectsplat_core::write_mesh_artifact(mesh_dir, &self.mesh, &self.labels)?;
         self.points
-            .write_ply(&points_dir.join(objectsplat_core::mesh_io::POINTS_PLY))?;
+            .write_ply(&points_dir.join(objectsplat_core::artifact::POINTS_PLY))?;
         Ok(())
     }
 

@@ -4,7 +4,7 @@
 #![allow(dead_code)]
 
 use glam::DVec3;
-use objectsplat_core::component::{OTHER, OWN};
+use objectsplat_core::component::{self, OTHER, OWN};
 use objectsplat_core::{Camera, ComponentInfo, Frame, Frames, Image, Points, Split};
 use std::path::Path;
 
@@ -75,12 +75,7 @@ pub fn plate() -> (
 /// The plate component with `w`×`h` views.
 pub fn write_component_sized(dir: &Path, w: u32, h: u32) {
     let info = ComponentInfo::object(1, "plate");
-    std::fs::write(
-        dir.join("component.json"),
-        serde_json::to_string(&info).unwrap(),
-    )
-    .unwrap();
-    std::fs::create_dir_all(dir.join("masks")).unwrap();
+    info.write(dir).unwrap();
     std::fs::create_dir_all(dir.join("images")).unwrap();
     let mut frames = Vec::new();
     for (k, (cam, split)) in cameras_sized(w, h).into_iter().enumerate() {
@@ -94,15 +89,19 @@ pub fn write_component_sized(dir: &Path, w: u32, h: u32) {
         });
         img.save_png8(&dir.join(format!("images/{name}.png")))
             .unwrap();
-        let mask = image::GrayImage::from_fn(w, h, |i, j| {
-            image::Luma([if pixel_sees_square(&cam, i, j) {
-                OWN
-            } else {
-                OTHER
-            }])
-        });
-        mask.save(dir.join(format!("masks/{name}.png"))).unwrap();
-        frames.push(Frame::new(&name, format!("images/{name}.png"), &cam, split));
+        let mask: Vec<u8> = (0..h)
+            .flat_map(|j| (0..w).map(move |i| (i, j)))
+            .map(|(i, j)| {
+                if pixel_sees_square(&cam, i, j) {
+                    OWN
+                } else {
+                    OTHER
+                }
+            })
+            .collect();
+        let frame = Frame::new(&name, format!("images/{name}.png"), &cam, split);
+        component::write_mask(dir, &frame, &mask).unwrap();
+        frames.push(frame);
     }
     Frames::write_json(dir, &frames).unwrap();
 }

@@ -22,6 +22,7 @@
 use objectsplat_plugin_sdk::abi::{
     ABI_VERSION, EntryV1, HostV1, OwnedBuf, SDK_BUILD, STATUS_OK, StaticStr,
 };
+use objectsplat_plugin_sdk::artifacts::COMPONENT_JSON;
 use objectsplat_plugin_sdk::prelude::*;
 
 /// Recurses until the stack runs out; `black_box` keeps the frames and their arrays.
@@ -109,7 +110,7 @@ fn faulty_item(req: &mut Request) -> Result<Outcome> {
     if req.param::<String>("fail_item")? == item {
         bail!("injected failure: faulty_item refused item {item}");
     }
-    let info = std::fs::read(req.input("component")?.join("component.json"))
+    let info = std::fs::read(req.input("component")?.join(COMPONENT_JSON))
         .map_err(|e| anyhow!("component.json: {e}"))?;
     let out = req.output("file")?;
     let mut text = format!("{item}\n").into_bytes();

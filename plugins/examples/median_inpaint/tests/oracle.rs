@@ -2,6 +2,7 @@
 //! called through its exported entry table as the host calls it.
 
 use median_inpaint::objectsplat_plugin_entry_v1;
+use objectsplat_plugin_sdk::artifacts::{IMAGE_PNG, MASK_PNG};
 use objectsplat_plugin_sdk::core::Image;
 use objectsplat_plugin_sdk::protocol::OutcomeKind;
 use objectsplat_plugin_sdk::testing;
@@ -18,8 +19,8 @@ fn artifacts(dir: &Path, image: &str, mask: &str) -> (std::path::PathBuf, std::p
     let (img_dir, mask_dir) = (dir.join("image"), dir.join("mask"));
     std::fs::create_dir_all(&img_dir).unwrap();
     std::fs::create_dir_all(&mask_dir).unwrap();
-    std::fs::copy(fixture(image), img_dir.join("image.png")).unwrap();
-    std::fs::copy(fixture(mask), mask_dir.join("mask.png")).unwrap();
+    std::fs::copy(fixture(image), img_dir.join(IMAGE_PNG)).unwrap();
+    std::fs::copy(fixture(mask), mask_dir.join(MASK_PNG)).unwrap();
     (img_dir, mask_dir)
 }
 
@@ -42,13 +43,13 @@ fn fill(image: &str, mask: &str) -> (testing::RunResult, tempfile::TempDir) {
 
 #[test]
 fn eight_bit_rgb_matches_the_numpy_oracle_and_keeps_known_pixels() {
-    let (result, dir) = fill("input.png", "mask.png");
+    let (result, dir) = fill("input.png", "hole.png");
     let response = result.expect("the node succeeds");
     assert_eq!(response.outcome, OutcomeKind::Done);
     let got = Image::load(&dir.path().join("out/image.png")).unwrap();
     assert_eq!(got, Image::load(&fixture("expected.png")).unwrap());
     let input = Image::load(&fixture("input.png")).unwrap();
-    let mask = Image::load(&fixture("mask.png")).unwrap();
+    let mask = Image::load(&fixture("hole.png")).unwrap();
     for (p, hole) in mask.data.iter().enumerate() {
         if *hole == 0.0 {
             assert_eq!(
@@ -70,7 +71,7 @@ fn sixteen_bit_grey_stays_sixteen_bit_and_matches_the_oracle() {
         16
     );
     assert_eq!(
-        Image::load(&out.join("image.png")).unwrap(),
+        Image::load(&out.join(IMAGE_PNG)).unwrap(),
         Image::load(&fixture("expected16.png")).unwrap()
     );
 }
@@ -78,9 +79,9 @@ fn sixteen_bit_grey_stays_sixteen_bit_and_matches_the_oracle() {
 #[test]
 fn an_empty_mask_skips_and_forwards_the_image() {
     let dir = tempfile::tempdir().unwrap();
-    let (img_dir, mask_dir) = artifacts(dir.path(), "input.png", "mask.png");
+    let (img_dir, mask_dir) = artifacts(dir.path(), "input.png", "hole.png");
     let blank = Image::new(24, 16, 1);
-    blank.save_png8(&mask_dir.join("mask.png")).unwrap();
+    blank.save_png8(&mask_dir.join(MASK_PNG)).unwrap();
     let response = testing::run(
         objectsplat_plugin_entry_v1(),
         "median_inpaint",
