@@ -15,13 +15,13 @@ mod train_speed;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use objectsplat_export::report::plot::{PlotSpec, Series, line_plot_svg};
+use objectsplat_metrics::report::MetricsReport;
 use objectsplat_raster::TrainingLog;
 use objectsplat_runtime::exec::{self, RunOptions, Silent};
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::{Override, build_plan};
 use objectsplat_runtime::store::Store;
 use serde::Serialize;
-use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -268,8 +268,15 @@ fn paper(args: &PaperArgs) -> Result<()> {
     Ok(())
 }
 
-fn number(v: &Value, key: &str) -> Option<f64> {
-    v.get(key).and_then(Value::as_f64)
+/// The `objectsplat` binary to measure: the one given, or the one built beside this bench.
+fn objectsplat_binary(given: Option<&Path>) -> Result<PathBuf> {
+    match given {
+        Some(b) => Ok(b.to_path_buf()),
+        None => Ok(std::env::current_exe()?
+            .parent()
+            .context("the bench binary has no folder")?
+            .join("objectsplat")),
+    }
 }
 
 fn read_row(
@@ -281,11 +288,7 @@ fn read_row(
     checkpoint: &str,
     run_seconds: f64,
 ) -> Result<Row> {
-    let metrics_path = out.join("metrics/metrics/metrics.json");
-    let text = std::fs::read_to_string(&metrics_path)
-        .with_context(|| format!("cannot read {}", metrics_path.display()))?;
-    let metrics: Value = serde_json::from_str(&text)
-        .with_context(|| format!("{} is not JSON", metrics_path.display()))?;
+    let metrics = MetricsReport::read(&out.join("metrics/metrics"))?.scene;
     let mut components = Vec::new();
     let models = out.join("train/model");
     let mut dirs: Vec<PathBuf> = std::fs::read_dir(&models)
@@ -316,12 +319,12 @@ fn read_row(
         seed,
         pipeline: pipeline.to_string(),
         checkpoint: checkpoint.to_string(),
-        psnr: number(&metrics, "psnr"),
-        ssim: number(&metrics, "ssim"),
-        lpips: number(&metrics, "lpips"),
-        fscore: number(&metrics, "fscore"),
-        precision: number(&metrics, "precision"),
-        recall: number(&metrics, "recall"),
+        psnr: metrics.psnr,
+        ssim: metrics.ssim,
+        lpips: metrics.lpips,
+        fscore: metrics.fscore,
+        precision: metrics.precision,
+        recall: metrics.recall,
         run_seconds,
         components,
     })

@@ -9,6 +9,7 @@
 //! test PSNR/SSIM, F-score at τ = 5 cm and 2 cm, and training time.
 
 use anyhow::{Context, Result, bail};
+use objectsplat_metrics::report::{MetricsReport, ScopeMetrics};
 use serde::Serialize;
 use serde_json::Value;
 use std::fmt::Write as _;
@@ -283,10 +284,11 @@ pub fn run_graph(binary: &Path, graph: &Path, dir: &Path, jobs: usize) -> Result
     serde_json::from_str(&text).with_context(|| format!("{} is not JSON", json.display()))
 }
 
-fn metric(out: &Path, node: &str, key: &str) -> Option<f64> {
-    let text = std::fs::read_to_string(out.join(node).join("metrics/metrics.json")).ok()?;
-    let v: Value = serde_json::from_str(&text).ok()?;
-    v.get(key).and_then(Value::as_f64)
+/// The scene-level scores of a metrics node's output, if it ran.
+fn scores(out: &Path, node: &str) -> Option<ScopeMetrics> {
+    MetricsReport::read(&out.join(node).join("metrics"))
+        .ok()
+        .map(|m| m.scene)
 }
 
 pub fn quality(args: &QualityArgs) -> Result<()> {
@@ -314,13 +316,7 @@ pub fn quality(args: &QualityArgs) -> Result<()> {
         .split_once('x')
         .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
         .with_context(|| format!("size {:?} is not WIDTHxHEIGHT", args.size))?;
-    let binary = match &args.binary {
-        Some(b) => b.clone(),
-        None => std::env::current_exe()?
-            .parent()
-            .context("the bench binary has no folder")?
-            .join("objectsplat"),
-    };
+    let binary = crate::objectsplat_binary(args.binary.as_deref())?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let mut rows = Vec::new();
@@ -369,13 +365,14 @@ pub fn quality(args: &QualityArgs) -> Result<()> {
                         .map(|l| l.final_faces as u64)
                         .sum()
                 });
+            let (at_5cm, at_2cm) = (scores(&out, "metrics"), scores(&out, "metrics_2cm"));
             let row = Row {
                 variant: name,
                 seed,
-                psnr: metric(&out, "metrics", "psnr"),
-                ssim: metric(&out, "metrics", "ssim"),
-                fscore_5cm: metric(&out, "metrics", "fscore"),
-                fscore_2cm: metric(&out, "metrics_2cm", "fscore"),
+                psnr: at_5cm.as_ref().and_then(|m| m.psnr),
+                ssim: at_5cm.as_ref().and_then(|m| m.ssim),
+                fscore_5cm: at_5cm.and_then(|m| m.fscore),
+                fscore_2cm: at_2cm.and_then(|m| m.fscore),
                 train_seconds,
                 faces,
             };

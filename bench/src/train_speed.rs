@@ -101,13 +101,7 @@ fn kind_of(component: &str) -> &'static str {
 }
 
 pub fn train_speed(args: &TrainSpeedArgs) -> Result<()> {
-    let binary = match &args.binary {
-        Some(b) => b.clone(),
-        None => std::env::current_exe()?
-            .parent()
-            .context("the bench binary has no folder")?
-            .join("objectsplat"),
-    };
+    let binary = crate::objectsplat_binary(args.binary.as_deref())?;
     if let Some(p) = args
         .pipelines
         .iter()

@@ -85,15 +85,7 @@ pub fn load(reg: &mut Registry, path: &Path) -> Result<(), String> {
 
 /// Describes `path` in a child process (or returns what this process learnt before).
 fn describe(path: &Path) -> Result<Arc<PluginLibrary>, String> {
-    let meta = std::fs::metadata(path).map_err(|e| format!("cannot read the file: {e}"))?;
-    if meta.is_dir() {
-        return Err("is a folder, not a shared library".into());
-    }
-    let canonical = path
-        .canonicalize()
-        .map_err(|e| format!("cannot resolve the path: {e}"))?;
-    let bytes = std::fs::read(&canonical).map_err(|e| format!("cannot read the file: {e}"))?;
-    let digest = blake3::hash(&bytes).to_hex().to_string();
+    let (canonical, digest) = library::identify(path)?;
     // A poisoned lock only means another thread panicked while holding it; the list
     // itself is always consistent (entries are pushed whole).
     let known = DESCRIBED

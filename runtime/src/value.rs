@@ -78,59 +78,31 @@ impl Value {
                 out.push('\'');
             }
             Value::List(items) => {
-                out.push('[');
-                for (i, v) in items.iter().enumerate() {
-                    if i > 0 {
-                        out.push(',');
-                    }
-                    v.write_ron(out);
-                }
-                out.push(']');
+                write_separated(out, "[", items, "]", |out, v| v.write_ron(out));
             }
             Value::Map(entries) => {
                 let mut sorted: Vec<(String, &Value)> =
                     entries.iter().map(|(k, v)| (k.to_ron(), v)).collect();
                 sorted.sort_by(|a, b| a.0.cmp(&b.0));
-                out.push('{');
-                for (i, (k, v)) in sorted.iter().enumerate() {
-                    if i > 0 {
-                        out.push(',');
-                    }
-                    out.push_str(k);
+                write_separated(out, "{", sorted, "}", |out, (k, v)| {
+                    out.push_str(&k);
                     out.push(':');
                     v.write_ron(out);
-                }
-                out.push('}');
+                });
             }
             Value::Tuple(name, items) => {
-                if let Some(n) = name {
-                    out.push_str(n);
-                }
-                out.push('(');
-                for (i, v) in items.iter().enumerate() {
-                    if i > 0 {
-                        out.push(',');
-                    }
-                    v.write_ron(out);
-                }
-                out.push(')');
+                out.push_str(name.as_deref().unwrap_or(""));
+                write_separated(out, "(", items, ")", |out, v| v.write_ron(out));
             }
             Value::Struct(name, fields) => {
                 let mut sorted: Vec<&(String, Value)> = fields.iter().collect();
                 sorted.sort_by(|a, b| a.0.cmp(&b.0));
-                if let Some(n) = name {
-                    out.push_str(n);
-                }
-                out.push('(');
-                for (i, (k, v)) in sorted.iter().enumerate() {
-                    if i > 0 {
-                        out.push(',');
-                    }
+                out.push_str(name.as_deref().unwrap_or(""));
+                write_separated(out, "(", sorted, ")", |out, (k, v)| {
                     out.push_str(k);
                     out.push(':');
                     v.write_ron(out);
-                }
-                out.push(')');
+                });
             }
             Value::Ident(s) => out.push_str(s),
         }
@@ -223,6 +195,24 @@ fn format_float(f: f64) -> String {
             format!("{s}.0")
         }
     }
+}
+
+/// `open`, the items written by `write` and separated by commas, `close`.
+fn write_separated<T>(
+    out: &mut String,
+    open: &str,
+    items: impl IntoIterator<Item = T>,
+    close: &str,
+    mut write: impl FnMut(&mut String, T),
+) {
+    out.push_str(open);
+    for (i, item) in items.into_iter().enumerate() {
+        if i > 0 {
+            out.push(',');
+        }
+        write(out, item);
+    }
+    out.push_str(close);
 }
 
 fn write_string(out: &mut String, s: &str) {

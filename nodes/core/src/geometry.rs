@@ -5,6 +5,20 @@
 //! none); faces as `vertex_indices` lists — plus `objects.json` (id → label) when
 //! annotated. Points artifact (a folder): `points.ply` with `x,y,z` + `red,green,blue`.
 
+/// The axis-aligned bounding box of `points` as (min corner, max corner); (+∞, −∞) when
+/// there are none.
+pub fn bounding_box(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for p in points {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    (lo, hi)
+}
+
 /// A triangle mesh, optionally annotated with a per-vertex object id.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Mesh {

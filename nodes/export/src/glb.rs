@@ -76,15 +76,10 @@ fn vec3_bytes(values: &[[f32; 3]]) -> Vec<u8> {
 }
 
 fn bounds(values: &[[f32; 3]]) -> ([f32; 3], [f32; 3]) {
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in values {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
-    (lo, hi)
+    // Exact: every f32 is an f64, and the min and max are among the inputs.
+    let (lo, hi) =
+        objectsplat_core::geometry::bounding_box(values.iter().map(|p| p.map(f64::from)));
+    (lo.map(|v| v as f32), hi.map(|v| v as f32))
 }
 
 fn float_accessor(

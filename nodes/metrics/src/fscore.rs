@@ -52,14 +52,7 @@ pub fn nearest_distances(queries: &[[f64; 3]], reference: &[[f64; 3]]) -> Result
 
 /// Indices of `points` sorted along a 3-D Morton curve over their bounding box.
 fn morton_order(points: &[[f64; 3]]) -> Vec<usize> {
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let (lo, hi) = objectsplat_core::geometry::bounding_box(points.iter().copied());
     // 21 bits per axis fill a u64 code.
     let cells = ((1u64 << 21) - 1) as f64;
     let scale: [f64; 3] = std::array::from_fn(|k| {

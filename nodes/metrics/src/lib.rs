@@ -26,8 +26,7 @@ pub use fscore::{FScore, fscore, nearest_distances};
 pub use lpips::{Lpips, LpipsValue};
 pub use mask::Mask;
 pub use mesh_eval::{
-    DEFAULT_MAX_SAMPLES, MeshEvalParams, MeshFScores, ObjectFScore, evaluate_mesh,
-    evaluate_mesh_at, mesh_points,
+    DEFAULT_MAX_SAMPLES, MeshEvalParams, MeshFScores, ObjectFScore, evaluate_mesh, mesh_points,
 };
 pub use psnr::psnr;
 pub use report::MetricsReport;

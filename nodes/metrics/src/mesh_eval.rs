@@ -61,6 +61,9 @@ pub fn mesh_points(mesh: &Mesh, params: &MeshEvalParams) -> Result<Vec<[f64; 3]>
     voxel_downsample(&samples.points, params.voxel)
 }
 
+/// Accepts the ground-truth samples to score against.
+pub type GtFilter<'a> = &'a (dyn Fn(&[f64; 3]) -> bool + Sync);
+
 /// Scores a prediction against a ground-truth mesh, for the whole scene and per object.
 ///
 /// `pred_scene` is the whole predicted surface and `pred_objects` one point set per
@@ -68,34 +71,11 @@ pub fn mesh_points(mesh: &Mesh, params: &MeshEvalParams) -> Result<Vec<[f64; 3]>
 /// coordinates; both are voxel-down-sampled here. The ground truth of object `k` is
 /// the set of surface samples on faces whose object is `k` (object of a face = the
 /// object of its first vertex). Objects listed in `object_ids` but absent from
-/// `pred_objects` score 0.
-/// Accepts the ground-truth samples to score against.
-pub type GtFilter<'a> = &'a (dyn Fn(&[f64; 3]) -> bool + Sync);
-
-/// `keep_gt`, when given, restricts the ground truth to the samples it accepts
-/// (e.g. the surface a capture actually saw).
+/// `pred_objects` score 0. `keep_gt`, when given, restricts the ground truth to the
+/// samples it accepts (e.g. the surface a capture actually saw). Every object is also
+/// scored at each of `object_taus` ([`ObjectFScore::thresholds`]), on the same
+/// down-sampled points.
 pub fn evaluate_mesh(
-    gt: &Mesh,
-    pred_scene: &[[f64; 3]],
-    pred_objects: &[(u16, Vec<[f64; 3]>)],
-    object_ids: &[u16],
-    params: &MeshEvalParams,
-    keep_gt: Option<GtFilter<'_>>,
-) -> Result<MeshFScores> {
-    evaluate_mesh_at(
-        gt,
-        pred_scene,
-        pred_objects,
-        object_ids,
-        params,
-        keep_gt,
-        &[],
-    )
-}
-
-/// [`evaluate_mesh`], and every object also scored at each of `object_taus`
-/// ([`ObjectFScore::thresholds`]), on the same down-sampled points.
-pub fn evaluate_mesh_at(
     gt: &Mesh,
     pred_scene: &[[f64; 3]],
     pred_objects: &[(u16, Vec<[f64; 3]>)],

@@ -1,8 +1,6 @@
 //! Scene and per-object mesh F-score on shapes whose answer is known analytically.
 use objectsplat_core::Mesh;
-use objectsplat_metrics::{
-    MeshEvalParams, SampleCount, evaluate_mesh, evaluate_mesh_at, mesh_points,
-};
+use objectsplat_metrics::{MeshEvalParams, SampleCount, evaluate_mesh, mesh_points};
 
 /// Axis-aligned square [x0, x0+size]² at height z, as two triangles, tagged with `object`.
 fn square(mesh: &mut Mesh, x0: f32, size: f32, z: f32, object: i32) {
@@ -45,7 +43,7 @@ fn a_copy_offset_less_than_tau_scores_one_and_more_than_tau_scores_zero() {
             },
         )
         .unwrap();
-        let r = evaluate_mesh(&gt, &pred_points, &[], &[], &params(), None).unwrap();
+        let r = evaluate_mesh(&gt, &pred_points, &[], &[], &params(), None, &[]).unwrap();
         assert_eq!(r.scene.precision, expected, "offset {offset}");
         assert_eq!(r.scene.recall, expected, "offset {offset}");
         // Nearest distance is the plane gap plus at most a voxel-scale lateral offset.
@@ -79,6 +77,7 @@ fn per_object_scores_use_the_faces_of_each_object() {
         &[1, 2, 3],
         &p,
         None,
+        &[],
     )
     .unwrap();
     let o1 = r.objects[0].fscore.unwrap();
@@ -98,7 +97,7 @@ fn per_object_scores_use_the_faces_of_each_object() {
     );
     // An id with ground truth but no member in the scene (a label of the background
     // component) has no score of its own; the scene's score counts its surface.
-    let r = evaluate_mesh(&gt, &pts_1, &[(1, pts_1.clone())], &[1, 2], &p, None).unwrap();
+    let r = evaluate_mesh(&gt, &pts_1, &[(1, pts_1.clone())], &[1, 2], &p, None, &[]).unwrap();
     assert!(r.objects[0].fscore.is_some());
     assert_eq!(r.objects[1].fscore, None);
     assert!(
@@ -116,7 +115,7 @@ fn per_object_scores_at_extra_thresholds_see_a_gap_between_them() {
     square(&mut pred, 0.0, 1.0, 0.03, 1);
     let p = params();
     let points = mesh_points(&pred, &p).unwrap();
-    let r = evaluate_mesh_at(
+    let r = evaluate_mesh(
         &gt,
         &points,
         &[(1, points.clone())],
@@ -136,7 +135,7 @@ fn per_object_scores_at_extra_thresholds_see_a_gap_between_them() {
     // No ground truth, no scores at any threshold.
     assert!(r.objects[1].thresholds.is_empty());
     // Without extra thresholds nothing changes.
-    let plain = evaluate_mesh(&gt, &points, &[(1, points.clone())], &[1], &p, None).unwrap();
+    let plain = evaluate_mesh(&gt, &points, &[(1, points.clone())], &[1], &p, None, &[]).unwrap();
     assert!(plain.objects[0].thresholds.is_empty());
     assert_eq!(plain.objects[0].fscore, r.objects[0].fscore);
 }

@@ -28,6 +28,17 @@ impl PixelRect {
         }
     }
 
+    /// The one pixel at row-major `index` of an image `width` pixels wide.
+    pub fn pixel(index: usize, width: usize) -> Self {
+        let (x, y) = ((index % width) as u32, (index / width) as u32);
+        PixelRect {
+            x0: x,
+            y0: y,
+            x1: x + 1,
+            y1: y + 1,
+        }
+    }
+
     pub fn is_empty(&self) -> bool {
         self.x0 >= self.x1 || self.y0 >= self.y1
     }

@@ -509,23 +509,7 @@ pub fn l1<R: Real>(
     target: &[R],
     weights: Option<&[R]>,
 ) -> Result<LossGrad<R>> {
-    let norm = whole_image_norm(dims, weights)?;
-    let mut loss = PhotometricLoss::new();
-    let (value, _, _) = loss.run(
-        dims,
-        rendered,
-        target,
-        weights,
-        norm,
-        [1.0, 0.0],
-        false,
-        true,
-        1,
-    )?;
-    Ok(LossGrad {
-        value: R::of(value),
-        grad: loss.grad,
-    })
+    one_term(dims, rendered, target, weights, Term::L1)
 }
 
 /// Weighted mean SSIM and its gradient with respect to `rendered` (the target is constant).
@@ -535,19 +519,35 @@ pub fn ssim<R: Real>(
     target: &[R],
     weights: Option<&[R]>,
 ) -> Result<LossGrad<R>> {
+    one_term(dims, rendered, target, weights, Term::Ssim)
+}
+
+enum Term {
+    L1,
+    Ssim,
+}
+
+/// One term of the photometric loss on its own, over the whole image, single-threaded.
+fn one_term<R: Real>(
+    dims: Dims,
+    rendered: &[R],
+    target: &[R],
+    weights: Option<&[R]>,
+    term: Term,
+) -> Result<LossGrad<R>> {
     let norm = whole_image_norm(dims, weights)?;
     let mut loss = PhotometricLoss::new();
-    let (_, value, _) = loss.run(
-        dims,
-        rendered,
-        target,
-        weights,
-        norm,
-        [0.0, 1.0],
-        true,
-        true,
-        1,
+    let (coef, with_ssim) = match term {
+        Term::L1 => ([1.0, 0.0], false),
+        Term::Ssim => ([0.0, 1.0], true),
+    };
+    let (l1, ssim, _) = loss.run(
+        dims, rendered, target, weights, norm, coef, with_ssim, true, 1,
     )?;
+    let value = match term {
+        Term::L1 => l1,
+        Term::Ssim => ssim,
+    };
     Ok(LossGrad {
         value: R::of(value),
         grad: loss.grad,

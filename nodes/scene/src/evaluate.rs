@@ -11,7 +11,7 @@ use objectsplat_core::{Frames, IdMap, Image, Mesh, ObjectLabels, Split};
 use objectsplat_metrics::surface::sample_surface;
 use objectsplat_metrics::{
     Lpips, MeshEvalParams, MetricsReport, SsimMode, TestImage, assemble_report, evaluate_image,
-    evaluate_mesh_at,
+    evaluate_mesh,
 };
 use std::path::Path;
 
@@ -216,7 +216,7 @@ pub fn evaluate_scene(
             } else {
                 Vec::new()
             };
-            Some(evaluate_mesh_at(
+            Some(evaluate_mesh(
                 gt,
                 &pred_scene,
                 &pred_objects,

@@ -444,18 +444,6 @@ impl<'a> IdRasterizer<'a> {
     }
 }
 
-/// One-off form of [`IdRasterizer::rasterize_ids`] (compiles the shader each call).
-pub fn rasterize_ids(
-    ctx: &GpuContext,
-    positions: &[[f32; 3]],
-    faces: &[[u32; 3]],
-    face_ids: &[u16],
-    camera: &Camera,
-    near: f64,
-) -> Result<Vec<u16>> {
-    IdRasterizer::new(ctx)?.rasterize_ids(positions, faces, face_ids, camera, near)
-}
-
 fn validate(positions: &[[f32; 3]], faces: &[[u32; 3]], camera: &Camera, near: f64) -> Result<()> {
     if !(near.is_finite() && near >= MIN_NEAR) {
         bail!("near plane {near} must be finite and at least {MIN_NEAR} for the wgpu rasterizer");

@@ -115,17 +115,11 @@ impl TriangleBvh {
     }
 
     fn bounds(&self, start: usize, end: usize) -> (V3, V3) {
-        let mut lo = [f64::INFINITY; 3];
-        let mut hi = [f64::NEG_INFINITY; 3];
-        for &t in &self.order[start..end] {
-            for p in &self.triangles[t as usize] {
-                for k in 0..3 {
-                    lo[k] = lo[k].min(p[k]);
-                    hi[k] = hi[k].max(p[k]);
-                }
-            }
-        }
-        (lo, hi)
+        objectsplat_core::geometry::bounding_box(
+            self.order[start..end]
+                .iter()
+                .flat_map(|&t| self.triangles[t as usize]),
+        )
     }
 
     fn build(&mut self, start: usize, end: usize) -> u32 {

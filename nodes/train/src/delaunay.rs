@@ -279,14 +279,7 @@ pub fn tetrahedralize(points: &[[f64; 3]], seed: u64) -> Result<Tetrahedralizati
     if order.len() < 4 {
         return Ok(empty(skipped));
     }
-    let mut lo = [f64::INFINITY; 3];
-    let mut hi = [f64::NEG_INFINITY; 3];
-    for p in points {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let (lo, hi) = objectsplat_core::geometry::bounding_box(points.iter().copied());
     let diag = ((hi[0] - lo[0]).powi(2) + (hi[1] - lo[1]).powi(2) + (hi[2] - lo[2]).powi(2)).sqrt();
     if diag == 0.0 {
         return Ok(empty(skipped));

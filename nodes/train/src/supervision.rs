@@ -164,13 +164,7 @@ impl ViewSummary {
             let (weight, from_background) = rule.apply(l);
             total_weight += weight as f64;
             if !from_background {
-                let (x, y) = ((p % w) as u32, (p / w) as u32);
-                include = include.union(PixelRect {
-                    x0: x,
-                    y0: y,
-                    x1: x + 1,
-                    y1: y + 1,
-                });
+                include = include.union(PixelRect::pixel(p, w));
             }
         }
         ViewSummary {

@@ -339,13 +339,7 @@ impl TrainingView {
             .enumerate()
             .filter(|(_, b)| !**b)
         {
-            let (x, y) = ((p % w) as u32, (p / w) as u32);
-            include = include.union(PixelRect {
-                x0: x,
-                y0: y,
-                x1: x + 1,
-                y1: y + 1,
-            });
+            include = include.union(PixelRect::pixel(p, w));
         }
         include
     }

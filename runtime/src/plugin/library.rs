@@ -27,8 +27,9 @@ pub struct LoadedLibrary {
 
 static LOADED: Mutex<Vec<Arc<LoadedLibrary>>> = Mutex::new(Vec::new());
 
-/// Opens `path` (or returns the copy this process already opened).
-pub fn open(path: &Path) -> Result<Arc<LoadedLibrary>, String> {
+/// The canonical path of a library file and the digest of its bytes: what identifies a
+/// build, so a changed file is never taken for one already described or opened.
+pub fn identify(path: &Path) -> Result<(PathBuf, String), String> {
     let meta = std::fs::metadata(path).map_err(|e| format!("cannot read the file: {e}"))?;
     if meta.is_dir() {
         return Err("is a folder, not a shared library".into());
@@ -38,6 +39,12 @@ pub fn open(path: &Path) -> Result<Arc<LoadedLibrary>, String> {
         .map_err(|e| format!("cannot resolve the path: {e}"))?;
     let bytes = std::fs::read(&canonical).map_err(|e| format!("cannot read the file: {e}"))?;
     let digest = blake3::hash(&bytes).to_hex().to_string();
+    Ok((canonical, digest))
+}
+
+/// Opens `path` (or returns the copy this process already opened).
+pub fn open(path: &Path) -> Result<Arc<LoadedLibrary>, String> {
+    let (canonical, digest) = identify(path)?;
     // A poisoned lock only means another thread panicked while holding it; the
     // list itself is always in a consistent state (entries are pushed whole).
     let mut loaded = LOADED.lock().unwrap_or_else(|p| p.into_inner());
