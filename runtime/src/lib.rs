@@ -26,6 +26,6 @@ pub use node::{
     CheckedInput, Context, DeclaredPorts, InputValue, Node, NodeSpec, Outcome, ParamError,
     PortSpec, ProgressSink, TypeRef,
 };
-pub use params::{ParamSpec, ParamType, Params};
+pub use params::{NodeParams, ParamSpec, ParamType, Params};
 pub use registry::{Origin, Registry};
 pub use value::Value;

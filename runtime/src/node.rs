@@ -120,6 +120,11 @@ impl NodeSpec {
         self
     }
 
+    /// Every parameter of a [`crate::node_params!`] type.
+    pub fn params<P: crate::params::NodeParams>(self) -> Self {
+        P::declare(self)
+    }
+
     /// A parameter with a default given as RON text (`None` = required).
     pub fn param(mut self, name: &str, ty: ParamType, default: Option<&str>, doc: &str) -> Self {
         self.params.push(ParamSpec {
@@ -359,6 +364,11 @@ impl<'a> Context<'a> {
 
     pub fn param<T: serde::de::DeserializeOwned>(&self, name: &str) -> Result<T> {
         self.params.get(name)
+    }
+
+    /// All parameters as the node's declared type (see [`crate::node_params!`]).
+    pub fn params_as<P: crate::params::NodeParams>(&self) -> Result<P> {
+        P::read(self.params)
     }
 
     /// The item name when the node runs once per item of a fanned-out input.

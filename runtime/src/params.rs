@@ -321,6 +321,11 @@ impl Params {
             .map_err(|e| anyhow::anyhow!("parameter `{name}` = {v}: {e}"))
     }
 
+    /// All parameters as a [`node_params!`](crate::node_params) type.
+    pub fn read_as<P: NodeParams>(&self) -> anyhow::Result<P> {
+        P::read(self)
+    }
+
     /// Canonical text of all parameters (sorted), used in cache keys.
     pub fn canonical(&self) -> String {
         Value::Struct(
@@ -376,4 +381,100 @@ mod tests {
         }
         assert!(ParamType::parse("floaty").is_err());
     }
+}
+
+/// A node's parameters as one Rust type: [`node_params!`](crate::node_params) declares the
+/// struct, and from the same lines the schema ([`NodeParams::declare`]) and the typed
+/// reading ([`NodeParams::read`]), so the two cannot disagree.
+pub trait NodeParams: Sized {
+    /// Adds every parameter (name, type, default, doc) to `spec`, in declaration order.
+    fn declare(spec: crate::NodeSpec) -> crate::NodeSpec;
+    /// The validated values as the struct.
+    fn read(params: &Params) -> anyhow::Result<Self>;
+}
+
+/// What [`NodeParams::read`] returns (named here so that a macro user needs no `anyhow`).
+pub type ReadResult<T> = anyhow::Result<T>;
+
+/// One doc text from the lines of a doc comment (as `///` gives them: each with a leading space).
+pub fn doc_text(lines: &[&str]) -> String {
+    lines
+        .iter()
+        .map(|l| l.trim())
+        .filter(|l| !l.is_empty())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// Declares a node's parameters once, as a struct that implements [`NodeParams`]:
+///
+/// ```
+/// use objectsplat_runtime::{NodeSpec, ParamType, Params, node_params, value::Value};
+///
+/// node_params! {
+///     /// What `blur` takes.
+///     pub struct BlurParams {
+///         /// Kernel radius in pixels.
+///         radius: i64 = "2" as ParamType::int_range(0, 64),
+///         /// The image to blur, relative to the graph.
+///         path: String = required as ParamType::Path,
+///     }
+/// }
+///
+/// let spec = NodeSpec::new("blur", "1").params::<BlurParams>();
+/// assert_eq!(spec.params[0].name, "radius");
+/// assert_eq!(spec.params[0].default.as_deref(), Some("2"));
+/// assert_eq!(spec.params[1].default, None);
+/// assert_eq!(spec.params[1].doc, "The image to blur, relative to the graph.");
+///
+/// // What `run` gets back: the validated values, typed.
+/// let values = [("radius", Value::Int(5)), ("path", Value::Str("in.png".into()))];
+/// let params = Params::new(values.map(|(k, v)| (k.to_string(), v)).into());
+/// let blur: BlurParams = params.read_as().unwrap();
+/// assert_eq!((blur.radius, blur.path.as_str()), (5, "in.png"));
+/// ```
+///
+/// Each field is `name: RustType = DEFAULT as PARAM_TYPE`, where `DEFAULT` is the default's
+/// RON text or `required`. The field's doc comment is the parameter's doc.
+#[macro_export]
+macro_rules! node_params {
+    (
+        $(#[$meta:meta])*
+        $vis:vis struct $name:ident {
+            $(
+                $(#[doc = $doc:literal])*
+                $field:ident : $ty:ty = $default:tt as $param_type:expr
+            ),* $(,)?
+        }
+    ) => {
+        $(#[$meta])*
+        #[derive(Debug, Clone)]
+        $vis struct $name {
+            $(
+                $(#[doc = $doc])*
+                pub $field: $ty,
+            )*
+        }
+
+        impl $crate::params::NodeParams for $name {
+            fn declare(spec: $crate::NodeSpec) -> $crate::NodeSpec {
+                spec $(
+                    .param(
+                        stringify!($field),
+                        $param_type,
+                        $crate::node_params!(@default $default),
+                        &$crate::params::doc_text(&[$($doc),*]),
+                    )
+                )*
+            }
+
+            fn read(params: &$crate::Params) -> $crate::params::ReadResult<Self> {
+                Ok($name {
+                    $( $field: params.get::<$ty>(stringify!($field))?, )*
+                })
+            }
+        }
+    };
+    (@default required) => { None };
+    (@default $text:literal) => { Some($text) };
 }

@@ -6,6 +6,14 @@ use objectsplat_core::artifact::{IMAGE_PNG, MASK_PNG};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
 use std::sync::Arc;
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `load_image`.
+    pub struct LoadImageParams {
+        /// image file, relative to the graph file
+        path: String = required as ParamType::Path,
+    }
+}
+
 /// Reads an image file (PNG or JPEG) into an Image artifact.
 pub struct LoadImage;
 
@@ -14,11 +22,12 @@ impl Node for LoadImage {
         NodeSpec::new("load_image", "1")
             .doc("Reads a PNG or JPEG file into an Image artifact (8-bit images stay 8-bit, 16-bit stay 16-bit).")
             .output("image", "Image", "the image")
-            .param("path", ParamType::Path, None, "image file, relative to the graph file")
+            .params::<LoadImageParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let path: String = ctx.param("path")?;
+        let p: LoadImageParams = ctx.params_as()?;
+        let path: String = p.path;
         let img = Image::load(std::path::Path::new(&path))?;
         img.check_finite(&path)?;
         let out = ctx.output("image")?.join(IMAGE_PNG);
@@ -47,6 +56,14 @@ fn is_16_bit(path: &std::path::Path) -> bool {
         .unwrap_or(false)
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `load_mask`.
+    pub struct LoadMaskParams {
+        /// mask image file, relative to the graph file
+        path: String = required as ParamType::Path,
+    }
+}
+
 /// Reads a mask image; any non-zero value (in any channel) counts as set.
 pub struct LoadMask;
 
@@ -55,16 +72,12 @@ impl Node for LoadMask {
         NodeSpec::new("load_mask", "1")
             .doc("Reads a mask image; a pixel is set where any channel is non-zero.")
             .output("mask", "Mask", "8-bit mask, 255 = set")
-            .param(
-                "path",
-                ParamType::Path,
-                None,
-                "mask image file, relative to the graph file",
-            )
+            .params::<LoadMaskParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let path: String = ctx.param("path")?;
+        let p: LoadMaskParams = ctx.params_as()?;
+        let path: String = p.path;
         let img = Image::load(std::path::Path::new(&path))?;
         let c = img.channels as usize;
         let mask = Image {
@@ -84,6 +97,16 @@ impl Node for LoadMask {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `resize_image`.
+    pub struct ResizeImageParams {
+        /// integer downscale factor
+        factor: u32 = "1" as ParamType::Int { min: Some(1), max: Some(64) },
+        /// cap on the width, applied after `factor`
+        max_width: Option<u32> = "None" as ParamType::optional(ParamType::Int { min: Some(1), max: None }),
+    }
+}
+
 /// Area-downscales an image by an integer factor or to a maximum width.
 pub struct ResizeImage;
 
@@ -93,14 +116,14 @@ impl Node for ResizeImage {
             .doc("Box-filter downscale by an integer `factor`, or to at most `max_width` pixels wide.")
             .input("image", "Image", "the image")
             .output("image", "Image", "the resized image")
-            .param("factor", ParamType::Int { min: Some(1), max: Some(64) }, Some("1"), "integer downscale factor")
-            .param("max_width", ParamType::optional(ParamType::Int { min: Some(1), max: None }), Some("None"), "cap on the width, applied after `factor`")
+            .params::<ResizeImageParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let p: ResizeImageParams = ctx.params_as()?;
         let img = Image::load(&ctx.input("image")?.join(IMAGE_PNG))?;
-        let factor: u32 = ctx.param("factor")?;
-        let max_width: Option<u32> = ctx.param("max_width")?;
+        let factor: u32 = p.factor;
+        let max_width: Option<u32> = p.max_width;
         let mut w = (img.width / factor).max(1);
         let mut h = (img.height / factor).max(1);
         if let Some(mw) = max_width
@@ -120,6 +143,16 @@ impl Node for ResizeImage {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `save_image`.
+    pub struct SaveImageParams {
+        /// file name relative to the node's output folder
+        path: String = "\"image.png\"" as ParamType::RelPath,
+        /// bit depth
+        bits: String = "\"8\"" as ParamType::Enum(vec!["8".into(), "16".into()]),
+    }
+}
+
 /// Writes an image to a path inside the node's output folder.
 pub struct SaveImage;
 
@@ -129,13 +162,13 @@ impl Node for SaveImage {
             .doc("Writes an image as PNG at `path` inside OUT/<node>/file/ (paths may not leave that folder).")
             .input("image", "Image", "the image")
             .output("file", "File", "the written file")
-            .param("path", ParamType::RelPath, Some("\"image.png\""), "file name relative to the node's output folder")
-            .param("bits", ParamType::Enum(vec!["8".into(), "16".into()]), Some("\"8\""), "bit depth")
+            .params::<SaveImageParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let p: SaveImageParams = ctx.params_as()?;
         let img = Image::load(&ctx.input("image")?.join(IMAGE_PNG))?;
-        let rel: String = ctx.param("path")?;
+        let rel: String = p.path;
         if !rel.to_ascii_lowercase().ends_with(".png") {
             bail!("path {rel:?} must end in .png");
         }
@@ -143,7 +176,7 @@ impl Node for SaveImage {
         if let Some(parent) = dest.parent() {
             std::fs::create_dir_all(parent)?;
         }
-        match ctx.param::<String>("bits")?.as_str() {
+        match p.bits.as_str() {
             "16" => img.save_png16(&dest)?,
             _ => img.save_png8(&dest)?,
         }

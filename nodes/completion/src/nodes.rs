@@ -4,7 +4,7 @@
 use crate::background::{FillSource, inpaint_background};
 use crate::external::ExternalCommand;
 use crate::fill_holes::{Connectivity, fill_holes};
-use crate::inpaint::{Method, Options, Raster, Sample, inpaint};
+use crate::inpaint::{Options, Raster, Sample, inpaint};
 use crate::surface::{SurfaceParams, complete_surfaces};
 use crate::surface_mesh::{SurfaceMeshParams, complete_scene_surfaces};
 use anyhow::{Context as _, Result, bail};
@@ -33,13 +33,7 @@ pub fn register(reg: &mut Registry) {
     }
 }
 
-fn method_param(ctx: &Context) -> Result<Method> {
-    let text: String = ctx.param("method")?;
-    text.parse().map_err(anyhow::Error::msg)
-}
-
-fn connectivity_param(ctx: &Context) -> Result<Connectivity> {
-    let n: i64 = ctx.param("connectivity")?;
+fn connectivity(n: i64) -> Result<Connectivity> {
     Connectivity::from_number(n).map_err(anyhow::Error::msg)
 }
 
@@ -79,6 +73,16 @@ impl InpaintNode {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `inpaint`.
+    pub struct InpaintParams {
+        /// OpenCV's INPAINT_NS or INPAINT_TELEA
+        method: String = "\"ns\"" as ParamType::enumeration(&["ns", "telea"]),
+        /// neighbourhood radius in pixels (rounded half to even, at least 1)
+        radius: f64 = "3.0" as ParamType::float_range(0.0, 100.0),
+    }
+}
+
 impl Node for InpaintNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("inpaint", "1")
@@ -86,16 +90,14 @@ impl Node for InpaintNode {
             .input("image", "Image", "the image to fill (image.png, 8- or 16-bit)")
             .input("mask", "Mask", "mask.png, non-zero = fill")
             .output("image", "Image", "the filled image, same bit depth and channels")
-            .param("method", ParamType::enumeration(&["ns", "telea"]), Some("\"ns\""), "OpenCV's INPAINT_NS or INPAINT_TELEA")
-            .param("radius", ParamType::float_range(0.0, 100.0), Some("3.0"), "neighbourhood radius in pixels (rounded half to even, at least 1)")
+            .params::<InpaintParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let method = method_param(ctx)?;
-        let radius: f64 = ctx.param("radius")?;
+        let p: InpaintParams = ctx.params_as()?;
         let options = Options {
-            method,
-            radius,
+            method: p.method.parse().map_err(anyhow::Error::msg)?,
+            radius: p.radius,
             threads: ctx.threads(),
         };
         let image_path = ctx.input("image")?.join(IMAGE_PNG);
@@ -160,6 +162,15 @@ impl Node for InpaintNode {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `fill_holes`.
+    pub struct FillHolesParams {
+        /// 4 or 8: connectivity of the background flood (SciPy's structure; 4 is SciPy's
+        /// default)
+        connectivity: i64 = "4" as ParamType::int_range(4, 8),
+    }
+}
+
 pub struct FillHolesNode;
 
 impl Node for FillHolesNode {
@@ -168,17 +179,32 @@ impl Node for FillHolesNode {
             .doc("Binary hole filling with scipy.ndimage.binary_fill_holes semantics.")
             .input("mask", "Mask", "mask.png, non-zero = set")
             .output("mask", "Mask", "the filled mask (mask.png, 0/255)")
-            .param("connectivity", ParamType::int_range(4, 8), Some("4"), "4 or 8: connectivity of the background flood (SciPy's structure; 4 is SciPy's default)")
+            .params::<FillHolesParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let connectivity = connectivity_param(ctx)?;
+        let connectivity = connectivity(ctx.params_as::<FillHolesParams>()?.connectivity)?;
         let (w, h, set) = load_mask(ctx.input("mask")?)?;
         let filled = fill_holes(&set, w as usize, h as usize, connectivity);
         let added = filled.iter().zip(&set).filter(|(f, s)| **f && !**s).count();
         save_mask(&ctx.output("mask")?, w, h, &filled)?;
         ctx.note("pixels_filled", added);
         Ok(Outcome::Done)
+    }
+}
+
+objectsplat_runtime::node_params! {
+    /// The parameters of `surface_completion`.
+    pub struct SurfaceCompletionParams {
+        /// labels (or label words) that name support surfaces
+        labels: Vec<String> = "[\"table\", \"desk\", \"counter\"]" as ParamType::list(ParamType::Str),
+        /// plane-fit tolerance relative to the surface points' extent (used when points are
+        /// wired)
+        planarity_tolerance: f64 = "0.02" as ParamType::float_range(0.0, 1.0),
+        /// NS inpainting radius in pixels
+        radius: f64 = "5.0" as ParamType::float_range(0.0, 100.0),
+        /// 4 or 8: background connectivity of the hole filling
+        connectivity: i64 = "4" as ParamType::int_range(4, 8),
     }
 }
 
@@ -192,18 +218,16 @@ impl Node for SurfaceCompletionNode {
             .input("frames", "Frames", "the capture")
             .optional_input("points", "Points", "scene points for the planarity test (optional)")
             .output("components", "[Component]", "all components; completed surfaces gain pixels, targets/ and completion.json")
-            .param("labels", ParamType::list(ParamType::Str), Some("[\"table\", \"desk\", \"counter\"]"), "labels (or label words) that name support surfaces")
-            .param("planarity_tolerance", ParamType::float_range(0.0, 1.0), Some("0.02"), "plane-fit tolerance relative to the surface points' extent (used when points are wired)")
-            .param("radius", ParamType::float_range(0.0, 100.0), Some("5.0"), "NS inpainting radius in pixels")
-            .param("connectivity", ParamType::int_range(4, 8), Some("4"), "4 or 8: background connectivity of the hole filling")
+            .params::<SurfaceCompletionParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let p: SurfaceCompletionParams = ctx.params_as()?;
         let params = SurfaceParams {
-            labels: ctx.param("labels")?,
-            planarity_tolerance: ctx.param("planarity_tolerance")?,
-            radius: ctx.param("radius")?,
-            connectivity: connectivity_param(ctx)?,
+            labels: p.labels,
+            planarity_tolerance: p.planarity_tolerance,
+            radius: p.radius,
+            connectivity: connectivity(p.connectivity)?,
         };
         // Validates the capture even though the components carry their own frames.
         Frames::read(ctx.input("frames")?)?;
@@ -241,6 +265,28 @@ impl Node for SurfaceCompletionNode {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `complete_surfaces`.
+    pub struct CompleteSurfacesParams {
+        /// plane tolerance relative to the surface model's bounding-box diagonal
+        planarity_tolerance: f64 = "0.02" as ParamType::float_range(1e-6, 1.0),
+        /// fraction of the surface's visible face area that must lie on its plane
+        min_plane_fraction: f64 = "0.5" as ParamType::float_range(1e-6, 1.0),
+        /// how far an object's base may be from the plane to rest on it, relative to the
+        /// surface's diagonal
+        contact_tolerance: f64 = "0.03" as ParamType::float_range(1e-6, 1.0),
+        /// grid cell side relative to the median edge of the surface's in-plane faces (patch
+        /// triangles come out about as large as the trained ones)
+        cell_scale: f64 = "0.5" as ParamType::float_range(1e-3, 100.0),
+        /// most grid cells along the surface's longer side
+        max_resolution: i64 = "512" as ParamType::int_range(8, 4096),
+        /// interior vertices of a patch every this many cells
+        vertex_step: i64 = "2" as ParamType::int_range(1, 256),
+        /// skip a surface whose hole would take more than this fraction of its outline
+        max_hole_fraction: f64 = "0.5" as ParamType::float_range(1e-6, 1.0),
+    }
+}
+
 pub struct CompleteSurfacesNode;
 
 impl Node for CompleteSurfacesNode {
@@ -252,27 +298,20 @@ impl Node for CompleteSurfacesNode {
             .input("frames", "Frames", "the capture")
             .optional_input("points", "Points", "scene points; those on a surface's pixels join its plane fit")
             .output("scene", "Scene", "the scene with completed surfaces (model.json metadata surface_completion_3d records each patch)")
-            .param("planarity_tolerance", ParamType::float_range(1e-6, 1.0), Some("0.02"), "plane tolerance relative to the surface model's bounding-box diagonal")
-            .param("min_plane_fraction", ParamType::float_range(1e-6, 1.0), Some("0.5"), "fraction of the surface's visible face area that must lie on its plane")
-            .param("contact_tolerance", ParamType::float_range(1e-6, 1.0), Some("0.03"), "how far an object's base may be from the plane to rest on it, relative to the surface's diagonal")
-            .param("cell_scale", ParamType::float_range(1e-3, 100.0), Some("0.5"), "grid cell side relative to the median edge of the surface's in-plane faces (patch triangles come out about as large as the trained ones)")
-            .param("max_resolution", ParamType::int_range(8, 4096), Some("512"), "most grid cells along the surface's longer side")
-            .param("vertex_step", ParamType::int_range(1, 256), Some("2"), "interior vertices of a patch every this many cells")
-            .param("max_hole_fraction", ParamType::float_range(1e-6, 1.0), Some("0.5"), "skip a surface whose hole would take more than this fraction of its outline")
+            .params::<CompleteSurfacesParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let max_resolution: i64 = ctx.param("max_resolution")?;
-        let vertex_step: i64 = ctx.param("vertex_step")?;
+        let p: CompleteSurfacesParams = ctx.params_as()?;
         let params = SurfaceMeshParams {
-            planarity_tolerance: ctx.param("planarity_tolerance")?,
-            min_plane_fraction: ctx.param("min_plane_fraction")?,
-            contact_tolerance: ctx.param("contact_tolerance")?,
+            planarity_tolerance: p.planarity_tolerance,
+            min_plane_fraction: p.min_plane_fraction,
+            contact_tolerance: p.contact_tolerance,
             // Both are range-checked by the param types above.
-            cell_scale: ctx.param("cell_scale")?,
-            max_resolution: max_resolution as usize,
-            vertex_step: vertex_step as usize,
-            max_hole_fraction: ctx.param("max_hole_fraction")?,
+            cell_scale: p.cell_scale,
+            max_resolution: p.max_resolution as usize,
+            vertex_step: p.vertex_step as usize,
+            max_hole_fraction: p.max_hole_fraction,
         };
         // Validates the capture; the components carry their own frames.
         Frames::read(ctx.input("frames")?)?;
@@ -312,6 +351,24 @@ impl Node for CompleteSurfacesNode {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `inpaint_background`.
+    pub struct InpaintBackgroundParams {
+        /// where fills come from
+        method: String = "\"ns\"" as ParamType::enumeration(&["ns", "telea", "command", "folder"]),
+        /// radius for ns/telea
+        radius: f64 = "5.0" as ParamType::float_range(0.0, 100.0),
+        /// argv for method command; arguments exactly {input} / {output} become the folders;
+        /// the program file and every absolute argument naming a file or folder are part of the
+        /// cache key (files the program finds by itself are not: name them in the argv)
+        command: Vec<String> = "[]" as ParamType::list(ParamType::Str),
+        /// seconds before the command is killed
+        timeout_s: f64 = "600.0" as ParamType::float_range(0.001, 1.0e6),
+        /// folder of <frame stem>.png fills for method folder
+        path: Option<String> = "None" as ParamType::optional(ParamType::Path),
+    }
+}
+
 pub struct InpaintBackgroundNode;
 
 impl Node for InpaintBackgroundNode {
@@ -321,41 +378,31 @@ impl Node for InpaintBackgroundNode {
             .input("components", "[Component]", "the partition's components (the background's masks say what to fill)")
             .input("frames", "Frames", "the capture")
             .output("fills", "Images", "<frame stem>.png per background frame")
-            .param("method", ParamType::enumeration(&["ns", "telea", "command", "folder"]), Some("\"ns\""), "where fills come from")
-            .param("radius", ParamType::float_range(0.0, 100.0), Some("5.0"), "radius for ns/telea")
-            .param("command", ParamType::list(ParamType::Str), Some("[]"), "argv for method command; arguments exactly {input} / {output} become the folders; the program file and every absolute argument naming a file or folder are part of the cache key (files the program finds by itself are not: name them in the argv)")
-            .param("timeout_s", ParamType::float_range(0.001, 1.0e6), Some("600.0"), "seconds before the command is killed")
-            .param("path", ParamType::optional(ParamType::Path), Some("None"), "folder of <frame stem>.png fills for method folder")
+            .params::<InpaintBackgroundParams>()
     }
 
     /// For method `command`: the program and the files its arguments name.
     fn reads(&self, params: &Params) -> Result<Vec<PathBuf>> {
-        if params.get::<String>("method")? != "command" {
+        let p = params.read_as::<InpaintBackgroundParams>()?;
+        if p.method != "command" {
             return Ok(Vec::new());
         }
-        Ok(ExternalCommand::reads(
-            &params.get::<Vec<String>>("command")?,
-        ))
+        Ok(ExternalCommand::reads(&p.command))
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let method: String = ctx.param("method")?;
-        let source = match method.as_str() {
+        let p: InpaintBackgroundParams = ctx.params_as()?;
+        let source = match p.method.as_str() {
             "ns" | "telea" => FillSource::Builtin {
-                method: method.parse().map_err(anyhow::Error::msg)?,
-                radius: ctx.param("radius")?,
+                method: p.method.parse().map_err(anyhow::Error::msg)?,
+                radius: p.radius,
             },
-            "command" => {
-                let argv: Vec<String> = ctx.param("command")?;
-                let timeout: f64 = ctx.param("timeout_s")?;
-                FillSource::Command(ExternalCommand {
-                    argv,
-                    timeout: Duration::from_secs_f64(timeout),
-                })
-            }
+            "command" => FillSource::Command(ExternalCommand {
+                argv: p.command,
+                timeout: Duration::from_secs_f64(p.timeout_s),
+            }),
             "folder" => {
-                let path: Option<String> = ctx.param("path")?;
-                let Some(path) = path else {
+                let Some(path) = p.path else {
                     bail!("method \"folder\" needs the param `path`")
                 };
                 FillSource::Folder(PathBuf::from(path))

@@ -87,7 +87,7 @@ pub const TYPES: &[ArtifactType] = &[
               (8-bit, 255 = use the pixel, 0 = ignore it): a source's own validity mask \
               (nerfstudio `mask_path`), and the pixels an undistorted image does not cover. \
               Frames are always pinhole: distorted sources are undistorted when loaded \
-              ([below](#capture-sources))",
+              (docs/artifacts.md, \"Capture sources\")",
     },
     ArtifactType {
         name: "Points",
@@ -130,12 +130,13 @@ pub const TYPES: &[ArtifactType] = &[
     ArtifactType {
         name: "Scene",
         defining_file: Some(SCENE_JSON),
-        doc: "see nodes/scene/README.md and below: `scene.json` (members with name, kind, id, \
+        doc: "`scene.json` (members with name, kind, id, \
               label, source, optional `placement`; optional `edits`) + `objects/<name>/` (one \
               Model folder per member, in the member's model frame) + optional \
               `fills/<frame stem>.png`; a support surface `complete_surfaces` closed records \
               its patch (first vertex and face, plane, resting objects) in its `model.json` \
-              metadata `surface_completion_3d`",
+              metadata `surface_completion_3d`. Encoding: nodes/scene/README.md; placements: \
+              docs/artifacts.md, \"Scene placements\"",
     },
     ArtifactType {
         name: "Metrics",

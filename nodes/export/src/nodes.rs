@@ -66,6 +66,18 @@ fn training_logs(items: &[(String, std::path::PathBuf)]) -> Result<Vec<ModelTrai
         .collect()
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `report`.
+    pub struct ReportParams {
+        /// page title
+        title: String = "\"ObjectSplat run\"" as ParamType::Str,
+        /// test views shown (spread evenly over the test split)
+        max_views: i64 = "4" as ParamType::int_range(0, 64),
+        /// mean absolute RGB error drawn with the hottest heatmap colour
+        error_scale: f64 = "0.25" as ParamType::float_range(1e-6, 1.0),
+    }
+}
+
 impl Node for ReportNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("report", "3")
@@ -76,20 +88,14 @@ impl Node for ReportNode {
             .optional_input("models", "[Model]", "trained models; their training.json gives the training curves")
             .optional_input("viewer", "File", "a `viewer` node's folder (index.html, scene.glb, viewer.json): its 3D view is embedded")
             .output("file", "File", "a folder with index.html")
-            .param("title", ParamType::Str, Some("\"ObjectSplat run\""), "page title")
-            .param("max_views", ParamType::int_range(0, 64), Some("4"), "test views shown (spread evenly over the test split)")
-            .param(
-                "error_scale",
-                ParamType::float_range(1e-6, 1.0),
-                Some("0.25"),
-                "mean absolute RGB error drawn with the hottest heatmap colour",
-            )
+            .params::<ReportParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let title: String = ctx.param("title")?;
-        let max_views: i64 = ctx.param("max_views")?;
-        let error_scale: f64 = ctx.param("error_scale")?;
+        let p: ReportParams = ctx.params_as()?;
+        let title: String = p.title;
+        let max_views: i64 = p.max_views;
+        let error_scale: f64 = p.error_scale;
         let metrics = match ctx.input_opt("metrics") {
             Some(dir) => Some(read_metrics(dir)?),
             None => None,

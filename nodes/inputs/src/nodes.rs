@@ -28,24 +28,24 @@ fn with_scene_params(spec: NodeSpec, lists: Option<&str>) -> NodeSpec {
              frames stay test frames under sparse and dense (the rule splits the others)"
         );
     }
+    // `split`'s choices and doc depend on the source, so it is declared here by hand.
     spec.param(
         "split",
         ParamType::enumeration(&splits),
         Some("\"sparse\""),
         &doc,
     )
-    .param(
-        "resolution",
-        ParamType::int_range(1, 64),
-        Some("1"),
-        "integer downscale factor of width×height",
-    )
-    .param(
-        "max_width",
-        ParamType::optional(ParamType::int_range(1, 100_000)),
-        Some("None"),
-        "cap on the output width in pixels, after `resolution` (aspect kept)",
-    )
+    .params::<ResolutionParams>()
+}
+
+objectsplat_runtime::node_params! {
+    /// How every scene source scales its images.
+    pub struct ResolutionParams {
+        /// integer downscale factor of width×height
+        resolution: i64 = "1" as ParamType::int_range(1, 64),
+        /// cap on the output width in pixels, after `resolution` (aspect kept)
+        max_width: Option<i64> = "None" as ParamType::optional(ParamType::int_range(1, 100_000)),
+    }
 }
 
 /// The split choice; `lists` names where `split: "lists"` reads its lists, or says why
@@ -61,7 +61,8 @@ fn split_param(ctx: &Context, lists: impl FnOnce() -> Result<String>) -> Result<
 }
 
 fn resolution_param(ctx: &Context) -> Result<Resolution> {
-    Resolution::new(ctx.param("resolution")?, ctx.param("max_width")?)
+    let p: ResolutionParams = ctx.params_as()?;
+    Resolution::new(p.resolution, p.max_width)
 }
 
 /// Report lines for the frames a source wrote: how many, how they split, what was undistorted.
@@ -98,6 +99,17 @@ fn note_frames(ctx: &mut Context, written: &WrittenFrames) {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `colmap_scene`.
+    pub struct ColmapSceneParams {
+        /// sparse model folder (or a project folder holding sparse/0)
+        path: String = required as ParamType::Path,
+        /// image folder; default: the first of <path>/images, <path>/../images,
+        /// <path>/../../images
+        images: Option<String> = "None" as ParamType::optional(ParamType::Path),
+    }
+}
+
 /// `colmap_scene`: a COLMAP sparse model and its images.
 pub struct ColmapScene;
 
@@ -108,31 +120,25 @@ impl Node for ColmapScene {
                 .doc("A COLMAP sparse model (text or binary, classic or rigs/frames layout) and its images. Distorted cameras (SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV, OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE) are undistorted to the pinhole camera COLMAP's image_undistorter would choose, images resampled bilinearly.")
                 .output("frames", "Frames", "posed images, split and downscaled")
                 .output("points", "Points", "the model's 3D points with colours")
-                .param("path", ParamType::Path, None, "sparse model folder (or a project folder holding sparse/0)")
-                .param(
-                    "images",
-                    ParamType::optional(ParamType::Path),
-                    Some("None"),
-                    "image folder; default: the first of <path>/images, <path>/../images, <path>/../../images",
-                ),
+                .params::<ColmapSceneParams>(),
             None,
         )
     }
 
     /// The default image folder is found beside the model, outside the `path` param.
     fn reads(&self, params: &Params) -> Result<Vec<PathBuf>> {
-        if params.get::<Option<String>>("images")?.is_some() {
+        let p: ColmapSceneParams = params.read_as()?;
+        if p.images.is_some() {
             return Ok(Vec::new());
         }
-        Ok(vec![default_images_dir(Path::new(
-            &params.get::<String>("path")?,
-        ))?])
+        Ok(vec![default_images_dir(Path::new(&p.path))?])
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let path = PathBuf::from(ctx.param::<String>("path")?);
+        let p: ColmapSceneParams = ctx.params_as()?;
+        let path = PathBuf::from(p.path);
         let model = colmap::read_model(&path)?;
-        let images = match ctx.param::<Option<String>>("images")? {
+        let images = match p.images {
             Some(p) => PathBuf::from(p),
             None => default_images_dir(&path)?,
         };
@@ -178,11 +184,32 @@ fn default_images_dir(model: &Path) -> Result<PathBuf> {
 pub struct NerfstudioScene;
 
 /// Where a nerfstudio JSON's `file_path`s and `mask_path`s are relative to.
-fn nerfstudio_roots(params: &Params) -> Result<nerfstudio::Roots> {
-    Ok(nerfstudio::Roots {
-        images: params.get::<Option<String>>("images")?.map(PathBuf::from),
-        masks: params.get::<Option<String>>("masks")?.map(PathBuf::from),
-    })
+fn nerfstudio_roots(p: &NerfstudioSceneParams) -> nerfstudio::Roots {
+    nerfstudio::Roots {
+        images: p.images.as_ref().map(PathBuf::from),
+        masks: p.masks.as_ref().map(PathBuf::from),
+    }
+}
+
+objectsplat_runtime::node_params! {
+    /// The parameters of `nerfstudio_scene`.
+    pub struct NerfstudioSceneParams {
+        /// the transforms.json file
+        path: String = required as ParamType::Path,
+        /// the folder the file_paths are relative to; default: the JSON's folder (ScanNet++:
+        /// dslr/resized_images for transforms.json, dslr/resized_undistorted_images for
+        /// transforms_undistorted.json)
+        images: Option<String> = "None" as ParamType::optional(ParamType::Path),
+        /// the folder the mask_paths are relative to; default: the JSON's folder (ScanNet++:
+        /// dslr/resized_anon_masks, dslr/resized_undistorted_masks)
+        masks: Option<String> = "None" as ParamType::optional(ParamType::Path),
+        /// load mask_path validity masks (also skipped when the JSON says has_mask: false)
+        use_masks: bool = "true" as ParamType::Bool,
+        /// json: poses as stored; scannetpp_mesh: a ScanNet++ JSON moved into the scene's mesh
+        /// frame (JSON world = M · mesh world, M = [[0,1,0],[1,0,0],[0,0,−1]]), so the frames
+        /// line up with scannetpp_scene's mesh and poses
+        world: String = "\"json\"" as ParamType::enumeration(&["json", "scannetpp_mesh"]),
+    }
 }
 
 impl Node for NerfstudioScene {
@@ -191,26 +218,7 @@ impl Node for NerfstudioScene {
             NodeSpec::new("nerfstudio_scene", "2")
                 .doc("A nerfstudio/instant-ngp transforms.json (OpenGL camera-to-world, converted to OpenCV). Distorted cameras (camera_model OPENCV with k1, k2, k3, p1, p2; OPENCV_FISHEYE with k1..k4) are undistorted to the pinhole camera COLMAP's image_undistorter would choose. ScanNet++ test_frames are test frames.")
                 .output("frames", "Frames", "posed images, split and downscaled; mask_path becomes valid/<stem>.png")
-                .param("path", ParamType::Path, None, "the transforms.json file")
-                .param(
-                    "images",
-                    ParamType::optional(ParamType::Path),
-                    Some("None"),
-                    "the folder the file_paths are relative to; default: the JSON's folder (ScanNet++: dslr/resized_images for transforms.json, dslr/resized_undistorted_images for transforms_undistorted.json)",
-                )
-                .param(
-                    "masks",
-                    ParamType::optional(ParamType::Path),
-                    Some("None"),
-                    "the folder the mask_paths are relative to; default: the JSON's folder (ScanNet++: dslr/resized_anon_masks, dslr/resized_undistorted_masks)",
-                )
-                .param("use_masks", ParamType::Bool, Some("true"), "load mask_path validity masks (also skipped when the JSON says has_mask: false)")
-                .param(
-                    "world",
-                    ParamType::enumeration(&["json", "scannetpp_mesh"]),
-                    Some("\"json\""),
-                    "json: poses as stored; scannetpp_mesh: a ScanNet++ JSON moved into the scene's mesh frame (JSON world = M · mesh world, M = [[0,1,0],[1,0,0],[0,0,−1]]), so the frames line up with scannetpp_scene's mesh and poses",
-                ),
+                .params::<NerfstudioSceneParams>(),
             Some("the JSON's test_frames, or its train_filenames / test_filenames"),
         )
     }
@@ -218,9 +226,9 @@ impl Node for NerfstudioScene {
     /// The images and masks the JSON lists (the `path` param covers the JSON only).
     /// The images and masks the JSON lists, where `images` / `masks` say they are.
     fn reads(&self, params: &Params) -> Result<Vec<PathBuf>> {
-        let path = PathBuf::from(params.get::<String>("path")?);
-        let mut t = nerfstudio::read(&path, &nerfstudio_roots(params)?)?;
-        if !params.get::<bool>("use_masks")? {
+        let p: NerfstudioSceneParams = params.read_as()?;
+        let mut t = nerfstudio::read(Path::new(&p.path), &nerfstudio_roots(&p))?;
+        if !p.use_masks {
             for f in &mut t.frames {
                 f.mask = None;
             }
@@ -232,15 +240,16 @@ impl Node for NerfstudioScene {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let path = PathBuf::from(ctx.param::<String>("path")?);
-        let mut t = nerfstudio::read(&path, &nerfstudio_roots(ctx.params())?)?;
-        if !ctx.param::<bool>("use_masks")? {
+        let p: NerfstudioSceneParams = ctx.params_as()?;
+        let path = PathBuf::from(&p.path);
+        let mut t = nerfstudio::read(&path, &nerfstudio_roots(&p))?;
+        if !p.use_masks {
             for f in &mut t.frames {
                 f.mask = None;
             }
         }
         t.check_files()?;
-        let world = match ctx.param::<String>("world")?.as_str() {
+        let world = match p.world.as_str() {
             "json" => glam::DMat4::IDENTITY,
             "scannetpp_mesh" => scannetpp::mesh_change(),
             other => bail!("world {other:?} is not json or scannetpp_mesh"),
@@ -270,6 +279,19 @@ impl Node for NerfstudioScene {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `scannetpp_scene`.
+    pub struct ScannetppSceneParams {
+        /// the scene folder (holding dslr/ and scans/)
+        path: String = required as ParamType::Path,
+        /// a vertex in several annotation groups goes to the smallest group, the first, or the
+        /// last
+        overlap: String = "\"smallest\"" as ParamType::enumeration(&GroupOverlap::NAMES),
+        /// annotation labels kept as background (no object id), compared case-insensitively
+        background_labels: Vec<String> = "[\"wall\", \"floor\", \"ceiling\"]" as ParamType::list(ParamType::Str),
+    }
+}
+
 /// `scannetpp_scene`: one ScanNet++ scene folder.
 pub struct ScannetppScene;
 
@@ -281,27 +303,16 @@ impl Node for ScannetppScene {
                 .output("frames", "Frames", "posed undistorted DSLR images; the JSON's test_frames are test frames")
                 .output("mesh", "Mesh", "mesh_aligned_0.05 with per-vertex object ids (the annotation's objectIds; ids above 65534 are an error) and labels")
                 .output("points", "Points", "COLMAP points (mesh vertices when there are none)")
-                .param("path", ParamType::Path, None, "the scene folder (holding dslr/ and scans/)")
-                .param(
-                    "overlap",
-                    ParamType::enumeration(&GroupOverlap::NAMES),
-                    Some("\"smallest\""),
-                    "a vertex in several annotation groups goes to the smallest group, the first, or the last",
-                )
-                .param(
-                    "background_labels",
-                    ParamType::list(ParamType::Str),
-                    Some("[\"wall\", \"floor\", \"ceiling\"]"),
-                    "annotation labels kept as background (no object id), compared case-insensitively",
-                ),
+                .params::<ScannetppSceneParams>(),
             Some("dslr/train_test_lists.json"),
         )
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let path = PathBuf::from(ctx.param::<String>("path")?);
-        let overlap = GroupOverlap::parse(&ctx.param::<String>("overlap")?)?;
-        let background: Vec<String> = ctx.param("background_labels")?;
+        let p: ScannetppSceneParams = ctx.params_as()?;
+        let path = PathBuf::from(p.path);
+        let overlap = GroupOverlap::parse(&p.overlap)?;
+        let background: Vec<String> = p.background_labels;
         let mut s = scannetpp::load(&path, overlap, &background)?;
         let mut unmatched_list_entries = 0;
         let split = split_param(ctx, || {
@@ -376,6 +387,19 @@ pub struct ImportMasks;
 /// Per-object lines in the report beyond this many are summarised.
 const REPORTED_OBJECTS: usize = 40;
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `import_masks`.
+    pub struct ImportMasksParams {
+        /// the folder holding the masks (or wire the `source` input instead)
+        path: Option<String> = "None" as ParamType::optional(ParamType::Path),
+        /// how the masks are stored
+        format: String = required as ParamType::enumeration(&MaskFormat::NAMES),
+        /// which mask keeps a pixel claimed by several: first in source order, smaller area, or
+        /// higher score
+        overlap: String = "\"lower_id\"" as ParamType::enumeration(&OverlapPolicy::NAMES),
+    }
+}
+
 impl Node for ImportMasks {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("import_masks", "1")
@@ -387,26 +411,12 @@ impl Node for ImportMasks {
                 "the mask files made by another node (e.g. a `command` mask source), instead of `path`",
             )
             .output("masks", "Masks", "one 16-bit id map per frame + objects.json")
-            .param(
-                "path",
-                ParamType::optional(ParamType::Path),
-                Some("None"),
-                "the folder holding the masks (or wire the `source` input instead)",
-            )
-            .param("format", ParamType::enumeration(&MaskFormat::NAMES), None, "how the masks are stored")
-            .param(
-                "overlap",
-                ParamType::enumeration(&OverlapPolicy::NAMES),
-                Some("\"lower_id\""),
-                "which mask keeps a pixel claimed by several: first in source order, smaller area, or higher score",
-            )
+            .params::<ImportMasksParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let source = match (
-            ctx.input_opt("source"),
-            ctx.param::<Option<String>>("path")?,
-        ) {
+        let p: ImportMasksParams = ctx.params_as()?;
+        let source = match (ctx.input_opt("source"), p.path) {
             (Some(dir), None) => dir.to_path_buf(),
             (None, Some(path)) => PathBuf::from(path),
             (Some(_), Some(path)) => bail!(
@@ -416,8 +426,8 @@ impl Node for ImportMasks {
                 "no masks: set `path` to the folder holding them, or wire the `source` input to a node that writes them"
             ),
         };
-        let format = MaskFormat::parse(&ctx.param::<String>("format")?)?;
-        let policy = OverlapPolicy::parse(&ctx.param::<String>("overlap")?)?;
+        let format = MaskFormat::parse(&p.format)?;
+        let policy = OverlapPolicy::parse(&p.overlap)?;
         let frames = ctx.input("frames")?.to_path_buf();
         let out = ctx.output("masks")?;
         let summary = {

@@ -66,6 +66,14 @@ impl Node for Compose {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `load_scene`.
+    pub struct LoadSceneParams {
+        /// the Scene folder, relative to the graph file
+        path: String = required as ParamType::Path,
+    }
+}
+
 /// `load_scene`: a Scene folder from disk, e.g. one a previous run materialized.
 pub struct LoadScene;
 
@@ -74,11 +82,12 @@ impl Node for LoadScene {
         NodeSpec::new("load_scene", "1")
             .doc("Reads a Scene folder (scene.json + objects/<name>/ + optional fills/) from disk, e.g. one a previous run wrote under OUT/<node>/scene/, and checks it.")
             .output("scene", "Scene", "the scene as read")
-            .param("path", ParamType::Path, None, "the Scene folder, relative to the graph file")
+            .params::<LoadSceneParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let path: String = ctx.param("path")?;
+        let p: LoadSceneParams = ctx.params_as()?;
+        let path: String = p.path;
         let dir = PathBuf::from(&path);
         let scene = load_scene(&dir)?;
         let out = ctx.output("scene")?;
@@ -231,6 +240,21 @@ impl Node for EditScene {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `render`.
+    pub struct RenderParams {
+        /// which cameras to render
+        views: String = "\"test\"" as ParamType::enumeration(&["test", "train", "all", "orbit"]),
+        /// number of orbit views (views: "orbit")
+        orbit_count: i64 = "36" as ParamType::int_range(1, 3600),
+        /// render backend: auto = a hardware GPU through wgpu, else the CPU backend; wgpu = a
+        /// GPU or lavapipe
+        backend: String = "\"auto\"" as ParamType::enumeration(&["auto", "cpu", "wgpu"]),
+        /// sRGB colour [r, g, b] where nothing (and no fill) covers a pixel
+        background: Vec<f64> = "[0.0, 0.0, 0.0]" as ParamType::list(ParamType::float_range(0.0, 1.0)),
+    }
+}
+
 /// `render`: the scene from the frames' cameras or an orbit, as PNGs.
 pub struct Render;
 
@@ -242,17 +266,15 @@ impl Node for Render {
             .input("frames", "Frames", "cameras (and intrinsics/scale for the orbit)")
             .optional_input("fills", "Images", "per-frame background images (<frame stem>.png), e.g. from inpaint_background")
             .output("images", "Images", "one PNG per view")
-            .param("views", ParamType::enumeration(&["test", "train", "all", "orbit"]), Some("\"test\""), "which cameras to render")
-            .param("orbit_count", ParamType::int_range(1, 3600), Some("36"), "number of orbit views (views: \"orbit\")")
-            .param("backend", ParamType::enumeration(&["auto", "cpu", "wgpu"]), Some("\"auto\""), "render backend: auto = a hardware GPU through wgpu, else the CPU backend; wgpu = a GPU or lavapipe")
-            .param("background", ParamType::list(ParamType::float_range(0.0, 1.0)), Some("[0.0, 0.0, 0.0]"), "sRGB colour [r, g, b] where nothing (and no fill) covers a pixel")
+            .params::<RenderParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let views: String = ctx.param("views")?;
-        let orbit_count: i64 = ctx.param("orbit_count")?;
-        let backend: String = ctx.param("backend")?;
-        let background: Vec<f64> = ctx.param("background")?;
+        let p: RenderParams = ctx.params_as()?;
+        let views: String = p.views;
+        let orbit_count: i64 = p.orbit_count;
+        let backend: String = p.backend;
+        let background: Vec<f64> = p.background;
         let (renderer, why) = objectsplat_wgpu::backend_for(&backend, ctx.threads())?;
         ctx.note("backend", why);
         let &[r, g, b] = background.as_slice() else {
@@ -338,6 +360,34 @@ impl Node for Render {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `evaluate`.
+    pub struct EvaluateParams {
+        /// F-score distance threshold (m)
+        tau: f64 = "0.05" as ParamType::float_range(1e-6, 10.0),
+        /// more thresholds (m) at which every object's precision, recall and F-score are
+        /// reported (metrics.json objects[].thresholds)
+        object_taus: Vec<f64> = "[0.05, 0.02]" as ParamType::list(ParamType::float_range(1e-6, 10.0)),
+        /// voxel size for down-sampling both point sets (m)
+        voxel: f64 = "0.02" as ParamType::float_range(1e-6, 10.0),
+        /// surface samples per square metre
+        samples: f64 = "10000.0" as ParamType::float_range(1.0, 1e8),
+        /// seed of the surface sampling
+        seed: i64 = "0" as ParamType::int_range(0, i64::MAX),
+        /// cap on the samples drawn on one surface (ground truth, scene, each object); a
+        /// surface that needs more (area × samples) fails the node naming its area, as a
+        /// diverged model's does, instead of exhausting memory
+        max_samples: i64 = "10000000" as ParamType::int_range(1, i64::MAX),
+        /// SSIM border convention: 3DGS zero padding, or scikit-image's 5-pixel crop
+        ssim: String = "\"gs3d\"" as ParamType::enumeration(&["gs3d", "cropped"]),
+        /// AlexNet LPIPS weights (safetensors); LPIPS is skipped without it
+        lpips_weights: Option<String> = "None" as ParamType::optional(ParamType::Path),
+        /// ground truth of the F-scores: the mesh surface at least one frame sees
+        /// (depth-tested), or the whole mesh
+        gt_surface: String = "\"observed\"" as ParamType::enumeration(&["observed", "all"]),
+    }
+}
+
 /// `evaluate`: image metrics of the test renders and mesh F-score, scene and per object.
 pub struct Evaluate;
 
@@ -351,30 +401,18 @@ impl Node for Evaluate {
             .optional_input("mesh", "Mesh", "ground-truth mesh; per-object F-score needs its object ids")
             .optional_input("masks", "Masks", "ground-truth object-id maps of the test frames, for per-object image metrics")
             .output("metrics", "Metrics", "metrics.json + metrics.csv")
-            .param("tau", ParamType::float_range(1e-6, 10.0), Some("0.05"), "F-score distance threshold (m)")
-            .param("object_taus", ParamType::list(ParamType::float_range(1e-6, 10.0)), Some("[0.05, 0.02]"), "more thresholds (m) at which every object's precision, recall and F-score are reported (metrics.json objects[].thresholds)")
-            .param("voxel", ParamType::float_range(1e-6, 10.0), Some("0.02"), "voxel size for down-sampling both point sets (m)")
-            .param("samples", ParamType::float_range(1.0, 1e8), Some("10000.0"), "surface samples per square metre")
-            .param("seed", ParamType::int_range(0, i64::MAX), Some("0"), "seed of the surface sampling")
-            .param("max_samples", ParamType::int_range(1, i64::MAX), Some("10000000"), "cap on the samples drawn on one surface (ground truth, scene, each object); a surface that needs more (area × samples) fails the node naming its area, as a diverged model's does, instead of exhausting memory")
-            .param("ssim", ParamType::enumeration(&["gs3d", "cropped"]), Some("\"gs3d\""), "SSIM border convention: 3DGS zero padding, or scikit-image's 5-pixel crop")
-            .param("lpips_weights", ParamType::optional(ParamType::Path), Some("None"), "AlexNet LPIPS weights (safetensors); LPIPS is skipped without it")
-            .param(
-                "gt_surface",
-                ParamType::enumeration(&["observed", "all"]),
-                Some("\"observed\""),
-                "ground truth of the F-scores: the mesh surface at least one frame sees (depth-tested), or the whole mesh",
-            )
+            .params::<EvaluateParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let tau: f64 = ctx.param("tau")?;
-        let voxel: f64 = ctx.param("voxel")?;
-        let samples: f64 = ctx.param("samples")?;
-        let seed: i64 = ctx.param("seed")?;
-        let max_samples: i64 = ctx.param("max_samples")?;
-        let ssim: String = ctx.param("ssim")?;
-        let lpips_path: Option<String> = ctx.param("lpips_weights")?;
+        let p: EvaluateParams = ctx.params_as()?;
+        let tau: f64 = p.tau;
+        let voxel: f64 = p.voxel;
+        let samples: f64 = p.samples;
+        let seed: i64 = p.seed;
+        let max_samples: i64 = p.max_samples;
+        let ssim: String = p.ssim;
+        let lpips_path: Option<String> = p.lpips_weights;
         let ssim = if ssim == "cropped" {
             SsimMode::Cropped
         } else {
@@ -407,10 +445,10 @@ impl Node for Evaluate {
                 // The param range is 1..; a cap beyond usize (32-bit) saturates.
                 max_samples: usize::try_from(max_samples).unwrap_or(usize::MAX),
             },
-            object_taus: ctx.param("object_taus")?,
+            object_taus: p.object_taus,
             ssim,
             lpips: lpips.as_ref(),
-            gt_surface: match ctx.param::<String>("gt_surface")?.as_str() {
+            gt_surface: match p.gt_surface.as_str() {
                 "all" => GtSurface::All,
                 _ => GtSurface::Observed,
             },
@@ -544,6 +582,14 @@ fn starting_camera(scene: &Scene, frames: Option<&Frames>) -> Result<Option<View
     }))
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `viewer`.
+    pub struct ViewerParams {
+        /// page title
+        title: String = "\"ObjectSplat scene\"" as ParamType::Str,
+    }
+}
+
 impl Node for Viewer {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("viewer", "1")
@@ -551,11 +597,12 @@ impl Node for Viewer {
             .input("scene", "Scene", "the scene to show")
             .optional_input("frames", "Frames", "the capture: the view starts from its first camera, looking at the objects")
             .output("file", "File", "index.html + scene.glb + viewer.json")
-            .param("title", ParamType::Str, Some("\"ObjectSplat scene\""), "page title")
+            .params::<ViewerParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let title: String = ctx.param("title")?;
+        let p: ViewerParams = ctx.params_as()?;
+        let title: String = p.title;
         let scene = load_scene(ctx.input("scene")?)?;
         let frames = match ctx.input_opt("frames") {
             Some(dir) => Some(Frames::read(dir)?),

@@ -30,14 +30,34 @@ pub fn register(reg: &mut Registry) {
     }
 }
 
-fn int_param(ctx: &Context, name: &str) -> Result<i64> {
-    ctx.param::<i64>(name)
-}
-
-/// Converts a validated integer parameter; the schema's range makes failure a schema bug.
-fn to_u32(ctx: &Context, name: &str) -> Result<u32> {
-    let v = int_param(ctx, name)?;
-    u32::try_from(v).map_err(|_| anyhow!("parameter `{name}` = {v} does not fit 0..=4294967295"))
+objectsplat_runtime::node_params! {
+    /// The parameters of `synthetic_scene`.
+    pub struct SyntheticSceneParams {
+        /// layout, colours and noise
+        seed: u64 = "7" as ParamType::Int { min: Some(0), max: None },
+        /// number of frames
+        views: usize = "24" as ParamType::int_range(1, 10_000),
+        /// image width in pixels
+        width: u32 = "160" as ParamType::int_range(8, 8192),
+        /// image height in pixels
+        height: u32 = "120" as ParamType::int_range(8, 8192),
+        /// sparse: train 1 of 8 frames; dense: train 7 of 8; all: train on every frame
+        split: String = "\"sparse\"" as ParamType::enumeration(&["sparse", "dense", "all"]),
+        /// integer downscale factor of width×height
+        resolution: u32 = "1" as ParamType::int_range(1, 64),
+        /// cap on the image width in pixels, after `resolution` (aspect kept)
+        max_width: Option<u32> = "None" as ParamType::optional(ParamType::int_range(8, 8192)),
+        /// false: no table, the small objects stand on the floor
+        table: bool = "true" as ParamType::Bool,
+        /// number of sparse points
+        points: usize = "4000" as ParamType::int_range(0, 10_000_000),
+        /// point noise standard deviation (m)
+        points_noise: f64 = "0.01" as ParamType::float_range(0.0, 0.5),
+        /// anti-aliasing samples per pixel per axis
+        supersample: u32 = "2" as ParamType::int_range(1, 8),
+        /// horizontal field of view (degrees)
+        fov: f64 = "60.0" as ParamType::float_range(20.0, 120.0),
+    }
 }
 
 pub struct SyntheticSceneNode;
@@ -54,52 +74,30 @@ impl Node for SyntheticSceneNode {
             .output("frames", "Frames", "rendered views, frame_000… (8-bit PNG)")
             .output("mesh", "Mesh", "the complete annotated mesh (per-vertex object_id, objects.json)")
             .output("points", "Points", "sparse coloured points")
-            .param("seed", ParamType::Int { min: Some(0), max: None }, Some("7"), "layout, colours and noise")
-            .param("views", ParamType::int_range(1, 10_000), Some("24"), "number of frames")
-            .param("width", ParamType::int_range(8, 8192), Some("160"), "image width in pixels")
-            .param("height", ParamType::int_range(8, 8192), Some("120"), "image height in pixels")
-            .param(
-                "split",
-                ParamType::enumeration(&["sparse", "dense", "all"]),
-                Some("\"sparse\""),
-                "sparse: train 1 of 8 frames; dense: train 7 of 8; all: train on every frame",
-            )
-            .param("resolution", ParamType::int_range(1, 64), Some("1"), "integer downscale factor of width×height")
-            .param(
-                "max_width",
-                ParamType::optional(ParamType::int_range(8, 8192)),
-                Some("None"),
-                "cap on the image width in pixels, after `resolution` (aspect kept)",
-            )
-            .param("table", ParamType::Bool, Some("true"), "false: no table, the small objects stand on the floor")
-            .param("points", ParamType::int_range(0, 10_000_000), Some("4000"), "number of sparse points")
-            .param("points_noise", ParamType::float_range(0.0, 0.5), Some("0.01"), "point noise standard deviation (m)")
-            .param("supersample", ParamType::int_range(1, 8), Some("2"), "anti-aliasing samples per pixel per axis")
-            .param("fov", ParamType::float_range(20.0, 120.0), Some("60.0"), "horizontal field of view (degrees)")
+            .params::<SyntheticSceneParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let split = match ctx.param::<String>("split")?.as_str() {
+        let p: SyntheticSceneParams = ctx.params_as()?;
+        let split = match p.split.as_str() {
             "sparse" => SplitPolicy::Sparse,
             "dense" => SplitPolicy::Dense,
             "all" => SplitPolicy::All,
             other => bail!("split {other:?} is not one of \"sparse\", \"dense\", \"all\""),
         };
         let params = SyntheticParams {
-            seed: int_param(ctx, "seed")? as u64,
-            views: to_u32(ctx, "views")? as usize,
-            width: to_u32(ctx, "width")?,
-            height: to_u32(ctx, "height")?,
+            seed: p.seed,
+            views: p.views,
+            width: p.width,
+            height: p.height,
             split,
-            resolution: to_u32(ctx, "resolution")?,
-            max_width: ctx
-                .param::<Option<i64>>("max_width")?
-                .map(|w| w.clamp(8, 8192) as u32),
-            table: ctx.param("table")?,
-            points: to_u32(ctx, "points")? as usize,
-            points_noise: ctx.param("points_noise")?,
-            supersample: to_u32(ctx, "supersample")?,
-            fov_degrees: ctx.param("fov")?,
+            resolution: p.resolution,
+            max_width: p.max_width,
+            table: p.table,
+            points: p.points,
+            points_noise: p.points_noise,
+            supersample: p.supersample,
+            fov_degrees: p.fov,
             threads: ctx.threads().max(1),
         };
         let scene = generate(&params)?;
@@ -123,6 +121,26 @@ impl Node for SyntheticSceneNode {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `gt_masks`.
+    pub struct GtMasksParams {
+        /// labels to keep (empty = all objects)
+        keep_labels: Vec<String> = "[]" as ParamType::list(ParamType::Str),
+        /// labels that belong to the background (id 0)
+        background_labels: Vec<String> = "[\"wall\", \"floor\", \"ceiling\"]" as ParamType::list(ParamType::Str),
+        /// per-frame pixel count below which an object is dropped from that frame; None =
+        /// min_fraction × frame area
+        min_pixels: Option<u64> = "None" as ParamType::optional(ParamType::Int { min: Some(0), max: None }),
+        /// used when min_pixels is None
+        min_fraction: f64 = "0.0005" as ParamType::float_range(0.0, 1.0),
+        // Both give bit-identical masks; cpu is the default because lavapipe (the wgpu
+        // adapter of GPU-less machines) is slower than it (docs/benchmarks).
+        /// rasterizer: cpu; wgpu (a GPU, else Mesa lavapipe; bit-identical masks); auto = wgpu
+        /// when an adapter is found, else cpu
+        backend: String = "\"cpu\"" as ParamType::enumeration(&["auto", "cpu", "wgpu"]),
+    }
+}
+
 pub struct GtMasksNode;
 
 impl Node for GtMasksNode {
@@ -137,48 +155,26 @@ impl Node for GtMasksNode {
             .input("frames", "Frames", "cameras to rasterize into")
             .input("mesh", "Mesh", "annotated mesh (per-vertex object_id + objects.json)")
             .output("masks", "Masks", "one 16-bit id map per frame + objects.json")
-            .param("keep_labels", ParamType::list(ParamType::Str), Some("[]"), "labels to keep (empty = all objects)")
-            .param(
-                "background_labels",
-                ParamType::list(ParamType::Str),
-                Some("[\"wall\", \"floor\", \"ceiling\"]"),
-                "labels that belong to the background (id 0)",
-            )
-            .param(
-                "min_pixels",
-                ParamType::optional(ParamType::Int { min: Some(0), max: None }),
-                Some("None"),
-                "per-frame pixel count below which an object is dropped from that frame; None = min_fraction × frame area",
-            )
-            .param("min_fraction", ParamType::float_range(0.0, 1.0), Some("0.0005"), "used when min_pixels is None")
-            .param(
-                "backend",
-                ParamType::enumeration(&["auto", "cpu", "wgpu"]),
-                // Both give bit-identical masks; cpu is the default because lavapipe (the
-                // wgpu adapter of GPU-less machines) is slower than it (docs/benchmarks).
-                Some("\"cpu\""),
-                "rasterizer: cpu; wgpu (a GPU, else Mesa lavapipe; bit-identical masks); auto = wgpu when an \
-                 adapter is found, else cpu",
-            )
+            .params::<GtMasksParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let p: GtMasksParams = ctx.params_as()?;
         let frames_dir = ctx.input("frames")?.to_path_buf();
         let mesh_dir = ctx.input("mesh")?.to_path_buf();
         let frames = Frames::read(&frames_dir)?;
         let (mesh, labels) = read_mesh_artifact(&mesh_dir)?;
-        let min_pixels: Option<i64> = ctx.param("min_pixels")?;
         let params = GtMaskParams {
-            keep_labels: ctx.param("keep_labels")?,
-            background_labels: ctx.param("background_labels")?,
-            min_pixels: min_pixels.map(|v| v.max(0) as u64),
-            min_fraction: ctx.param("min_fraction")?,
+            keep_labels: p.keep_labels,
+            background_labels: p.background_labels,
+            min_pixels: p.min_pixels,
+            min_fraction: p.min_fraction,
             raster: RasterOptions {
                 near: 0.01,
                 threads: ctx.threads().max(1),
             },
         };
-        let backend: String = ctx.param("backend")?;
+        let backend = p.backend;
         let gpu = gpu_for_backend(ctx, &backend)?;
         let rasterizer = match &gpu {
             None => None,
@@ -283,6 +279,17 @@ fn gpu_for_backend(ctx: &mut Context, backend: &str) -> Result<Option<(Arc<GpuCo
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `partition`.
+    pub struct PartitionNodeParams {
+        /// whole-capture pixel budget for an object to become a component; None = 1% of the
+        /// mean frame area
+        min_pixels: Option<u64> = "None" as ParamType::optional(ParamType::Int { min: Some(0), max: None }),
+        /// one component for the whole frame (the baseline)
+        holistic: bool = "false" as ParamType::Bool,
+    }
+}
+
 pub struct PartitionNode;
 
 impl Node for PartitionNode {
@@ -297,20 +304,14 @@ impl Node for PartitionNode {
             .input("frames", "Frames", "the capture")
             .input("masks", "Masks", "mutually exclusive object masks")
             .output("components", "[Component]", "one item per object + the background")
-            .param(
-                "min_pixels",
-                ParamType::optional(ParamType::Int { min: Some(0), max: None }),
-                Some("None"),
-                "whole-capture pixel budget for an object to become a component; None = 1% of the mean frame area",
-            )
-            .param("holistic", ParamType::Bool, Some("false"), "one component for the whole frame (the baseline)")
+            .params::<PartitionNodeParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let min_pixels: Option<i64> = ctx.param("min_pixels")?;
+        let p: PartitionNodeParams = ctx.params_as()?;
         let params = PartitionParams {
-            min_pixels: min_pixels.map(|v| v.max(0) as u64),
-            holistic: ctx.param("holistic")?,
+            min_pixels: p.min_pixels,
+            holistic: p.holistic,
         };
         let plan = partition_folders(
             ctx.input("frames")?,

@@ -63,6 +63,43 @@ pub fn register(reg: &mut Registry) {
     }
 }
 
+objectsplat_runtime::node_params! {
+    /// The parameters of `train`.
+    pub struct TrainParams {
+        /// iteration budget; every schedule number scales with it
+        iterations: i64 = "3000" as ParamType::int_range(1, 10_000_000),
+        /// seed of initialization, view order, background colours and sampling
+        seed: i64 = "0" as ParamType::int_range(0, i64::MAX),
+        /// draw the background colour uniformly every iteration (false: black)
+        background_randomization: bool = "true" as ParamType::Bool,
+        /// render backend: auto = a hardware GPU through wgpu, else the CPU backend; wgpu = a
+        /// GPU or lavapipe (slower than the CPU backend on CPUs)
+        backend: String = "\"auto\"" as ParamType::enumeration(&["auto", "cpu", "wgpu"]),
+        /// best: the best model on the held-out views, stopping early after `patience`; last:
+        /// the model at the end of the full budget
+        checkpoint: String = "\"best\"" as ParamType::enumeration(&["best", "last"]),
+        /// views that choose the best checkpoint: validation = 1 in 8 training views held out
+        /// of training (the training views when there are fewer than 8); test = the test views
+        /// the evaluation scores too (the paper's protocol)
+        select_on: String = "\"validation\"" as ParamType::enumeration(&["validation", "training", "test"]),
+        /// which components this node trains; the others are skipped, or passed through from
+        /// `occluders` when it holds an item of the same name
+        components: String = "\"all\"" as ParamType::enumeration(&["all", "objects", "background"]),
+        /// seconds between saves of the training state into the cache: a run killed half-way
+        /// resumes from the last save and ends with the same model (0: never save)
+        state_every_s: f64 = "60.0" as ParamType::float_range(0.0, 1e9),
+        /// an object with fewer sparse points than this is seeded with points on the visual
+        /// hull of its masks up to this count (small objects get a handful of SfM points, too
+        /// few to grow a surface from); 0: never
+        min_object_points: i64 = "300" as ParamType::int_range(0, 1_000_000),
+        /// scene units per metre, scales the renderer's depth thresholds
+        world_scale: f64 = "1.0" as ParamType::float_range(1e-9, 1e9),
+        /// overrides of the scaled reference schedule by field name, e.g. {"lr_sh_dc": 0.03,
+        /// "patience": 300} (see objectsplat_train::Schedule)
+        schedule: BTreeMap<String, f64> = "{}" as ParamType::Ron("map of schedule settings".into()),
+    }
+}
+
 pub struct TrainNode;
 
 impl Node for TrainNode {
@@ -90,87 +127,18 @@ impl Node for TrainNode {
                 "Model",
                 "the best model on the component's held-out views",
             )
-            .param(
-                "iterations",
-                ParamType::int_range(1, 10_000_000),
-                Some("3000"),
-                "iteration budget; every schedule number scales with it",
-            )
-            .param(
-                "seed",
-                ParamType::int_range(0, i64::MAX),
-                Some("0"),
-                "seed of initialization, view order, background colours and sampling",
-            )
-            .param(
-                "background_randomization",
-                ParamType::Bool,
-                Some("true"),
-                "draw the background colour uniformly every iteration (false: black)",
-            )
-            .param(
-                "backend",
-                ParamType::enumeration(&["auto", "cpu", "wgpu"]),
-                Some("\"auto\""),
-                "render backend: auto = a hardware GPU through wgpu, else the CPU backend; \
-                 wgpu = a GPU or lavapipe (slower than the CPU backend on CPUs)",
-            )
-            .param(
-                "checkpoint",
-                ParamType::enumeration(&["best", "last"]),
-                Some("\"best\""),
-                "best: the best model on the held-out views, stopping early after `patience`; \
-                 last: the model at the end of the full budget",
-            )
-            .param(
-                "select_on",
-                ParamType::enumeration(&["validation", "training", "test"]),
-                Some("\"validation\""),
-                "views that choose the best checkpoint: validation = 1 in 8 training views held out \
-                 of training (the training views when there are fewer than 8); test = the test views \
-                 the evaluation scores too (the paper's protocol)",
-            )
-            .param(
-                "components",
-                ParamType::enumeration(&["all", "objects", "background"]),
-                Some("\"all\""),
-                "which components this node trains; the others are skipped, or passed through \
-                 from `occluders` when it holds an item of the same name",
-            )
-            .param(
-                "state_every_s",
-                ParamType::float_range(0.0, 1e9),
-                Some("60.0"),
-                "seconds between saves of the training state into the cache: a run killed \
-                 half-way resumes from the last save and ends with the same model (0: never save)",
-            )
-            .param(
-                "min_object_points",
-                ParamType::int_range(0, 1_000_000),
-                Some("300"),
-                "an object with fewer sparse points than this is seeded with points on the \
-                 visual hull of its masks up to this count (small objects get a handful of SfM \
-                 points, too few to grow a surface from); 0: never",
-            )
-            .param(
-                "world_scale",
-                ParamType::float_range(1e-9, 1e9),
-                Some("1.0"),
-                "scene units per metre, scales the renderer's depth thresholds",
-            )
-            .param(
-                "schedule",
-                ParamType::Ron("map of schedule settings".into()),
-                Some("{}"),
-                "overrides of the scaled reference schedule by field name, e.g. \
-                 {\"lr_sh_dc\": 0.03, \"patience\": 300} (see objectsplat_train::Schedule)",
-            )
+            .params::<TrainParams>()
     }
 
     /// A misspelt or out-of-range `schedule` setting is refused by `check`, at its line.
     fn check_params(&self, params: &Params) -> Vec<ParamError> {
-        let given: BTreeMap<String, f64> = match params.get("schedule") {
-            Ok(given) => given,
+        // The schema checked every other param, so only `schedule` can fail to read.
+        let TrainParams {
+            schedule: given,
+            iterations,
+            ..
+        } = match params.read_as() {
+            Ok(p) => p,
             Err(_) => {
                 return vec![ParamError::new(
                     "schedule",
@@ -185,21 +153,20 @@ impl Node for TrainNode {
             .filter(|k| known.get(k.as_str()).is_none() || k.as_str() == "iterations")
             .map(|k| ParamError::new("schedule", format!("unknown schedule setting `{k}`")).at([k]))
             .collect();
-        if errors.is_empty() {
-            let iterations = params.get::<i64>("iterations").unwrap_or(3000).max(1) as u64;
-            if let Err(e) = schedule_overrides(&given)
-                .and_then(|overrides| Schedule::new(iterations, &overrides))
-            {
-                errors.push(ParamError::new("schedule", format!("{e:#}")));
-            }
+        if errors.is_empty()
+            && let Err(e) = schedule_overrides(&given)
+                .and_then(|overrides| Schedule::new(iterations.max(1) as u64, &overrides))
+        {
+            errors.push(ParamError::new("schedule", format!("{e:#}")));
         }
         errors
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let p: TrainParams = ctx.params_as()?;
         let component_dir = ctx.input("component")?.to_path_buf();
         let info = ComponentInfo::read(&component_dir)?;
-        let wanted = match ctx.param::<String>("components")?.as_str() {
+        let wanted = match p.components.as_str() {
             "objects" => info.kind == ComponentKind::Object,
             "background" => info.kind == ComponentKind::Background,
             _ => true,
@@ -222,22 +189,22 @@ impl Node for TrainNode {
                 ))),
             };
         }
-        let iterations: i64 = ctx.param("iterations")?;
-        let seed: i64 = ctx.param("seed")?;
-        let randomize: bool = ctx.param("background_randomization")?;
-        let backend_name: String = ctx.param("backend")?;
-        let world_scale: f64 = ctx.param("world_scale")?;
-        let checkpoint = match ctx.param::<String>("checkpoint")?.as_str() {
+        let iterations: i64 = p.iterations;
+        let seed: i64 = p.seed;
+        let randomize: bool = p.background_randomization;
+        let backend_name: String = p.backend;
+        let world_scale: f64 = p.world_scale;
+        let checkpoint = match p.checkpoint.as_str() {
             "last" => Checkpoint::Last,
             _ => Checkpoint::Best,
         };
-        let select_on = match ctx.param::<String>("select_on")?.as_str() {
+        let select_on = match p.select_on.as_str() {
             "training" => SelectOn::Training,
             "test" => SelectOn::Test,
             _ => SelectOn::Validation,
         };
-        let state_every: f64 = ctx.param("state_every_s")?;
-        let overrides: BTreeMap<String, f64> = ctx.param("schedule")?;
+        let state_every: f64 = p.state_every_s;
+        let overrides: BTreeMap<String, f64> = p.schedule;
         let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
         let (backend, why) = objectsplat_wgpu::backend_for(&backend_name, ctx.threads())?;
         ctx.note("backend", why);
@@ -251,7 +218,7 @@ impl Node for TrainNode {
                 masks.info.name
             )));
         }
-        let min_object_points = ctx.param::<i64>("min_object_points")? as usize;
+        let min_object_points = p.min_object_points as usize;
         let mut data = ComponentData::read(&component_dir)?;
         let (points, seeded) = crate::hull::initial_points(
             &masks,
