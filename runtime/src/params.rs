@@ -343,46 +343,6 @@ impl Params {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn types_check_normalise_and_roundtrip_their_text() {
-        let f = ParamType::float_range(0.0, 1.0);
-        assert_eq!(f.check(&Value::Int(1)).unwrap(), Value::Float(1.0));
-        assert!(
-            f.check(&Value::Float(2.0))
-                .unwrap_err()
-                .contains("out of range")
-        );
-        assert!(
-            ParamType::Bool
-                .check(&Value::Int(1))
-                .unwrap_err()
-                .contains("expected a bool")
-        );
-        assert!(
-            ParamType::RelPath
-                .check(&Value::Str("../x".into()))
-                .is_err()
-        );
-        for t in [
-            "bool",
-            "int(1..)",
-            "float(0..1)",
-            "enum(ns|telea)",
-            "list(optional(string))",
-            "path",
-            "relpath",
-            "ron",
-        ] {
-            assert_eq!(ParamType::parse(t).unwrap().to_string(), t);
-        }
-        assert!(ParamType::parse("floaty").is_err());
-    }
-}
-
 /// A node's parameters as one Rust type: [`node_params!`](crate::node_params) declares the
 /// struct, and from the same lines the schema ([`NodeParams::declare`]) and the typed
 /// reading ([`NodeParams::read`]), so the two cannot disagree.
@@ -477,4 +437,44 @@ macro_rules! node_params {
     };
     (@default required) => { None };
     (@default $text:literal) => { Some($text) };
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn types_check_normalise_and_roundtrip_their_text() {
+        let f = ParamType::float_range(0.0, 1.0);
+        assert_eq!(f.check(&Value::Int(1)).unwrap(), Value::Float(1.0));
+        assert!(
+            f.check(&Value::Float(2.0))
+                .unwrap_err()
+                .contains("out of range")
+        );
+        assert!(
+            ParamType::Bool
+                .check(&Value::Int(1))
+                .unwrap_err()
+                .contains("expected a bool")
+        );
+        assert!(
+            ParamType::RelPath
+                .check(&Value::Str("../x".into()))
+                .is_err()
+        );
+        for t in [
+            "bool",
+            "int(1..)",
+            "float(0..1)",
+            "enum(ns|telea)",
+            "list(optional(string))",
+            "path",
+            "relpath",
+            "ron",
+        ] {
+            assert_eq!(ParamType::parse(t).unwrap().to_string(), t);
+        }
+        assert!(ParamType::parse("floaty").is_err());
+    }
 }

@@ -313,6 +313,7 @@ impl Store {
                 // Same filesystem: an atomic move. A concurrent writer of the same hash
                 // writes the same bytes, so whichever rename lands last is fine.
                 fs::rename(&path, &dest).or_else(|_| self.write_atomic(&dest, &bytes))?;
+                set_writable(&dest, false)?;
                 self.mark_verified(&hash);
             }
             entries.push(FileEntry {
@@ -501,8 +502,7 @@ impl Store {
                     let _ = fs::remove_file(&target);
                     let src = self.blob_path(&f.blob);
                     if copy || fs::hard_link(&src, &target).is_err() {
-                        fs::copy(&src, &target)
-                            .with_context(|| format!("{}: cannot write", target.display()))?;
+                        copy_writable(&src, &target)?;
                     }
                 }
                 Ok(None)
@@ -781,5 +781,32 @@ fn output_files(root: &Path, dir: &Path, out: &mut Vec<String>) -> Result<()> {
             bail!("{}: outputs must be plain files", p.display());
         }
     }
+    Ok(())
+}
+
+/// Blobs are read-only, so the hard links that hand them to nodes as inputs cannot be
+/// written through: a write fails instead of changing the cache. (Root ignores the mode;
+/// a blob changed anyway fails its hash check when a later run reads it, and is
+/// recomputed.) Copies are made writable again. Elsewhere than Unix a read-only file
+/// cannot be deleted by `gc`, so modes are left alone there.
+/// Copies a file that may be a (read-only) blob or an input into a file of its own that
+/// its owner can change: what users get under OUT, and what a node hands to a program
+/// that may edit its copy.
+pub fn copy_writable(from: &Path, to: &Path) -> Result<()> {
+    fs::copy(from, to)
+        .with_context(|| format!("{}: cannot copy to {}", from.display(), to.display()))?;
+    set_writable(to, true)
+}
+
+#[cfg(unix)]
+fn set_writable(path: &Path, writable: bool) -> Result<()> {
+    use std::os::unix::fs::PermissionsExt;
+    let mode = if writable { 0o644 } else { 0o444 };
+    fs::set_permissions(path, fs::Permissions::from_mode(mode))
+        .with_context(|| format!("{}: cannot set permissions", path.display()))
+}
+
+#[cfg(not(unix))]
+fn set_writable(_path: &Path, _writable: bool) -> Result<()> {
     Ok(())
 }

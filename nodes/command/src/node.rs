@@ -359,7 +359,7 @@ fn check_output(port: &str, ty: &TypeRef, dir: &Path, program: &str, stderr: &st
     Ok(())
 }
 
-/// Copies a folder tree (the program gets its own copy of every input).
+/// Copies a folder tree (the program gets its own, writable copy of every input).
 fn copy_folder(src: &Path, dst: &Path) -> Result<()> {
     std::fs::create_dir_all(dst).with_context(|| format!("{}: cannot create", dst.display()))?;
     for entry in
@@ -370,8 +370,7 @@ fn copy_folder(src: &Path, dst: &Path) -> Result<()> {
         if entry.file_type()?.is_dir() {
             copy_folder(&entry.path(), &to)?;
         } else {
-            std::fs::copy(entry.path(), &to)
-                .with_context(|| format!("{}: cannot copy", entry.path().display()))?;
+            objectsplat_runtime::store::copy_writable(&entry.path(), &to)?;
         }
     }
     Ok(())
