@@ -3,16 +3,8 @@
 //! path it looked for; `--skip-input-files` checks a template without its data, and a
 //! bare word given with `--set` is a path.
 
-use std::path::Path;
-use std::process::{Command, Output};
-
-fn objectsplat(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .unwrap()
-}
+mod support;
+use support::objectsplat::{assert_ok, objectsplat, stderr};
 
 const GRAPH: &str = r#"(
   nodes: {
@@ -28,44 +20,36 @@ fn a_missing_input_file_is_an_error_at_its_param() {
     std::fs::write(d.join("graph.ron"), GRAPH).unwrap();
     let out = objectsplat(d, &["check", "graph.ron"]);
     assert_eq!(out.status.code(), Some(1));
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let err = stderr(&out);
     let col = GRAPH.lines().nth(2).unwrap().find("\"photos/").unwrap() + 1;
     assert!(
-        stderr.starts_with(&format!(
+        err.starts_with(&format!(
             "error: graph.ron:3:{col}: node \"photo\" (load_image) param `path`: {} does not exist (expected an existing file or folder",
             d.join("photos/missing.png").display()
         )),
-        "{stderr}"
+        "{err}"
     );
-    assert!(!stderr.contains("panicked"));
+    assert!(!err.contains("panicked"));
 
     // A template without its data still checks with --skip-input-files.
     let out = objectsplat(d, &["check", "--skip-input-files", "graph.ron"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out, "check --skip-input-files");
 
     // An override naming a missing file is pointed at the argument.
     let out = objectsplat(
         d,
         &["check", "graph.ron", "--set", "photo.path=elsewhere.png"],
     );
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let err = stderr(&out);
     assert!(
-        stderr.starts_with(
+        err.starts_with(
             "error: --set photo.path=elsewhere.png: node \"photo\" (load_image) param `path`: "
         ),
-        "{stderr}"
+        "{err}"
     );
 
     // A bare word is the path; once the file exists, check passes.
     std::fs::write(d.join("there.png"), b"").unwrap();
     let out = objectsplat(d, &["check", "graph.ron", "--set", "photo.path=there.png"]);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out, "check with the file there");
 }

@@ -1,15 +1,9 @@
 //! The `objectsplat` command line: the contract outside tools rely on.
 
 use std::path::Path;
-use std::process::Command;
 
-fn objectsplat(dir: &Path, args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .unwrap()
-}
+mod support;
+use support::objectsplat::{assert_ok, failure, objectsplat, read_json, statuses};
 
 fn demo_dir() -> tempfile::TempDir {
     let dir = tempfile::tempdir().unwrap();
@@ -35,22 +29,11 @@ fn demo_dir() -> tempfile::TempDir {
     dir
 }
 
-fn report(path: &Path) -> serde_json::Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
-
-fn statuses(r: &serde_json::Value) -> Vec<(String, String)> {
-    r["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|n| {
-            (
-                n["id"].as_str().unwrap().to_string(),
-                n["status"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect()
+/// The demo graph with `from` replaced by `to`.
+fn edit_graph(dir: &Path, from: &str, to: &str) {
+    let g = dir.join("graphs/images.ron");
+    let text = std::fs::read_to_string(&g).unwrap().replace(from, to);
+    std::fs::write(&g, text).unwrap();
 }
 
 #[test]
@@ -60,17 +43,13 @@ fn run_materializes_targets_and_reports_json_then_reuses_the_cache() {
         dir.path(),
         &["run", "graphs/images.ron", "--json", "r1.json", "-j", "2"],
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out, "the first run");
     // Default folders: cache in .objectsplat-cache/, outputs in out/<graph name>/<node>/<port>/.
     let png = dir.path().join("out/images/save/file/nested/small.png");
     let img = image::open(&png).unwrap();
     assert_eq!((img.width(), img.height()), (64, 64));
     assert!(dir.path().join(".objectsplat-cache/actions").is_dir());
-    let r1 = report(&dir.path().join("r1.json"));
+    let r1 = read_json(&dir.path().join("r1.json"));
     assert_eq!(
         statuses(&r1),
         [
@@ -89,7 +68,7 @@ fn run_materializes_targets_and_reports_json_then_reuses_the_cache() {
         &["run", "graphs/images.ron", "--json", "r2.json"],
     );
     assert!(out.status.success());
-    let r2 = report(&dir.path().join("r2.json"));
+    let r2 = read_json(&dir.path().join("r2.json"));
     assert!(statuses(&r2).iter().all(|(_, s)| s == "cached"), "{r2}");
     // An override reruns the changed node and its consumers, not the loader.
     let out = objectsplat(
@@ -105,7 +84,7 @@ fn run_materializes_targets_and_reports_json_then_reuses_the_cache() {
     );
     assert!(out.status.success());
     assert_eq!(
-        statuses(&report(&dir.path().join("r3.json"))),
+        statuses(&read_json(&dir.path().join("r3.json"))),
         [
             ("photo".into(), "cached".into()),
             ("small".into(), "ran".into()),
@@ -118,15 +97,9 @@ fn run_materializes_targets_and_reports_json_then_reuses_the_cache() {
 #[test]
 fn a_bad_graph_fails_with_one_located_line_and_no_panic() {
     let dir = demo_dir();
-    let g = dir.path().join("graphs/images.ron");
-    let text = std::fs::read_to_string(&g)
-        .unwrap()
-        .replace("\"resize_image\"", "\"resize_imag\"");
-    std::fs::write(&g, text).unwrap();
+    edit_graph(dir.path(), "\"resize_image\"", "\"resize_imag\"");
     for cmd in ["check", "run"] {
-        let out = objectsplat(dir.path(), &[cmd, "graphs/images.ron"]);
-        assert!(!out.status.success());
-        let err = String::from_utf8_lossy(&out.stderr);
+        let err = failure(&objectsplat(dir.path(), &[cmd, "graphs/images.ron"]));
         assert!(err.starts_with("error: graphs/images.ron:4:21: unknown node kind \"resize_imag\"; did you mean `resize_image`?"), "{err}");
         assert!(!err.contains("panicked"));
     }
@@ -135,14 +108,8 @@ fn a_bad_graph_fails_with_one_located_line_and_no_panic() {
 #[test]
 fn a_failing_node_exits_non_zero_with_its_cause() {
     let dir = demo_dir();
-    let g = dir.path().join("graphs/images.ron");
-    let text = std::fs::read_to_string(&g)
-        .unwrap()
-        .replace("assets/astronaut.png", "assets/missing.png");
-    std::fs::write(&g, text).unwrap();
-    let out = objectsplat(dir.path(), &["run", "graphs/images.ron"]);
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    edit_graph(dir.path(), "assets/astronaut.png", "assets/missing.png");
+    let err = failure(&objectsplat(dir.path(), &["run", "graphs/images.ron"]));
     let last = err.lines().last().unwrap();
     assert!(
         last.starts_with("error: node `photo` (load_image) failed:")

@@ -9,9 +9,10 @@
 
 use image::{Rgb, RgbImage};
 use objectsplat_core::artifact::OBJECTS_JSON;
-use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+
+mod support;
+use support::objectsplat::{assert_ok, failure, objectsplat, read_json, run_graph_ron, statuses};
 
 const W: u32 = 24;
 const H: u32 = 16;
@@ -69,50 +70,14 @@ fn build_scene(dir: &Path) {
     std::fs::write(sparse.join("points3D.txt"), "").unwrap();
 }
 
-fn objectsplat(dir: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .unwrap()
-}
-
 /// Runs the graph; returns each node's status from the --json report.
 fn run(dir: &Path, sets: &[&str]) -> Vec<(String, String)> {
-    let mut args = vec![
-        "run",
-        "graph.ron",
-        "--cache",
-        "cache",
-        "--out",
-        "out",
-        "--json",
-        "r.json",
-        "-j",
-        "1",
-    ];
+    let mut args = run_graph_ron(&["-j", "1"]);
     for s in sets {
         args.extend(["--set", s]);
     }
-    let out = objectsplat(dir, &args);
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let report: Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join("r.json")).unwrap()).unwrap();
-    report["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|n| {
-            (
-                n["id"].as_str().unwrap().to_string(),
-                n["status"].as_str().unwrap().to_string(),
-            )
-        })
-        .collect()
+    assert_ok(&objectsplat(dir, &args), "the run");
+    statuses(&read_json(&dir.join("report.json")))
 }
 
 fn ran(statuses: &[(String, String)]) -> Vec<&str> {
@@ -138,8 +103,7 @@ fn assert_masks(dir: &Path, keys: usize) {
             }
         }
     }
-    let objects: Value =
-        serde_json::from_str(&std::fs::read_to_string(masks.join(OBJECTS_JSON)).unwrap()).unwrap();
+    let objects = read_json(&masks.join(OBJECTS_JSON));
     assert_eq!(objects.as_object().unwrap().len(), keys);
 }
 
@@ -175,21 +139,8 @@ fn a_python_mask_source_feeds_import_masks() {
     assert_masks(d, 1);
 
     // A failing script fails its node, quoting its stderr.
-    let out = objectsplat(
-        d,
-        &[
-            "run",
-            "graph.ron",
-            "--cache",
-            "cache",
-            "--out",
-            "out",
-            "--set",
-            r#"sam.options={"colours": []}"#,
-        ],
-    );
-    let stderr = String::from_utf8_lossy(&out.stderr);
-    assert!(!out.status.success());
+    let no_colours = r#"sam.options={"colours": []}"#;
+    let stderr = failure(&objectsplat(d, &run_graph_ron(&["--set", no_colours])));
     assert!(
         stderr.contains("sam")
             && stderr.contains("colours\" must be a non-empty list of [r, g, b]"),
@@ -207,8 +158,7 @@ fn a_placeholder_typo_is_caught_by_check() {
     std::fs::write(d.join("graph.ron"), &graph).unwrap();
     std::fs::write(d.join("colour_key_masks.py"), "").unwrap();
     let out = objectsplat(d, &["check", "graph.ron"]);
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = failure(&out);
     let line = graph.lines().position(|l| l.contains("argv:")).unwrap() + 1;
     assert!(
         stderr.contains(&format!("graph.ron:{line}:"))

@@ -9,39 +9,34 @@
 use objectsplat_core::artifact::OBJECTS_JSON;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Output;
 
 mod support;
+use support::objectsplat::{command, read_json, report_node, run_graph_ron, stderr};
 use support::plugin_build::{build_plugin, scratch_root, workspace};
 
+/// `objectsplat ARGS` in `cwd` with `env`, and no fault variant but the one asked for.
 fn objectsplat(args: &[&str], env: &[(&str, &str)], cwd: &Path) -> Output {
-    let mut cmd = Command::new(env!("CARGO_BIN_EXE_objectsplat"));
-    cmd.args(args)
-        .current_dir(cwd)
-        .env_remove("OBJECTSPLAT_FAULT_VARIANT");
-    for (k, v) in env {
-        cmd.env(k, v);
-    }
+    let mut cmd = command(cwd, args);
+    cmd.env_remove("OBJECTSPLAT_FAULT_VARIANT");
+    cmd.envs(env.iter().copied());
     cmd.output().expect("objectsplat runs")
 }
 
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn report(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).expect("the run wrote its JSON report"))
-        .unwrap()
-}
-
 fn status<'a>(report: &'a Value, node: &str) -> &'a str {
-    report["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|n| n["id"] == node)
-        .and_then(|n| n["status"].as_str())
-        .unwrap()
+    report_node(report, node)["status"].as_str().unwrap()
+}
+
+/// Asserts that `what` exited 1, never by a signal (as a crashed host would); returns
+/// its stderr.
+fn assert_exit_1(out: &Output, what: &str) -> String {
+    let err = stderr(out);
+    assert_eq!(
+        out.status.code(),
+        Some(1),
+        "{what} exits 1, never by a signal: {err}"
+    );
+    err
 }
 
 fn ran(report: &Value) -> Vec<String> {
@@ -90,31 +85,15 @@ fn median_plugin_runs_in_a_graph_is_cached_and_reruns_when_its_code_version_chan
 )"#,
     )
     .unwrap();
-    let args = [
-        "run",
-        "graph.ron",
-        "--cache",
-        "cache",
-        "--out",
-        "out",
-        "--json",
-        "report.json",
-        "-j",
-        "2",
-    ];
+    let args = run_graph_ron(&["-j", "2"]);
 
     let first = objectsplat(&args, &[], &dir);
     assert!(first.status.success(), "{}", stderr(&first));
-    let r = report(&dir.join("report.json"));
+    let r = read_json(&dir.join("report.json"));
     let mut all = ran(&r);
     all.sort();
     assert_eq!(all, ["fill", "hole", "oracle", "photo", "save", "save_ref"]);
-    let fill = r["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|n| n["id"] == "fill")
-        .unwrap();
+    let fill = report_node(&r, "fill");
     assert_eq!(fill["kind"], "median_inpaint");
     assert_eq!(fill["notes"]["filled_pixels"], "93");
     // Both PNGs are re-encoded by the same built-in save_image, so equal bytes mean
@@ -127,7 +106,7 @@ fn median_plugin_runs_in_a_graph_is_cached_and_reruns_when_its_code_version_chan
 
     let second = objectsplat(&args, &[], &dir);
     assert!(second.status.success(), "{}", stderr(&second));
-    let r = report(&dir.join("report.json"));
+    let r = read_json(&dir.join("report.json"));
     assert!(
         ran(&r).is_empty(),
         "second run should be fully cached: {:?}",
@@ -143,7 +122,7 @@ fn median_plugin_runs_in_a_graph_is_cached_and_reruns_when_its_code_version_chan
     );
     let third = objectsplat(&args, &[], &dir);
     assert!(third.status.success(), "{}", stderr(&third));
-    let r = report(&dir.join("report.json"));
+    let r = read_json(&dir.join("report.json"));
     // Only the plugin node reruns; its output is byte-identical, so `save` stays cached.
     assert_eq!(ran(&r), ["fill"]);
     assert_eq!(status(&r, "save"), "cached");
@@ -248,58 +227,52 @@ fn colorkey_plugin_is_listed_with_its_interface_and_runs_through_the_host() {
     );
 }
 
-#[test]
-fn a_failing_or_panicking_plugin_node_fails_alone_and_the_run_exits_non_zero() {
-    let dir = fresh_dir("faults");
+/// A fresh folder with the fault-injection plugin and a graph where its `bad` node (with
+/// `bad_fields` after its inputs) feeds `save_bad` and an independent branch resizes
+/// the same photo into `save_small`.
+fn faulty_stage_dir(name: &str, bad_fields: &str) -> PathBuf {
+    let dir = fresh_dir(name);
     std::fs::copy(median_fixture("input.png"), dir.join("input.png")).unwrap();
-    let lib = dir.join("fault_injection.so");
-    build_plugin("fault_injection", &[], &[], &lib);
-    std::fs::write(
-        dir.join("graph.ron"),
+    build_plugin("fault_injection", &[], &[], &dir.join("fault_injection.so"));
+    let graph = format!(
         r#"(
   plugins: ["fault_injection.so"],
-  nodes: {
+  nodes: {{
     "photo":      (kind: "load_image", params: (path: "input.png")),
-    "bad":        (kind: "faulty_stage", inputs: (image: "photo.image")),
+    "bad":        (kind: "faulty_stage", inputs: (image: "photo.image"){bad_fields}),
     "save_bad":   (kind: "save_image", inputs: (image: "bad.image"), params: (path: "bad.png")),
     "small":      (kind: "resize_image", inputs: (image: "photo.image"), params: (factor: 2)),
     "save_small": (kind: "save_image", inputs: (image: "small.image"), params: (path: "small.png")),
-  },
+  }},
   targets: ["save_bad", "save_small"],
-)"#,
-    )
-    .unwrap();
+)"#
+    );
+    std::fs::write(dir.join("graph.ron"), graph).unwrap();
+    dir
+}
+
+/// Runs [`faulty_stage_dir`]'s graph with `bad` in fault `mode`, and asserts that the run
+/// exits 1 with an `error:` line naming `cause`; returns its stderr and its report.
+fn fail_in_mode(dir: &Path, mode: &str, cause: &str) -> (String, Value) {
+    let set = format!("bad.mode=\"{mode}\"");
+    let out = objectsplat(&run_graph_ron(&["--set", &set]), &[], dir);
+    let err = assert_exit_1(&out, &format!("mode {mode}: a failed node"));
+    assert!(
+        err.lines()
+            .any(|l| l.starts_with("error:") && l.contains(cause)),
+        "mode {mode}: {err}"
+    );
+    (err, read_json(&dir.join("report.json")))
+}
+
+#[test]
+fn a_failing_or_panicking_plugin_node_fails_alone_and_the_run_exits_non_zero() {
+    let dir = faulty_stage_dir("faults", "");
     for (mode, message) in [
         ("error", "injected failure: faulty_stage refused its input"),
         ("panic", "panicked: injected panic in faulty_stage"),
     ] {
-        let set = format!("bad.mode=\"{mode}\"");
-        let args = [
-            "run",
-            "graph.ron",
-            "--cache",
-            "cache",
-            "--out",
-            "out",
-            "--json",
-            "report.json",
-            "--set",
-            &set,
-        ];
-        let out = objectsplat(&args, &[], &dir);
-        assert_eq!(
-            out.status.code(),
-            Some(1),
-            "a failed node exits 1, never by a signal: {}",
-            stderr(&out)
-        );
-        let err = stderr(&out);
-        assert!(
-            err.lines()
-                .any(|l| l.starts_with("error:") && l.contains(message)),
-            "{err}"
-        );
-        let r = report(&dir.join("report.json"));
+        let (_, r) = fail_in_mode(&dir, mode, message);
         assert_eq!(r["ok"], false);
         assert_eq!(status(&r, "bad"), "failed");
         assert_ne!(status(&r, "save_bad"), "ran");
@@ -307,12 +280,7 @@ fn a_failing_or_panicking_plugin_node_fails_alone_and_the_run_exits_non_zero() {
             ["ran", "cached"].contains(&status(&r, "save_small")),
             "other branches finish"
         );
-        let save_small = r["nodes"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|n| n["id"] == "save_small")
-            .unwrap();
+        let save_small = report_node(&r, "save_small");
         assert!(
             save_small["outputs"]["file"].is_string(),
             "save_small produced its file: {save_small}"
@@ -328,25 +296,7 @@ fn a_failing_or_panicking_plugin_node_fails_alone_and_the_run_exits_non_zero() {
 
 #[test]
 fn a_plugin_that_crashes_exits_or_hangs_fails_only_its_node() {
-    let dir = fresh_dir("crashes");
-    std::fs::copy(median_fixture("input.png"), dir.join("input.png")).unwrap();
-    let lib = dir.join("fault_injection.so");
-    build_plugin("fault_injection", &[], &[], &lib);
-    std::fs::write(
-        dir.join("graph.ron"),
-        r#"(
-  plugins: ["fault_injection.so"],
-  nodes: {
-    "photo":      (kind: "load_image", params: (path: "input.png")),
-    "bad":        (kind: "faulty_stage", inputs: (image: "photo.image"), params: (plugin_timeout_s: 2)),
-    "save_bad":   (kind: "save_image", inputs: (image: "bad.image"), params: (path: "bad.png")),
-    "small":      (kind: "resize_image", inputs: (image: "photo.image"), params: (factor: 2)),
-    "save_small": (kind: "save_image", inputs: (image: "small.image"), params: (path: "small.png")),
-  },
-  targets: ["save_bad", "save_small"],
-)"#,
-    )
-    .unwrap();
+    let dir = faulty_stage_dir("crashes", ", params: (plugin_timeout_s: 2)");
     for (mode, message) in [
         ("abort", "killed by signal 6 (SIGABRT"),
         ("segfault", "killed by signal 11 (SIGSEGV"),
@@ -356,31 +306,7 @@ fn a_plugin_that_crashes_exits_or_hangs_fails_only_its_node() {
         ("no_output", "without writing its output `image`"),
         ("huge_error", "more bytes not shown"),
     ] {
-        let set = format!("bad.mode=\"{mode}\"");
-        let args = [
-            "run",
-            "graph.ron",
-            "--cache",
-            "cache",
-            "--out",
-            "out",
-            "--json",
-            "report.json",
-            "--set",
-            &set,
-        ];
-        let out = objectsplat(&args, &[], &dir);
-        let err = stderr(&out);
-        assert_eq!(
-            out.status.code(),
-            Some(1),
-            "mode {mode}: a failed node exits 1, never by a signal: {err}"
-        );
-        assert!(
-            err.lines()
-                .any(|l| l.starts_with("error:") && l.contains("plugin `fault_injection`")),
-            "mode {mode}: {err}"
-        );
+        let (err, r) = fail_in_mode(&dir, mode, "plugin `fault_injection`");
         assert!(
             err.contains(message),
             "mode {mode}: {message:?} not in {err}"
@@ -390,21 +316,13 @@ fn a_plugin_that_crashes_exits_or_hangs_fails_only_its_node() {
             "mode {mode}: {} bytes of stderr",
             err.len()
         );
-        let r = report(&dir.join("report.json"));
         assert_eq!(status(&r, "bad"), "failed", "mode {mode}");
         assert_ne!(status(&r, "save_bad"), "ran", "mode {mode}");
         assert!(
             dir.join("out/save_small/file/small.png").is_file(),
             "mode {mode}: the other branch wrote its output"
         );
-        let reason = r["nodes"]
-            .as_array()
-            .unwrap()
-            .iter()
-            .find(|n| n["id"] == "bad")
-            .and_then(|n| n["reason"].as_str())
-            .unwrap()
-            .to_string();
+        let reason = report_node(&r, "bad")["reason"].as_str().unwrap();
         assert!(
             reason.len() < 16 << 10,
             "mode {mode}: {} bytes of reason",
@@ -418,13 +336,7 @@ fn libraries_that_are_not_valid_plugins_are_refused_with_a_clear_message() {
     let dir = fresh_dir("refusals");
     let refused = |lib: &Path, env: &[(&str, &str)], expected: &str| {
         let out = objectsplat(&["nodes", "--plugin", lib.to_str().unwrap()], env, &dir);
-        assert_eq!(
-            out.status.code(),
-            Some(1),
-            "refusal exits 1, never by a signal: {}",
-            stderr(&out)
-        );
-        let err = stderr(&out);
+        let err = assert_exit_1(&out, "refusal");
         assert!(
             err.starts_with(&format!("error: plugin {}: ", lib.display())),
             "{err}"

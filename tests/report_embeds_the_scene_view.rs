@@ -8,24 +8,19 @@ mod support;
 
 use serde_json::{Value, json};
 use std::path::Path;
-use std::process::Command;
 use support::chromium::Browser;
+use support::objectsplat::{assert_ok, objectsplat, read_json};
+use support::tiny_room;
 
-/// A tiny synthetic room (8 views of 32×24, two objects kept) trained for 40 iterations
-/// per component, composed, shown by a viewer and embedded in the report.
-const GRAPH: &str = r#"(
-  nodes: {
-    "scene":    (kind: "synthetic_scene", params: (views: 8, width: 32, height: 24, points: 3000, supersample: 1)),
-    "masks":    (kind: "gt_masks", inputs: (frames: "scene.frames", mesh: "scene.mesh"), params: (keep_labels: ["box", "ball"])),
-    "parts":    (kind: "partition", inputs: (frames: "scene.frames", masks: "masks.masks")),
-    "train":    (kind: "train", inputs: (component: each("parts.components"), points: "scene.points"),
-                 params: (iterations: 40, backend: "cpu")),
-    "composed": (kind: "compose", inputs: (models: "train.model")),
+/// The tiny trained room composed, shown by a viewer and embedded in the report.
+fn graph() -> String {
+    tiny_room::graph(
+        r#"    "composed": (kind: "compose", inputs: (models: "train.model")),
     "viewer":   (kind: "viewer", inputs: (scene: "composed.scene", frames: "scene.frames")),
-    "report":   (kind: "report", inputs: (models: "train.model", viewer: "viewer.file"), params: (title: "tiny run")),
-  },
-  targets: ["report", "viewer"],
-)"#;
+    "report":   (kind: "report", inputs: (models: "train.model", viewer: "viewer.file"), params: (title: "tiny run")),"#,
+        r#"["report", "viewer"]"#,
+    )
+}
 
 #[test]
 fn report_shows_the_composed_scene_in_3d() {
@@ -34,21 +29,13 @@ fn report_shows_the_composed_scene_in_3d() {
     };
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path();
-    std::fs::write(dir.join("tiny.ron"), GRAPH).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .current_dir(dir)
-        .args(["run", "tiny.ron", "--cache", "cache", "--out", "out"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
+    std::fs::write(dir.join("tiny.ron"), graph()).unwrap();
+    let out = objectsplat(
+        dir,
+        &["run", "tiny.ron", "--cache", "cache", "--out", "out"],
     );
-    let members: Value = serde_json::from_str(
-        &std::fs::read_to_string(dir.join("out/viewer/file/viewer.json")).unwrap(),
-    )
-    .unwrap();
+    assert_ok(&out, "the run");
+    let members = read_json(&dir.join("out/viewer/file/viewer.json"));
     let expected: Vec<Value> = members["members"]
         .as_array()
         .unwrap()

@@ -5,32 +5,21 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
-/// A tiny synthetic room (8 views of 32×24, two objects kept) trained for 40 iterations per
-/// component, ending in a report of the trained models: a couple of seconds.
-const GRAPH: &str = r#"(
-  nodes: {
-    "scene":  (kind: "synthetic_scene", params: (views: 8, width: 32, height: 24, points: 3000, supersample: 1)),
-    "masks":  (kind: "gt_masks", inputs: (frames: "scene.frames", mesh: "scene.mesh"), params: (keep_labels: ["box", "ball"])),
-    "parts":  (kind: "partition", inputs: (frames: "scene.frames", masks: "masks.masks")),
-    "train":  (kind: "train", inputs: (component: each("parts.components"), points: "scene.points"),
-               params: (iterations: 40, backend: "cpu")),
-    "report": (kind: "report", inputs: (models: "train.model"), params: (title: "tiny run")),
-  },
-  targets: ["report"],
-)"#;
+mod support;
+use support::objectsplat::{assert_ok, failure, file_tree, objectsplat, read_json};
+use support::tiny_room;
+
+/// The tiny trained room ending in a report of its models.
+fn graph() -> String {
+    tiny_room::graph(
+        r#"    "report":   (kind: "report", inputs: (models: "train.model"), params: (title: "tiny run")),"#,
+        r#"["report"]"#,
+    )
+}
 
 const NODES: [&str; 5] = ["scene", "masks", "parts", "train", "report"];
 const PLACEHOLDER: &str = "<p class=\"placeholder\">The run summary";
-
-fn objectsplat(dir: &Path, args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .current_dir(dir)
-        .args(args)
-        .output()
-        .unwrap()
-}
 
 fn run(dir: &Path, json: &str) {
     // One worker: the runtime lists a fan-out's items in the order they finish on a fresh run
@@ -42,11 +31,7 @@ fn run(dir: &Path, json: &str) {
             "run", "g.ron", "--cache", "cache", "--out", "out", "--json", json, "-j", "1",
         ],
     );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    assert_ok(&out, "the run");
 }
 
 fn page(dir: &Path) -> PathBuf {
@@ -66,27 +51,10 @@ fn run_section(dir: &Path) -> String {
 
 /// `out/run.json` is the report `--json` wrote to `json`.
 fn assert_run_json_matches(dir: &Path, json: &str) {
-    let read = |p: PathBuf| -> serde_json::Value {
-        serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
-    };
-    assert_eq!(read(dir.join("out/run.json")), read(dir.join(json)));
-}
-
-/// Every file of the cache with its content.
-fn snapshot(root: &Path) -> BTreeMap<PathBuf, Vec<u8>> {
-    let mut files = BTreeMap::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for entry in std::fs::read_dir(&dir).unwrap() {
-            let path = entry.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                files.insert(path.clone(), std::fs::read(&path).unwrap());
-            }
-        }
-    }
-    files
+    assert_eq!(
+        read_json(&dir.join("out/run.json")),
+        read_json(&dir.join(json))
+    );
 }
 
 /// (node id, status) of each row of the page's node table, in order.
@@ -113,11 +81,11 @@ fn all(status: &str) -> Vec<(String, String)> {
 }
 
 /// The cache's copies of the page: each keeps the node's placeholder, none has a summary.
-fn assert_cache_pages_are_pure(cache: &BTreeMap<PathBuf, Vec<u8>>) {
-    let pages: Vec<&Path> = cache
+fn assert_cache_pages_are_pure(cache: &BTreeMap<String, Vec<u8>>) {
+    let pages: Vec<&String> = cache
         .iter()
         .filter(|(_, bytes)| String::from_utf8_lossy(bytes).contains("<title>tiny run</title>"))
-        .map(|(p, _)| p.as_path())
+        .map(|(p, _)| p)
         .collect();
     assert_eq!(pages.len(), 1, "one cached page: {pages:?}");
     let cached = String::from_utf8(cache[pages[0]].clone()).unwrap();
@@ -129,7 +97,7 @@ fn assert_cache_pages_are_pure(cache: &BTreeMap<PathBuf, Vec<u8>>) {
 fn run_writes_the_summary_beside_the_outputs_and_rewrites_nothing() {
     let dir = tempfile::tempdir().unwrap();
     let d = dir.path();
-    std::fs::write(d.join("g.ron"), GRAPH).unwrap();
+    std::fs::write(d.join("g.ron"), graph()).unwrap();
 
     run(d, "r1.json");
     let page_text = std::fs::read_to_string(page(d)).unwrap();
@@ -162,7 +130,7 @@ fn run_writes_the_summary_beside_the_outputs_and_rewrites_nothing() {
             "{component}"
         );
     }
-    let cache_after_first = snapshot(&d.join("cache"));
+    let cache_after_first = file_tree(&d.join("cache"));
     assert_cache_pages_are_pure(&cache_after_first);
     // Nothing rewrote the output: the materialized page is the cached one.
     assert!(
@@ -178,48 +146,29 @@ fn run_writes_the_summary_beside_the_outputs_and_rewrites_nothing() {
     assert_eq!(node_rows(&second), all("cached"));
     assert!(second.contains("5 nodes: 0 ran, 5 cached"));
     assert_eq!(std::fs::read_to_string(page(d)).unwrap(), page_text);
-    assert_eq!(snapshot(&d.join("cache")), cache_after_first);
+    assert_eq!(file_tree(&d.join("cache")), cache_after_first);
 
     // `report` fills a page from the first run's saved report, to a new file and in place,
     // without touching the cache the page is linked to.
-    let out = objectsplat(
-        d,
-        &[
+    let fill_from_first_run = |extra: &[&str]| {
+        let mut args = vec![
             "report",
             "--run",
             "r1.json",
             "--html",
             "out/report/file/index.html",
-            "-o",
-            "first.html",
-        ],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+        ];
+        args.extend(extra);
+        assert_ok(&objectsplat(d, &args), "objectsplat report");
+    };
+    fill_from_first_run(&["-o", "first.html"]);
     let filled = std::fs::read_to_string(d.join("first.html")).unwrap();
     assert_eq!(node_rows(&filled), all("ran"));
     assert!(filled.contains(&first));
     assert_eq!(std::fs::read_to_string(page(d)).unwrap(), page_text);
-    let out = objectsplat(
-        d,
-        &[
-            "report",
-            "--run",
-            "r1.json",
-            "--html",
-            "out/report/file/index.html",
-        ],
-    );
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    fill_from_first_run(&[]);
     assert_eq!(std::fs::read_to_string(page(d)).unwrap(), filled);
-    assert_eq!(snapshot(&d.join("cache")), cache_after_first);
+    assert_eq!(file_tree(&d.join("cache")), cache_after_first);
 }
 
 #[test]
@@ -230,8 +179,7 @@ fn report_command_names_a_missing_run_report() {
         dir.path(),
         &["report", "--run", "nowhere.json", "--html", "page.html"],
     );
-    assert!(!out.status.success());
-    let stderr = String::from_utf8_lossy(&out.stderr);
+    let stderr = failure(&out);
     assert!(
         stderr.contains("nowhere.json") && stderr.contains("cannot read"),
         "{stderr}"

@@ -9,7 +9,9 @@ use objectsplat_core::{Camera, Image, Mesh};
 use serde_json::{Value, json};
 use std::collections::BTreeSet;
 use std::path::Path;
-use std::process::Command;
+
+mod support;
+use support::objectsplat::{assert_ok, objectsplat, read_json};
 
 /// (objectId, label, lower corner, upper corner); the floor is a background label.
 const OBJECTS: [(i64, &str, [f32; 3], [f32; 3]); 3] = [
@@ -149,27 +151,18 @@ const GRAPH: &str = r#"(
   targets: ["scene", "masks", "parts", "composed", "metrics", "glb"],
 )"#;
 
-fn read_json(path: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
-}
-
 #[test]
 fn annotation_object_ids_reach_masks_components_scene_metrics_and_gltf() {
     let dir = tempfile::tempdir().unwrap();
     build_scene(&dir.path().join("scene"));
     std::fs::write(dir.path().join("g.ron"), GRAPH).unwrap();
-    let run = Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .current_dir(dir.path())
-        .args([
+    let run = objectsplat(
+        dir.path(),
+        &[
             "run", "g.ron", "--cache", "cache", "--out", "out", "-j", "1",
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        run.status.success(),
-        "{}",
-        String::from_utf8_lossy(&run.stderr)
+        ],
     );
+    assert_ok(&run, "the run");
     let out = dir.path().join("out");
     let ids: BTreeSet<u64> = OBJECTS.iter().map(|o| o.0 as u64).collect();
     let keys = |v: &Value| -> BTreeSet<u64> {

@@ -8,6 +8,7 @@
 
 mod support;
 
+use support::objectsplat::{objectsplat, read_json, report_node};
 use support::slurm::*;
 
 #[test]
@@ -15,32 +16,14 @@ fn a_failing_item_names_its_job_and_stderr_and_spares_the_others() {
     if !cluster_up("a_failing_item_names_its_job_and_stderr_and_spares_the_others") {
         return;
     }
-    let dir = test_dir("failing_item");
-    let log = dir.join("attempts.log");
-    let graph = fan_out_graph(
-        &format!(
-            r#"fail_item: "obj_9_cup", sleep_s: 0.3, log: "{}""#,
-            log.display()
-        ),
+    let (dir, log) = fan_out_dir(
+        "failing_item",
+        r#"fail_item: "obj_9_cup", sleep_s: 0.3, "#,
         "",
         "",
     );
-    std::fs::write(dir.join("g.ron"), graph).unwrap();
-    let args = [
-        "run",
-        "g.ron",
-        "--cache",
-        "cache",
-        "--json",
-        "run.json",
-        "--executor",
-        "slurm",
-        "--slurm-poll",
-        "1",
-        "--slurm-job-name",
-        "ostest-fail",
-    ];
-    let out = objectsplat(&args, &dir);
+    let args = slurm_run_args("ostest-fail");
+    let out = objectsplat(&dir, &args);
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success(), "the run should fail:\n{stderr}");
 
@@ -53,13 +36,7 @@ fn a_failing_item_names_its_job_and_stderr_and_spares_the_others() {
     );
     let job = &cup[0].job;
     let report = read_json(&dir.join("run.json"));
-    let node = report["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|n| n["id"] == "items")
-        .unwrap();
-    assert_eq!(node["status"], "failed");
+    assert_eq!(report_node(&report, "items")["status"], "failed");
     let all = items(&report, "items");
     assert_eq!(all.len(), 7);
     for item in &all {
@@ -107,7 +84,7 @@ fn a_failing_item_names_its_job_and_stderr_and_spares_the_others() {
 
     // Rerun: the six good items are cached, only the cup gets a job (and fails again).
     let before = attempts(&log).len();
-    let out = objectsplat(&args, &dir);
+    let out = objectsplat(&dir, &args);
     assert!(!out.status.success());
     let again: Vec<Attempt> = attempts(&log)[before..].to_vec();
     assert_eq!(

@@ -9,6 +9,7 @@
 mod support;
 
 use std::time::Duration;
+use support::objectsplat::{assert_ok, objectsplat, read_json, spawn_objectsplat};
 use support::slurm::*;
 
 #[test]
@@ -16,33 +17,15 @@ fn graph_command_line_and_node_options_reach_sbatch() {
     if !cluster_up("graph_command_line_and_node_options_reach_sbatch") {
         return;
     }
-    let dir = test_dir("job_options");
-    let log = dir.join("attempts.log");
     // Graph: 1 CPU, prefix "graph"; command line: prefix "ostest-cli" (wins over the
     // graph's); node: 2 CPUs (wins over the graph's), extra args naming the partition.
-    let graph = fan_out_graph(
-        &format!(r#"log: "{}""#, log.display()),
+    let (dir, log) = fan_out_dir(
+        "job_options",
+        "",
         r#", slurm: (cpus: 2, args: ["--partition=debug"])"#,
         r#"slurm: (cpus: 1, job_name: "graph"),"#,
     );
-    std::fs::write(dir.join("g.ron"), graph).unwrap();
-    let out = objectsplat(
-        &[
-            "run",
-            "g.ron",
-            "--cache",
-            "cache",
-            "--json",
-            "run.json",
-            "--executor",
-            "slurm",
-            "--slurm-poll",
-            "1",
-            "--slurm-job-name",
-            "ostest-cli",
-        ],
-        &dir,
-    );
+    let out = objectsplat(&dir, &slurm_run_args("ostest-cli"));
     assert_ok(&out, "the run");
     let a = attempts(&log);
     assert_eq!(a.iter().filter(|x| x.event == "done").count(), 7);
@@ -66,27 +49,8 @@ fn a_node_marked_local_stays_in_the_coordinator() {
     if !cluster_up("a_node_marked_local_stays_in_the_coordinator") {
         return;
     }
-    let dir = test_dir("local_node");
-    let log = dir.join("attempts.log");
-    let graph = fan_out_graph(
-        &format!(r#"log: "{}""#, log.display()),
-        ", slurm: (local: true)",
-        "",
-    );
-    std::fs::write(dir.join("g.ron"), graph).unwrap();
-    let out = objectsplat(
-        &[
-            "run",
-            "g.ron",
-            "--cache",
-            "cache",
-            "--json",
-            "run.json",
-            "--executor",
-            "slurm",
-        ],
-        &dir,
-    );
+    let (dir, log) = fan_out_dir("local_node", "", ", slurm: (local: true)", "");
+    let out = objectsplat(&dir, &slurm_run_args("ostest-local"));
     assert_ok(&out, "the run");
     let a = attempts(&log);
     assert_eq!(a.len(), 14);
@@ -101,21 +65,22 @@ fn ctrl_c_cancels_the_runs_jobs() {
     if !cluster_up("ctrl_c_cancels_the_runs_jobs") {
         return;
     }
-    let dir = test_dir("ctrl_c");
-    let log = dir.join("attempts.log");
-    let graph = fan_out_graph(
-        &format!(r#"sleep_s: 600.0, log: "{}""#, log.display()),
-        "",
-        "",
+    let (dir, log) = fan_out_dir("ctrl_c", "sleep_s: 600.0, ", "", "");
+    let child = spawn_objectsplat(
+        &dir,
+        &[
+            "run",
+            "g.ron",
+            "--cache",
+            "cache",
+            "--executor",
+            "slurm",
+            "--slurm-poll",
+            "1",
+            "--slurm-job-name",
+            "ostest-ctrlc",
+        ],
     );
-    std::fs::write(dir.join("g.ron"), graph).unwrap();
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .args(["run", "g.ron", "--cache", "cache", "--executor", "slurm"])
-        .args(["--slurm-poll", "1", "--slurm-job-name", "ostest-ctrlc"])
-        .current_dir(&dir)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
     wait_for(&log, Duration::from_secs(120), "an item started", |a| {
         !a.is_empty()
     });

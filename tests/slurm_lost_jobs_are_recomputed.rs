@@ -8,6 +8,7 @@ mod support;
 
 use std::collections::BTreeSet;
 use std::time::Duration;
+use support::objectsplat::{read_json, spawn_objectsplat};
 use support::slurm::*;
 
 #[test]
@@ -15,34 +16,9 @@ fn killed_jobs_are_resubmitted_and_their_items_recomputed() {
     if !cluster_up("killed_jobs_are_resubmitted_and_their_items_recomputed") {
         return;
     }
-    let dir = test_dir("lost_jobs");
-    let log = dir.join("attempts.log");
     // Items sleep long enough to be killed while they compute.
-    let graph = fan_out_graph(
-        &format!(r#"sleep_s: 3.0, log: "{}""#, log.display()),
-        "",
-        "",
-    );
-    std::fs::write(dir.join("g.ron"), graph).unwrap();
-    let coordinator = std::process::Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .args([
-            "run",
-            "g.ron",
-            "--cache",
-            "cache",
-            "--json",
-            "run.json",
-            "--executor",
-            "slurm",
-            "--slurm-poll",
-            "1",
-            "--slurm-job-name",
-            "ostest-lost",
-        ])
-        .current_dir(&dir)
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let (dir, log) = fan_out_dir("lost_jobs", "sleep_s: 3.0, ", "", "");
+    let coordinator = spawn_objectsplat(&dir, &slurm_run_args("ostest-lost"));
 
     // The first two items to start: cancel one's job, SIGKILL the other's process.
     wait_for(&log, Duration::from_secs(120), "two items started", |a| {

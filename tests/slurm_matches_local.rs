@@ -20,33 +20,12 @@ use objectsplat_core::artifact::{MODEL_PLY, TRAINING_JSON};
 use objectsplat_runtime::graph::{GraphSource, parse_graph};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
+use support::objectsplat::{assert_ok, file_tree, objectsplat, read_json};
 use support::plugin_build::workspace;
 use support::slurm::*;
 
-/// Every file under `root` (relative path → bytes), links read as their targets.
 /// The run's own summary beside its outputs: times and executors differ by design.
 const RUN_FILES: [&str; 2] = ["run.json", "run.js"];
-
-fn files(root: &Path) -> BTreeMap<String, Vec<u8>> {
-    let mut out = BTreeMap::new();
-    let mut stack = vec![root.to_path_buf()];
-    while let Some(dir) = stack.pop() {
-        for e in std::fs::read_dir(&dir).unwrap() {
-            let path = e.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-            } else {
-                let rel = path
-                    .strip_prefix(root)
-                    .unwrap()
-                    .to_string_lossy()
-                    .to_string();
-                out.insert(rel, std::fs::read(&path).unwrap());
-            }
-        }
-    }
-    out
-}
 
 /// `v` without the wall-clock fields (`wall_seconds`) anywhere in it.
 fn without_times(v: serde_json::Value) -> serde_json::Value {
@@ -113,7 +92,7 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
         if executor == "slurm" {
             args.extend(["--slurm-poll", "1", "--slurm-job-name", "ostest-demo"]);
         }
-        let result = objectsplat(&args, &dir);
+        let result = objectsplat(&dir, &args);
         assert_ok(&result, &format!("the demo with --executor {executor}"));
         read_json(&dir.join(json))
     };
@@ -149,7 +128,7 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
             args.extend(["--target", t.as_str()]);
         }
         args.extend(&small);
-        let result = objectsplat(&args, &dir);
+        let result = objectsplat(&dir, &args);
         assert_ok(&result, "materializing the cached models");
         assert!(
             String::from_utf8_lossy(&result.stderr).contains(" 0 ran,"),
@@ -158,8 +137,8 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
         );
     }
     let (a, b) = (
-        files(&dir.join("models-local")),
-        files(&dir.join("models-slurm")),
+        file_tree(&dir.join("models-local")),
+        file_tree(&dir.join("models-slurm")),
     );
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
     for t in &trainers {
@@ -225,7 +204,10 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
         }
     }
 
-    let (a, b) = (files(&dir.join("out-local")), files(&dir.join("out-slurm")));
+    let (a, b) = (
+        file_tree(&dir.join("out-local")),
+        file_tree(&dir.join("out-slurm")),
+    );
     assert_eq!(
         a.keys().collect::<Vec<_>>(),
         b.keys().collect::<Vec<_>>(),
@@ -233,13 +215,11 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
     );
     let summary_page = "report/file/index.html";
     assert!(a.contains_key(summary_page));
-    // The run's own summary beside the outputs (times, executors) differs by design.
-    let run_files = ["run.json", "run.js"];
-    assert!(run_files.iter().all(|f| a.contains_key(*f)));
+    assert!(RUN_FILES.iter().all(|f| a.contains_key(*f)));
     let differing: Vec<&String> = a
         .keys()
         .filter(|k| {
-            k.as_str() != summary_page && !run_files.contains(&k.as_str()) && a[*k] != b[*k]
+            k.as_str() != summary_page && !RUN_FILES.contains(&k.as_str()) && a[*k] != b[*k]
         })
         .collect();
     assert!(differing.is_empty(), "files differ: {differing:?}");

@@ -7,6 +7,7 @@
 mod support;
 
 use std::collections::BTreeMap;
+use support::objectsplat::{assert_ok, objectsplat, read_json, spawn_objectsplat};
 use support::slurm::*;
 
 #[test]
@@ -14,32 +15,25 @@ fn two_coordinators_never_compute_one_item_twice() {
     if !cluster_up("two_coordinators_never_compute_one_item_twice") {
         return;
     }
-    let dir = test_dir("two_coordinators");
-    let log = dir.join("attempts.log");
-    let graph = fan_out_graph(
-        &format!(r#"sleep_s: 1.0, log: "{}""#, log.display()),
-        "",
-        "",
-    );
-    std::fs::write(dir.join("g.ron"), graph).unwrap();
+    let (dir, log) = fan_out_dir("two_coordinators", "sleep_s: 1.0, ", "", "");
     // The upstream nodes first, so both coordinators reach the fan-out at once.
     let out = objectsplat(
-        &["run", "g.ron", "--cache", "cache", "--target", "parts"],
         &dir,
+        &["run", "g.ron", "--cache", "cache", "--target", "parts"],
     );
     assert_ok(&out, "the upstream run");
 
     let spawn = |n: &str| {
-        std::process::Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-            .args(["run", "g.ron", "--cache", "cache", "--out"])
-            .arg(format!("out-{n}"))
-            .args(["--json", &format!("run-{n}.json")])
-            .args(["--executor", "slurm", "--slurm-poll", "1"])
-            .args(["--slurm-job-name", &format!("ostest-two-{n}")])
-            .current_dir(&dir)
-            .stderr(std::process::Stdio::piped())
-            .spawn()
-            .unwrap()
+        let (out, json, job_name) = (
+            format!("out-{n}"),
+            format!("run-{n}.json"),
+            format!("ostest-two-{n}"),
+        );
+        // Each its own outputs and report, to compare them.
+        let mut args = slurm_run_args(&job_name);
+        args.retain(|a| !["--json", "run.json"].contains(a));
+        args.extend(["--out", &out, "--json", &json]);
+        spawn_objectsplat(&dir, &args)
     };
     let (a, b) = (spawn("a"), spawn("b"));
     for (n, child) in [("a", a), ("b", b)] {

@@ -7,7 +7,9 @@
 
 use std::collections::VecDeque;
 use std::path::Path;
-use std::process::Command;
+
+mod support;
+use support::objectsplat::{assert_ok, objectsplat, read_json, report_node};
 
 const GRAPH: &str = r#"(
   nodes: {
@@ -20,23 +22,16 @@ const GRAPH: &str = r#"(
   targets: ["masks", "parts", "completed"],
 )"#;
 
-fn run(dir: &Path, table: bool) -> serde_json::Value {
+/// Runs the graph (with or without the table); returns the `completed` node's report.
+fn run_completion(dir: &Path, table: bool) -> serde_json::Value {
     std::fs::write(
         dir.join("g.ron"),
         GRAPH.replace("TABLE", if table { "true" } else { "false" }),
     )
     .unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .current_dir(dir)
-        .args(["run", "g.ron", "--out", "out", "--json", "r.json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_str(&std::fs::read_to_string(dir.join("r.json")).unwrap()).unwrap()
+    let out = objectsplat(dir, &["run", "g.ron", "--out", "out", "--json", "r.json"]);
+    assert_ok(&out, "the run");
+    report_node(&read_json(&dir.join("r.json")), "completed").clone()
 }
 
 fn gray(path: &Path) -> (u32, u32, Vec<u16>) {
@@ -84,13 +79,7 @@ fn enclosed(w: usize, h: usize, set: &[bool]) -> Vec<bool> {
 #[test]
 fn the_completed_table_covers_what_rests_on_it() {
     let dir = tempfile::tempdir().unwrap();
-    let report = run(dir.path(), true);
-    let completed = report["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|n| n["id"] == "completed")
-        .unwrap();
+    let completed = run_completion(dir.path(), true);
     assert_eq!(completed["status"], "ran", "{completed}");
     let out = dir.path().join("out");
     let labels: std::collections::BTreeMap<String, String> = serde_json::from_str(
@@ -160,13 +149,7 @@ fn the_completed_table_covers_what_rests_on_it() {
 #[test]
 fn without_a_table_the_node_is_skipped_with_a_reason() {
     let dir = tempfile::tempdir().unwrap();
-    let report = run(dir.path(), false);
-    let completed = report["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|n| n["id"] == "completed")
-        .unwrap();
+    let completed = run_completion(dir.path(), false);
     assert_eq!(completed["status"], "skipped", "{completed}");
     assert!(
         completed["reason"]

@@ -11,8 +11,8 @@ mod support;
 use serde_json::{Value, json};
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::Command;
-use support::chromium::Browser;
+use support::chromium::{Browser, numbers, strings};
+use support::objectsplat::{assert_ok, objectsplat};
 
 const GRAPH: &str = r#"(
   nodes: {
@@ -26,17 +26,9 @@ const GRAPH: &str = r#"(
 )"#;
 
 fn run(dir: &Path, extra: &[&str]) {
-    let out = Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .current_dir(dir)
-        .args(["run", "graph.ron", "--cache", "cache", "--out", "out"])
-        .args(extra)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "objectsplat run failed: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let mut args = vec!["run", "graph.ron", "--cache", "cache", "--out", "out"];
+    args.extend(extra);
+    assert_ok(&objectsplat(dir, &args), "objectsplat run");
 }
 
 type Trs = ([f32; 3], [f32; 4], [f32; 3]);
@@ -66,13 +58,7 @@ fn glb_nodes(path: &Path) -> BTreeMap<String, (Trs, [f32; 3])> {
 }
 
 fn f32s<const N: usize>(v: &Value) -> [f32; N] {
-    let values: Vec<f32> = v
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap() as f32)
-        .collect();
-    values.try_into().unwrap()
+    numbers::<N>(v).map(|x| x as f32)
 }
 
 #[test]
@@ -119,13 +105,7 @@ fn exported_edits_rebuild_the_same_node_transforms() {
         edits.starts_with("[\n    Move(target: Label(\"cup\"), by: (0.1, -0.05, 0)),\n"),
         "the scene's own edit comes first: {edits}"
     );
-    let names: Vec<String> = page
-        .eval("window.objectsplat.objects().map(o => o.name)")
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap().to_string())
-        .collect();
+    let names = strings(&page.eval("window.objectsplat.objects().map(o => o.name)"));
     let mut shown = BTreeMap::new();
     for name in &names {
         let t = page.eval(&format!("window.objectsplat.transform({name:?})"));

@@ -16,37 +16,33 @@ use objectsplat_runtime::testing::run_node;
 use serde_json::{Value, json};
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
-use support::chromium::{Browser, Page};
+use support::chromium::{Browser, Page, numbers, strings};
 
 const WIDTH: u32 = 900;
 const HEIGHT: u32 = 600;
 
-/// The hand-made scene as a viewer folder; returns its index.html.
-fn viewer_page(tmp: &Path) -> PathBuf {
-    let scene = tmp.join("scene");
+/// The hand-made scene as a viewer folder in a new scratch folder; returns that folder
+/// (the page lives as long as it) and the page's index.html.
+fn viewer_page() -> (tempfile::TempDir, PathBuf) {
+    let tmp = tempfile::tempdir().unwrap();
+    let scene = tmp.path().join("scene");
     support::small_scene::write(&scene);
     let run = run_node(
         &objectsplat_scene::nodes::Viewer,
         &[("scene", &scene)],
         "(title: \"small scene\")",
-        &tmp.join("viewer"),
+        &tmp.path().join("viewer"),
         None,
     )
     .unwrap();
-    run.outputs["file"].join(PAGE_HTML)
+    let page = run.outputs["file"].join(PAGE_HTML);
+    (tmp, page)
 }
 
 fn canvas_rect(page: &mut Page) -> [f64; 4] {
-    let r = page.eval(
+    numbers(&page.eval(
         "(() => { const r = document.querySelector('.osv-canvas').getBoundingClientRect(); return [r.x, r.y, r.width, r.height]; })()",
-    );
-    let v: Vec<f64> = r
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect();
-    [v[0], v[1], v[2], v[3]]
+    ))
 }
 
 /// Pixels of `shot` with exactly `rgb`.
@@ -110,8 +106,7 @@ fn viewer_lists_picks_and_moves_exactly_the_object() {
     else {
         return;
     };
-    let tmp = tempfile::tempdir().unwrap();
-    let page_path = viewer_page(tmp.path());
+    let (_tmp, page_path) = viewer_page();
     let mut page = browser.open(&page_path, WIDTH, HEIGHT);
     assert_eq!(page.eval("window.objectsplat.ready"), json!(true));
     assert_eq!(
@@ -236,16 +231,9 @@ fn centre_of(page: &mut Page, name: &str) -> (f64, f64) {
 }
 
 fn translation(page: &mut Page, name: &str) -> [f64; 3] {
-    let t = page.eval(&format!(
+    numbers(&page.eval(&format!(
         "window.objectsplat.transform({name:?}).translation"
-    ));
-    let t: Vec<f64> = t
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_f64().unwrap())
-        .collect();
-    [t[0], t[1], t[2]]
+    )))
 }
 
 #[test]
@@ -253,8 +241,7 @@ fn mouse_and_keys_select_edit_undo_and_export() {
     let Some(mut browser) = Browser::launch("mouse_and_keys_select_edit_undo_and_export") else {
         return;
     };
-    let tmp = tempfile::tempdir().unwrap();
-    let page_path = viewer_page(tmp.path());
+    let (_tmp, page_path) = viewer_page();
     let mut page = browser.open(&page_path, WIDTH, HEIGHT);
     page.eval("window.objectsplat.ready");
     let rect = canvas_rect(&mut page);
@@ -296,13 +283,7 @@ fn mouse_and_keys_select_edit_undo_and_export() {
     page.key("q", "KeyQ", 81);
     page.key("+", "Equal", 187);
     page.key("d", "KeyD", 68);
-    let names: Vec<String> = page
-        .eval("window.objectsplat.objects().map(o => o.name)")
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap().to_string())
-        .collect();
+    let names = strings(&page.eval("window.objectsplat.objects().map(o => o.name)"));
     assert_eq!(names.last().map(String::as_str), Some("obj_8_desk_lamp"));
     page.key("Delete", "Delete", 46);
     assert_eq!(page.eval("window.objectsplat.objects().length"), json!(4));

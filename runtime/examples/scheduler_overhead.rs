@@ -12,19 +12,16 @@ use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::{Override, build_plan};
 use objectsplat_runtime::report::Status;
 use objectsplat_runtime::store::Store;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome};
 use std::sync::Arc;
 use std::time::Instant;
+
+mod bench_graph;
 
 struct Leaf;
 impl Node for Leaf {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("leaf", "1").output("out", "Num", "").param(
-            "value",
-            ParamType::int(),
-            Some("0"),
-            "",
-        )
+        bench_graph::leaf_spec()
     }
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         std::fs::write(
@@ -38,10 +35,7 @@ impl Node for Leaf {
 struct Join;
 impl Node for Join {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("join", "1")
-            .input("a", "Num", "")
-            .input("b", "Num", "")
-            .output("out", "Num", "")
+        bench_graph::join_spec()
     }
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let a: i64 = std::fs::read_to_string(ctx.input("a")?.join("v"))?.parse()?;
@@ -59,33 +53,11 @@ fn main() -> Result<()> {
     let args: Vec<String> = std::env::args().collect();
     let n: usize = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(1000);
     let jobs: usize = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(2);
-    let leaves = (n / 10).max(2);
-    let mut text = String::from("(nodes: {\n");
-    for i in 0..leaves {
-        text.push_str(&format!(
-            "  \"n{i}\": (kind: \"leaf\", params: (value: {i})),\n"
-        ));
-    }
-    // Deterministic pseudo-random wiring to earlier nodes.
-    let mut s: u64 = 0x9e3779b97f4a7c15;
-    for i in leaves..n {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        let a = i - 1;
-        let b = (s % i as u64) as usize;
-        text.push_str(&format!(
-            "  \"n{i}\": (kind: \"join\", inputs: (a: \"n{a}.out\", b: \"n{b}.out\")),\n"
-        ));
-    }
-    text.push_str("})\n");
+    let text = bench_graph::wide_deep_graph(n, "");
     let dir = tempfile::tempdir()?;
     let graph = dir.path().join("bench.ron");
     std::fs::write(&graph, &text)?;
-    let mut reg = Registry::new();
-    reg.add_type("Num", "a folder with one number");
-    reg.add_node(Arc::new(Leaf)).map_err(anyhow::Error::msg)?;
-    reg.add_node(Arc::new(Join)).map_err(anyhow::Error::msg)?;
+    let reg = bench_graph::registry(vec![Arc::new(Leaf), Arc::new(Join)])?;
     let src = GraphSource::read(&graph)?;
     let opts = RunOptions {
         jobs,

@@ -31,6 +31,8 @@ use std::process::Command;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+mod bench_graph;
+
 struct Spread;
 impl Node for Spread {
     fn spec(&self) -> NodeSpec {
@@ -66,11 +68,7 @@ impl Node for Touch {
 }
 
 fn registry() -> Result<Registry> {
-    let mut reg = Registry::new();
-    reg.add_type("Num", "a folder with one number");
-    reg.add_node(Arc::new(Spread)).map_err(anyhow::Error::msg)?;
-    reg.add_node(Arc::new(Touch)).map_err(anyhow::Error::msg)?;
-    Ok(reg)
+    bench_graph::registry(vec![Arc::new(Spread), Arc::new(Touch)])
 }
 
 fn plan(graph: &Path) -> Result<Plan> {

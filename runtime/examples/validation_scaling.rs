@@ -11,19 +11,16 @@
 use anyhow::Result;
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::build_plan;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType};
 use std::sync::Arc;
 use std::time::Instant;
+
+mod bench_graph;
 
 struct Leaf;
 impl Node for Leaf {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("leaf", "1").output("out", "Num", "").param(
-            "value",
-            ParamType::int(),
-            Some("0"),
-            "",
-        )
+        bench_graph::leaf_spec()
     }
     fn run(&self, _: &mut Context) -> Result<Outcome> {
         Ok(Outcome::Done)
@@ -33,39 +30,11 @@ impl Node for Leaf {
 struct Join;
 impl Node for Join {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("join", "1")
-            .input("a", "Num", "")
-            .input("b", "Num", "")
-            .output("out", "Num", "")
-            .param("scale", ParamType::float(), Some("1.0"), "")
+        bench_graph::join_spec().param("scale", ParamType::float(), Some("1.0"), "")
     }
     fn run(&self, _: &mut Context) -> Result<Outcome> {
         Ok(Outcome::Done)
     }
-}
-
-fn graph_text(n: usize) -> String {
-    let leaves = (n / 10).max(2);
-    let mut text = String::from("(nodes: {\n");
-    for i in 0..leaves {
-        text.push_str(&format!(
-            "  \"n{i}\": (kind: \"leaf\", params: (value: {i})),\n"
-        ));
-    }
-    // Deterministic pseudo-random wiring to earlier nodes.
-    let mut s: u64 = 0x9e3779b97f4a7c15;
-    for i in leaves..n {
-        s ^= s << 13;
-        s ^= s >> 7;
-        s ^= s << 17;
-        let a = i - 1;
-        let b = (s % i as u64) as usize;
-        text.push_str(&format!(
-            "  \"n{i}\": (kind: \"join\", inputs: (a: \"n{a}.out\", b: \"n{b}.out\"), params: (scale: 2)),\n"
-        ));
-    }
-    text.push_str("})\n");
-    text
 }
 
 fn main() -> Result<()> {
@@ -78,16 +47,13 @@ fn main() -> Result<()> {
     } else {
         sizes
     };
-    let mut reg = Registry::new();
-    reg.add_type("Num", "a folder with one number");
-    reg.add_node(Arc::new(Leaf)).map_err(anyhow::Error::msg)?;
-    reg.add_node(Arc::new(Join)).map_err(anyhow::Error::msg)?;
+    let reg = bench_graph::registry(vec![Arc::new(Leaf), Arc::new(Join)])?;
     let dir = tempfile::tempdir()?;
     println!("| nodes | graph MB | validation ms (best of 3) | per node µs |");
     println!("|---:|---:|---:|---:|");
     for n in sizes {
         let path = dir.path().join(format!("g{n}.ron"));
-        let text = graph_text(n);
+        let text = bench_graph::wide_deep_graph(n, "scale: 2");
         std::fs::write(&path, &text)?;
         let mut best = f64::INFINITY;
         for _ in 0..3 {

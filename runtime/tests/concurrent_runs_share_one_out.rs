@@ -5,7 +5,7 @@
 mod common;
 use common::*;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 
 /// Many items, so writing the outputs takes long enough for the runs to overlap.
 const GRAPH: &str = r#"(
@@ -22,38 +22,12 @@ const ITEMS: i64 = 30;
 #[test]
 #[ignore]
 fn child_runs_the_graph_into_the_shared_out() {
-    let (Ok(graph), Ok(cache), Ok(out)) = (
-        std::env::var("CHILD_GRAPH"),
-        std::env::var("CHILD_CACHE"),
-        std::env::var("CHILD_OUT"),
-    ) else {
-        return;
-    };
-    let r = run_graph(
-        Path::new(&graph),
-        Path::new(&cache),
-        Some(Path::new(&out)),
-        &[],
-        1,
-    );
-    assert!(r.ok, "{}", r.render_table());
+    run_child_graph_from_env();
 }
 
 fn spawn(graph: &Path, cache: &Path, out: &Path) -> std::process::Child {
-    Command::new(std::env::current_exe().unwrap())
-        .args([
-            "--ignored",
-            "--exact",
-            "child_runs_the_graph_into_the_shared_out",
-            "--nocapture",
-        ])
-        .env("CHILD_GRAPH", graph)
-        .env("CHILD_CACHE", cache)
-        .env("CHILD_OUT", out)
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .unwrap()
+    let test = "child_runs_the_graph_into_the_shared_out";
+    spawn_child(test, graph, cache, out, Stdio::piped())
 }
 
 fn count_items(dir: &Path) -> usize {

@@ -2,8 +2,9 @@
 
 mod common;
 use common::*;
+use objectsplat_runtime::report::RunReport;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 const SLOW: &str = r#"(
@@ -18,36 +19,17 @@ const SLOW: &str = r#"(
 #[test]
 #[ignore]
 fn child_process_runs_a_graph() {
-    let (Ok(graph), Ok(cache)) = (std::env::var("CHILD_GRAPH"), std::env::var("CHILD_CACHE"))
-    else {
-        return;
-    };
-    let out = std::env::var("CHILD_OUT").ok();
-    let r = run_graph(
-        Path::new(&graph),
-        Path::new(&cache),
-        out.as_deref().map(Path::new),
-        &[],
-        1,
-    );
-    assert!(r.ok, "{}", r.render_table());
+    run_child_graph_from_env();
 }
 
-fn spawn_child(graph: &Path, cache: &Path, out: &Path) -> std::process::Child {
-    Command::new(std::env::current_exe().unwrap())
-        .args([
-            "--ignored",
-            "--exact",
-            "child_process_runs_a_graph",
-            "--nocapture",
-        ])
-        .env("CHILD_GRAPH", graph)
-        .env("CHILD_CACHE", cache)
-        .env("CHILD_OUT", out)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap()
+fn spawn_run(graph: &Path, cache: &Path, out: &Path) -> std::process::Child {
+    spawn_child(
+        "child_process_runs_a_graph",
+        graph,
+        cache,
+        out,
+        Stdio::null(),
+    )
 }
 
 fn count_files(dir: &Path) -> usize {
@@ -69,11 +51,29 @@ fn walk(dir: &Path) -> Vec<std::path::PathBuf> {
     v
 }
 
+/// A workspace whose [`SLOW`] graph, without the sleep, ran once.
+fn ran_once() -> Workspace {
+    let ws = Workspace::new();
+    ws.graph(SLOW.replace("sleep_ms: 300", "sleep_ms: 0").as_str());
+    assert!(ws.run(&[]).ok);
+    ws
+}
+
+fn assert_warned_of_corruption(r: &RunReport, detail: &str) {
+    assert!(
+        r.warnings
+            .iter()
+            .any(|w| w.contains("corrupt") && w.contains(detail)),
+        "{:?}",
+        r.warnings
+    );
+}
+
 #[test]
 fn a_killed_run_leaves_no_corrupt_entry_and_its_finished_work_is_reused() {
     let ws = Workspace::new();
     let g = ws.graph(SLOW);
-    let mut child = spawn_child(&g, &ws.cache(), &ws.out());
+    let mut child = spawn_run(&g, &ws.cache(), &ws.out());
     // Wait until `src` and at least one item have finished (three action records: split, item, …).
     let t0 = Instant::now();
     while count_files(&ws.cache().join("actions")) < 2 {
@@ -110,9 +110,7 @@ fn a_killed_run_leaves_no_corrupt_entry_and_its_finished_work_is_reused() {
 
 #[test]
 fn a_corrupted_blob_is_detected_and_recomputed_with_a_warning() {
-    let ws = Workspace::new();
-    ws.graph(SLOW.replace("sleep_ms: 300", "sleep_ms: 0").as_str());
-    assert!(ws.run(&[]).ok);
+    let ws = ran_once();
     for blob in walk(&ws.cache().join("blobs")) {
         let mut bytes = std::fs::read(&blob).unwrap();
         bytes[0] ^= 0x5a;
@@ -120,13 +118,7 @@ fn a_corrupted_blob_is_detected_and_recomputed_with_a_warning() {
     }
     let r = ws.run(&[]);
     assert!(r.ok, "{}", r.render_table());
-    assert!(
-        r.warnings
-            .iter()
-            .any(|w| w.contains("corrupt") && w.contains("checksum mismatch")),
-        "{:?}",
-        r.warnings
-    );
+    assert_warned_of_corruption(&r, "checksum mismatch");
     assert_eq!(ws.num("total", "out"), 20);
     // And the recomputed entries are sound: the next run is a clean cache hit.
     let r = ws.run(&[]);
@@ -140,22 +132,14 @@ fn a_corrupted_blob_is_detected_and_recomputed_with_a_warning() {
 
 #[test]
 fn a_corrupted_action_record_is_detected_and_the_node_reruns() {
-    let ws = Workspace::new();
-    ws.graph(SLOW.replace("sleep_ms: 300", "sleep_ms: 0").as_str());
-    assert!(ws.run(&[]).ok);
+    let ws = ran_once();
     for rec in walk(&ws.cache().join("actions")) {
         let text = std::fs::read_to_string(&rec).unwrap();
         std::fs::write(&rec, text.replace("\"ran\"", "\"rab\"")).unwrap();
     }
     let r = ws.run(&[]);
     assert!(r.ok);
-    assert!(
-        r.warnings
-            .iter()
-            .any(|w| w.contains("action record") && w.contains("corrupt")),
-        "{:?}",
-        r.warnings
-    );
+    assert_warned_of_corruption(&r, "action record");
     assert_eq!(ran(&r).len(), 6);
     assert_eq!(ws.num("total", "out"), 20);
 }
@@ -165,8 +149,8 @@ fn two_concurrent_runs_on_one_cache_both_succeed_consistently() {
     let ws = Workspace::new();
     let g = ws.graph(SLOW.replace("sleep_ms: 300", "sleep_ms: 50").as_str());
     let out2 = ws.dir.path().join("out2");
-    let mut a = spawn_child(&g, &ws.cache(), &ws.out());
-    let mut b = spawn_child(&g, &ws.cache(), &out2);
+    let mut a = spawn_run(&g, &ws.cache(), &ws.out());
+    let mut b = spawn_run(&g, &ws.cache(), &out2);
     assert!(a.wait().unwrap().success());
     assert!(b.wait().unwrap().success());
     assert_eq!(ws.num("total", "out"), 20);

@@ -26,41 +26,39 @@ fn one(text: &str) -> String {
     e[0].clone()
 }
 
+fn assert_one_error(text: &str, expected: &str) {
+    assert_eq!(one(text), expected);
+}
+
 #[test]
 fn syntax_error() {
-    assert_eq!(
-        one("(\n  nodes: {\n    \"a\": (kind: \"const\" params: ()),\n  },\n)"),
-        "bad.ron:3:25: syntax error: expected `,` or `)` after a field, found 'p'"
+    assert_one_error(
+        "(\n  nodes: {\n    \"a\": (kind: \"const\" params: ()),\n  },\n)",
+        "bad.ron:3:25: syntax error: expected `,` or `)` after a field, found 'p'",
     );
 }
 
 #[test]
 fn unknown_kind_suggests_a_close_one() {
-    assert_eq!(
-        one("(nodes: {\n  \"a\": (kind: \"constt\"),\n})"),
-        "bad.ron:2:15: unknown node kind \"constt\"; did you mean `const`? (`objectsplat nodes` lists every kind)"
+    assert_one_error(
+        "(nodes: {\n  \"a\": (kind: \"constt\"),\n})",
+        "bad.ron:2:15: unknown node kind \"constt\"; did you mean `const`? (`objectsplat nodes` lists every kind)",
     );
 }
 
 #[test]
 fn unknown_input_port() {
-    let e = one(
+    assert_one_error(
         "(nodes: {\n  \"a\": (kind: \"const\"),\n  \"b\": (kind: \"add\", inputs: (a: \"a.out\", c: \"a.out\")),\n})",
-    );
-    assert_eq!(
-        e,
-        "bad.ron:3:43: node \"b\" (add) has no input port `c`; did you mean one of `a`, `b`?; its inputs are `a`, `b`"
+        "bad.ron:3:43: node \"b\" (add) has no input port `c`; did you mean one of `a`, `b`?; its inputs are `a`, `b`",
     );
 }
 
 #[test]
 fn unknown_output_port() {
-    let e = one(
+    assert_one_error(
         "(nodes: {\n  \"a\": (kind: \"const\"),\n  \"b\": (kind: \"add\", inputs: (a: \"a.ou\")),\n})",
-    );
-    assert_eq!(
-        e,
-        "bad.ron:3:34: node \"a\" (const) has no output port `ou`; did you mean `out`?; its outputs are `out`"
+        "bad.ron:3:34: node \"a\" (const) has no output port `ou`; did you mean `out`?; its outputs are `out`",
     );
 }
 
@@ -75,12 +73,9 @@ fn missing_required_input() {
 
 #[test]
 fn type_mismatch_suggests_each() {
-    let e = one(
+    assert_one_error(
         "(nodes: {\n  \"s\": (kind: \"split\", params: (values: [1])),\n  \"d\": (kind: \"double\", inputs: (x: \"s.items\")),\n})",
-    );
-    assert_eq!(
-        e,
-        "bad.ron:3:37: type mismatch: node \"d\" input `x` expects Num, but \"s.items\" is [Num]; to run once per item write each(\"s.items\")"
+        "bad.ron:3:37: type mismatch: node \"d\" input `x` expects Num, but \"s.items\" is [Num]; to run once per item write each(\"s.items\")",
     );
     let e = one(
         "(nodes: {\n  \"a\": (kind: \"const\"),\n  \"d\": (kind: \"sum\", inputs: (xs: \"a.out\")),\n})",
@@ -105,19 +100,17 @@ fn cycle() {
 
 #[test]
 fn unknown_param() {
-    let e = one("(nodes: {\n  \"a\": (kind: \"const\", params: (valeu: 1)),\n})");
-    assert_eq!(
-        e,
-        "bad.ron:2:33: node \"a\" (const) has no param `valeu`; did you mean `value`?; its params are `value`"
+    assert_one_error(
+        "(nodes: {\n  \"a\": (kind: \"const\", params: (valeu: 1)),\n})",
+        "bad.ron:2:33: node \"a\" (const) has no param `valeu`; did you mean `value`?; its params are `value`",
     );
 }
 
 #[test]
 fn ill_typed_param() {
-    let e = one("(nodes: {\n  \"a\": (kind: \"const\", params: (value: \"three\")),\n})");
-    assert_eq!(
-        e,
-        "bad.ron:2:40: node \"a\" param `value`: expected an integer, found a string (expected an integer)"
+    assert_one_error(
+        "(nodes: {\n  \"a\": (kind: \"const\", params: (value: \"three\")),\n})",
+        "bad.ron:2:40: node \"a\" param `value`: expected an integer, found a string (expected an integer)",
     );
     let e = one(
         "(nodes: {\n  \"a\": (kind: \"const\"),\n  \"m\": (kind: \"modulo\", inputs: (a: \"a.out\"), params: (modulus: 0)),\n})",
@@ -127,10 +120,9 @@ fn ill_typed_param() {
 
 #[test]
 fn dangling_reference() {
-    let e = one("(nodes: {\n  \"b\": (kind: \"add\", inputs: (a: \"nope.out\")),\n})");
-    assert_eq!(
-        e,
-        "bad.ron:2:34: node \"b\" input `a` refers to node \"nope\", which does not exist"
+    assert_one_error(
+        "(nodes: {\n  \"b\": (kind: \"add\", inputs: (a: \"nope.out\")),\n})",
+        "bad.ron:2:34: node \"b\" input `a` refers to node \"nope\", which does not exist",
     );
     let e = one("(nodes: {\n  \"a\": (kind: \"const\"),\n},\ntargets: [\"z\"])");
     assert!(

@@ -3,8 +3,6 @@
 
 mod common;
 use common::*;
-use objectsplat_runtime::graph::GraphSource;
-use objectsplat_runtime::plan::{Override, build_plan};
 use objectsplat_runtime::store::Store;
 
 #[test]
@@ -20,10 +18,8 @@ fn explain_lists_each_changed_field() {
 )"#,
     );
     ws.run(&[]);
-    let src = GraphSource::read(&g).unwrap();
     let sets = [r#"t.schedule={"rate": 0.25, "steps": 3}"#, "t.label=b"];
-    let overrides: Vec<Override> = sets.iter().map(|s| Override::parse(s).unwrap()).collect();
-    let plan = build_plan(&src, &registry(), &overrides, &[]).unwrap();
+    let plan = plan_graph(&g, &registry(), &sets, &[]);
     let store = Store::open(&ws.cache()).unwrap();
     let text = objectsplat_runtime::exec::explain(&plan, &store, "t").unwrap();
     let line = text.lines().find(|l| l.starts_with("t:")).unwrap();

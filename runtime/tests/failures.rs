@@ -29,20 +29,12 @@ fn failure_is_contained_and_retried_next_run() {
         assert!(!r.ok);
         assert_eq!(status(&r, "bad"), Status::Failed);
         assert!(
-            r.node("bad")
-                .unwrap()
-                .reason
-                .as_deref()
-                .unwrap()
-                .contains("on purpose"),
+            reason(&r, "bad").unwrap().contains("on purpose"),
             "{mode}: {}",
             r.render_table()
         );
         assert_eq!(status(&r, "after"), Status::Failed);
-        assert_eq!(
-            r.node("after").unwrap().reason.as_deref(),
-            Some("upstream `bad` failed")
-        );
+        assert_eq!(reason(&r, "after"), Some("upstream `bad` failed"));
         assert_eq!(status(&r, "other"), Status::Ran);
         // The branch that succeeded is still written out.
         assert_eq!(ws.num("other", "out"), 11);
@@ -67,24 +59,15 @@ fn skipped_node_without_outputs_skips_its_consumers_with_a_reason() {
     let r = ws.run(&[]);
     assert!(r.ok, "{}", r.render_table());
     assert_eq!(status(&r, "bad"), Status::Skipped);
-    assert_eq!(
-        r.node("bad").unwrap().reason.as_deref(),
-        Some("nothing to do")
-    );
+    assert_eq!(reason(&r, "bad"), Some("nothing to do"));
     assert_eq!(status(&r, "after"), Status::Skipped);
     assert!(
-        r.node("after")
-            .unwrap()
-            .reason
-            .as_deref()
+        reason(&r, "after")
             .unwrap()
             .contains("upstream `bad` skipped (nothing to do)")
     );
     // A cached skip keeps its reason.
     let r = ws.run(&[]);
     assert_eq!(status(&r, "bad"), Status::Cached);
-    assert_eq!(
-        r.node("bad").unwrap().reason.as_deref(),
-        Some("skipped: nothing to do")
-    );
+    assert_eq!(reason(&r, "bad"), Some("skipped: nothing to do"));
 }

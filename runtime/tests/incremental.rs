@@ -15,6 +15,14 @@ const CHAIN: &str = r#"(
   targets: ["top", "side"],
 )"#;
 
+/// A workspace holding [`CHAIN`], run once.
+fn chain_after_a_run() -> Workspace {
+    let ws = Workspace::new();
+    ws.graph(CHAIN);
+    ws.run(&[]);
+    ws
+}
+
 #[test]
 fn first_run_runs_everything_second_run_nothing() {
     let ws = Workspace::new();
@@ -26,9 +34,7 @@ fn first_run_runs_everything_second_run_nothing() {
 
 #[test]
 fn a_param_change_reruns_exactly_that_node_and_its_descendants() {
-    let ws = Workspace::new();
-    ws.graph(CHAIN);
-    ws.run(&[]);
+    let ws = chain_after_a_run();
     let r = ws.run(&["a.value=5"]);
     assert_eq!(ran(&r), ["a", "mod", "sum", "top"]);
     assert_eq!(ws.num("top", "out"), 10);
@@ -39,9 +45,7 @@ fn a_param_change_reruns_exactly_that_node_and_its_descendants() {
 
 #[test]
 fn identical_output_does_not_invalidate_consumers() {
-    let ws = Workspace::new();
-    ws.graph(CHAIN);
-    ws.run(&[]);
+    let ws = chain_after_a_run();
     // 7 % 1000 == 7 % 100: `mod` reruns, its output bytes are unchanged, `top` stays cached.
     let r = ws.run(&["mod.modulus=100"]);
     assert_eq!(ran(&r), ["mod"]);
@@ -125,16 +129,8 @@ fn fan_out_outputs_are_materialized_one_folder_per_item() {
 fn only_ancestors_of_the_targets_run() {
     let ws = Workspace::new();
     ws.graph(CHAIN);
-    let src = objectsplat_runtime::graph::GraphSource::read(&ws.dir.path().join("g.ron")).unwrap();
-    let plan = objectsplat_runtime::plan::build_plan(&src, &registry(), &[], &["sum".to_string()])
-        .unwrap();
-    let store = objectsplat_runtime::store::Store::open(&ws.cache()).unwrap();
-    let opts = objectsplat_runtime::exec::RunOptions {
-        jobs: 2,
-        out_dir: None,
-        observer: std::sync::Arc::new(objectsplat_runtime::exec::Silent),
-    };
-    let r = objectsplat_runtime::exec::run(&plan, &store, &opts).unwrap();
+    let plan = plan_graph(&ws.dir.path().join("g.ron"), &registry(), &[], &["sum"]);
+    let r = execute(&plan, &ws.cache(), None, 2);
     assert_eq!(ran(&r), ["a", "b", "sum"]);
 }
 
@@ -143,9 +139,7 @@ fn explain_names_the_changed_param() {
     let ws = Workspace::new();
     let g = ws.graph(CHAIN);
     ws.run(&[]);
-    let src = objectsplat_runtime::graph::GraphSource::read(&g).unwrap();
-    let o = objectsplat_runtime::plan::Override::parse("b.value=9").unwrap();
-    let plan = objectsplat_runtime::plan::build_plan(&src, &registry(), &[o], &[]).unwrap();
+    let plan = plan_graph(&g, &registry(), &["b.value=9"], &[]);
     let store = objectsplat_runtime::store::Store::open(&ws.cache()).unwrap();
     let text = objectsplat_runtime::exec::explain(&plan, &store, "sum").unwrap();
     assert!(text.contains("a: cached"), "{text}");

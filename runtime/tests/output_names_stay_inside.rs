@@ -4,46 +4,23 @@
 //! moved or written outside `--out`, the cache and the node's staging folder.
 
 mod common;
-use objectsplat_runtime::exec::{self, RunOptions, Silent};
-use objectsplat_runtime::graph::GraphSource;
-use objectsplat_runtime::plan::build_plan;
-use objectsplat_runtime::store::Store;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use common::{Workspace, execute, fn_kind, plan_graph, registry_of};
+use objectsplat_runtime::{Context, NodeSpec, Outcome, ParamType};
 use std::path::Path;
-use std::sync::Arc;
 
 /// Writes one file, named by its param verbatim, into its output folder.
-struct WriteNamed;
-impl Node for WriteNamed {
-    fn spec(&self) -> NodeSpec {
-        NodeSpec::new("write_named", "1")
-            .output("file", "Blob", "")
-            .param("name", ParamType::Str, None, "")
-    }
-    fn run(&self, ctx: &mut Context) -> anyhow::Result<Outcome> {
-        let name: String = ctx.param("name")?;
-        std::fs::write(ctx.output("file")?.join(name), "written by the node")?;
-        Ok(Outcome::Done)
-    }
+fn write_named(ctx: &mut Context) -> anyhow::Result<Outcome> {
+    let name: String = ctx.param("name")?;
+    std::fs::write(ctx.output("file")?.join(name), "written by the node")?;
+    Ok(Outcome::Done)
 }
 
 fn run(graph: &Path, cache: &Path, out: &Path) -> objectsplat_runtime::report::RunReport {
-    let mut reg = Registry::new();
-    reg.add_type("Blob", "files");
-    reg.add_node(Arc::new(WriteNamed)).unwrap();
-    let src = GraphSource::read(graph).unwrap();
-    let plan = build_plan(&src, &reg, &[], &[]).unwrap();
-    let store = Store::open(cache).unwrap();
-    exec::run(
-        &plan,
-        &store,
-        &RunOptions {
-            jobs: 1,
-            out_dir: Some(out.to_path_buf()),
-            observer: Arc::new(Silent),
-        },
-    )
-    .unwrap()
+    let spec = NodeSpec::new("write_named", "1")
+        .output("file", "Blob", "")
+        .param("name", ParamType::Str, None, "");
+    let reg = registry_of("Blob", fn_kind(spec, write_named));
+    execute(&plan_graph(graph, &reg, &[], &[]), cache, Some(out), 1)
 }
 
 #[test]
@@ -85,15 +62,11 @@ fn a_backslash_name_climbing_out_fails_its_node_and_touches_nothing_outside() {
 
 #[test]
 fn plain_names_with_spaces_and_dots_are_kept() {
-    let ws = tempfile::tempdir().unwrap();
-    let graph = ws.path().join("g.ron");
-    std::fs::write(
-        &graph,
-        r#"(nodes: { "w": (kind: "write_named", params: (name: "frame 1..2.png")) })"#,
-    )
-    .unwrap();
-    let out = ws.path().join("out");
-    let r = run(&graph, &ws.path().join("cache"), &out);
+    let ws = Workspace::new();
+    let graph =
+        ws.graph(r#"(nodes: { "w": (kind: "write_named", params: (name: "frame 1..2.png")) })"#);
+    let out = ws.out();
+    let r = run(&graph, &ws.cache(), &out);
     assert!(r.ok, "{}", r.render_table());
     assert_eq!(
         std::fs::read_to_string(out.join("w/file/frame 1..2.png")).unwrap(),

@@ -1,33 +1,25 @@
 //! Paths in a graph resolve relative to the graph file; outputs stay inside OUT and the cache.
 
 mod common;
+use common::{execute, fn_kind, plan_graph, ran, registry_of};
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::build_plan;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
-use std::sync::Arc;
+use objectsplat_runtime::{Context, NodeSpec, Outcome, ParamType, Registry};
 
 /// Reads a file named by a `path` param and copies its bytes out; writes a file at a `relpath`.
-struct Copy;
-impl Node for Copy {
-    fn spec(&self) -> NodeSpec {
-        NodeSpec::new("copy", "1")
-            .output("file", "Blob", "")
-            .param("from", ParamType::Path, None, "")
-            .param("to", ParamType::RelPath, Some("\"copy.txt\""), "")
-    }
-    fn run(&self, ctx: &mut Context) -> anyhow::Result<Outcome> {
-        let from: String = ctx.param("from")?;
-        let to: String = ctx.param("to")?;
-        std::fs::write(ctx.output("file")?.join(to), std::fs::read(from)?)?;
-        Ok(Outcome::Done)
-    }
+fn copy(ctx: &mut Context) -> anyhow::Result<Outcome> {
+    let from: String = ctx.param("from")?;
+    let to: String = ctx.param("to")?;
+    std::fs::write(ctx.output("file")?.join(to), std::fs::read(from)?)?;
+    Ok(Outcome::Done)
 }
 
 fn registry() -> Registry {
-    let mut r = Registry::new();
-    r.add_type("Blob", "files");
-    r.add_node(Arc::new(Copy)).unwrap();
-    r
+    let spec = NodeSpec::new("copy", "1")
+        .output("file", "Blob", "")
+        .param("from", ParamType::Path, None, "")
+        .param("to", ParamType::RelPath, Some("\"copy.txt\""), "");
+    registry_of("Blob", fn_kind(spec, copy))
 }
 
 #[test]
@@ -41,16 +33,15 @@ fn path_params_resolve_against_the_graph_folder_and_their_content_is_in_the_key(
         r#"(nodes: { "c": (kind: "copy", params: (from: "data/in.txt")) })"#,
     )
     .unwrap();
+    let (cache, out) = (dir.path().join("cache"), dir.path().join("out"));
+    // Planned afresh for each run, as the command line does.
     let run = || {
-        let src = GraphSource::read(&g).unwrap();
-        let plan = build_plan(&src, &registry(), &[], &[]).unwrap();
-        let store = objectsplat_runtime::store::Store::open(&dir.path().join("cache")).unwrap();
-        let opts = objectsplat_runtime::exec::RunOptions {
-            jobs: 1,
-            out_dir: Some(dir.path().join("out")),
-            observer: Arc::new(objectsplat_runtime::exec::Silent),
-        };
-        objectsplat_runtime::exec::run(&plan, &store, &opts).unwrap()
+        execute(
+            &plan_graph(&g, &registry(), &[], &[]),
+            &cache,
+            Some(&out),
+            1,
+        )
     };
     // Run from another working directory: the path still resolves next to the graph.
     let r = run();
@@ -59,9 +50,9 @@ fn path_params_resolve_against_the_graph_folder_and_their_content_is_in_the_key(
         std::fs::read_to_string(dir.path().join("out/c/file/copy.txt")).unwrap(),
         "hello"
     );
-    assert_eq!(common::ran(&run()), Vec::<String>::new());
+    assert_eq!(ran(&run()), Vec::<String>::new());
     std::fs::write(dir.path().join("graphs/data/in.txt"), "changed").unwrap();
-    assert_eq!(common::ran(&run()), ["c"]);
+    assert_eq!(ran(&run()), ["c"]);
     assert_eq!(
         std::fs::read_to_string(dir.path().join("out/c/file/copy.txt")).unwrap(),
         "changed"

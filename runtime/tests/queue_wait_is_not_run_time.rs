@@ -4,22 +4,26 @@
 
 mod common;
 use common::*;
-use objectsplat_runtime::report::Status;
+use objectsplat_runtime::report::{RunReport, Status};
 
-#[test]
-fn the_second_of_two_ready_nodes_reports_its_run_and_its_wait_apart() {
+/// Runs `graph` on the one worker that makes its jobs wait for each other.
+fn run_on_one_worker(graph: &str) -> RunReport {
     let ws = Workspace::new();
-    let g = ws.graph(
-        r#"(
+    run_graph(&ws.graph(graph), &ws.cache(), None, &[], 1)
+}
+
+const TWO_READY_NODES: &str = r#"(
   nodes: {
     "x": (kind: "const", params: (value: 1)),
     "p": (kind: "double", inputs: (x: "x.out"), params: (sleep_ms: 600)),
     "q": (kind: "double", inputs: (x: "x.out"), params: (sleep_ms: 610)),
   },
   targets: ["p", "q"],
-)"#,
-    );
-    let r = run_graph(&g, &ws.cache(), None, &[], 1);
+)"#;
+
+#[test]
+fn the_second_of_two_ready_nodes_reports_its_run_and_its_wait_apart() {
+    let r = run_on_one_worker(TWO_READY_NODES);
     let (p, q) = (r.node("p").unwrap(), r.node("q").unwrap());
     assert_eq!((p.status, q.status), (Status::Ran, Status::Ran));
     // (Different params: two equal keys would make one a cache hit of the other.)
@@ -43,21 +47,19 @@ fn the_second_of_two_ready_nodes_reports_its_run_and_its_wait_apart() {
     assert!(r.render_table().contains("queued"), "{}", r.render_table());
 }
 
-#[test]
-fn a_fast_item_behind_a_slow_one_reports_its_own_short_run() {
-    let ws = Workspace::new();
-    // item0 holds 1 (sleeps 700 ms), item1 holds 0 (no sleep); one worker takes them
-    // in name order, so item1 waits behind item0.
-    let g = ws.graph(
-        r#"(
+/// item0 holds 1 (sleeps 700 ms), item1 holds 0 (no sleep); one worker takes them in
+/// name order, so item1 waits behind item0.
+const FAST_ITEM_BEHIND_A_SLOW_ONE: &str = r#"(
   nodes: {
     "s": (kind: "split", params: (values: [1, 0])),
     "d": (kind: "double", inputs: (x: each("s.items")), params: (sleep_ms_per_unit: 700)),
   },
   targets: ["d"],
-)"#,
-    );
-    let r = run_graph(&g, &ws.cache(), None, &[], 1);
+)"#;
+
+#[test]
+fn a_fast_item_behind_a_slow_one_reports_its_own_short_run() {
+    let r = run_on_one_worker(FAST_ITEM_BEHIND_A_SLOW_ONE);
     let d = r.node("d").unwrap();
     let item = |name: &str| d.items.iter().find(|i| i.name == name).unwrap();
     assert!(item("item1").seconds < 0.3, "{:?}", item("item1"));

@@ -3,12 +3,11 @@
 //! says which changed.
 
 mod common;
-use objectsplat_runtime::exec::{self, RunOptions, Silent};
-use objectsplat_runtime::graph::GraphSource;
-use objectsplat_runtime::plan::build_plan;
+use common::{Workspace, execute, plan_graph, registry_of, status};
+use objectsplat_runtime::exec;
 use objectsplat_runtime::report::Status;
 use objectsplat_runtime::store::Store;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -36,35 +35,17 @@ impl Node for ReadsBeside {
 
 #[test]
 fn replacing_a_declared_file_reruns_the_node() {
-    let ws = tempfile::tempdir().unwrap();
-    let data = ws.path().join("data");
-    std::fs::create_dir(&data).unwrap();
-    std::fs::write(data.join("data.txt"), "1").unwrap();
-    let graph = ws.path().join("g.ron");
-    std::fs::write(
-        &graph,
-        format!(
-            r#"(nodes: {{ "n": (kind: "reads_beside", params: (folder: {:?})) }})"#,
-            data.display().to_string()
-        ),
-    )
-    .unwrap();
-    let mut reg = Registry::new();
-    reg.add_type("Num", "");
-    reg.add_node(Arc::new(ReadsBeside)).unwrap();
-    let plan = build_plan(&GraphSource::read(&graph).unwrap(), &reg, &[], &[]).unwrap();
-    let cache = ws.path().join("cache");
-    let run = || {
-        let store = Store::open(&cache).unwrap();
-        let opts = RunOptions {
-            jobs: 1,
-            out_dir: Some(ws.path().join("out")),
-            observer: Arc::new(Silent),
-        };
-        exec::run(&plan, &store, &opts).unwrap()
-    };
-    assert_eq!(common::status(&run(), "n"), Status::Ran);
-    assert_eq!(common::status(&run(), "n"), Status::Cached);
+    let ws = Workspace::new();
+    let data = ws.data_file("data.txt", "1");
+    let graph = ws.graph(&format!(
+        r#"(nodes: {{ "n": (kind: "reads_beside", params: (folder: {:?})) }})"#,
+        data.display().to_string()
+    ));
+    let plan = plan_graph(&graph, &registry_of("Num", Arc::new(ReadsBeside)), &[], &[]);
+    let (cache, out) = (ws.cache(), ws.out());
+    let run = || execute(&plan, &cache, Some(&out), 1);
+    assert_eq!(status(&run(), "n"), Status::Ran);
+    assert_eq!(status(&run(), "n"), Status::Cached);
 
     std::fs::write(data.join("data.txt"), "22").unwrap();
     let why = exec::explain(&plan, &Store::open(&cache).unwrap(), "n").unwrap();
@@ -72,9 +53,9 @@ fn replacing_a_declared_file_reruns_the_node() {
         why,
         "n: will run — a file it reads changed (an image, a script, a folder beside its inputs)"
     );
-    assert_eq!(common::status(&run(), "n"), Status::Ran);
+    assert_eq!(status(&run(), "n"), Status::Ran);
     assert_eq!(
-        std::fs::read_to_string(ws.path().join("out/n/out/value.txt")).unwrap(),
+        std::fs::read_to_string(out.join("n/out/value.txt")).unwrap(),
         "22"
     );
 }

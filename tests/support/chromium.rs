@@ -322,3 +322,29 @@ impl Page<'_> {
             .collect()
     }
 }
+
+/// A JSON array of `N` numbers, as a page's script returns a point or a rectangle.
+pub fn numbers<const N: usize>(v: &Value) -> [f64; N] {
+    let values: Vec<f64> = v
+        .as_array()
+        .unwrap_or_else(|| panic!("not an array: {v}"))
+        .iter()
+        .map(|x| x.as_f64().unwrap_or_else(|| panic!("not a number: {x}")))
+        .collect();
+    values
+        .try_into()
+        .unwrap_or_else(|v: Vec<f64>| panic!("{} numbers, not {N}", v.len()))
+}
+
+/// A JSON array of strings, as a page's script returns a list of names.
+pub fn strings(v: &Value) -> Vec<String> {
+    v.as_array()
+        .unwrap_or_else(|| panic!("not an array: {v}"))
+        .iter()
+        .map(|x| {
+            x.as_str()
+                .unwrap_or_else(|| panic!("not a string: {x}"))
+                .to_string()
+        })
+        .collect()
+}

@@ -3,9 +3,10 @@
 //! `faulty_item` jobs of the fault-injection plugin, and that plugin's attempt log (the
 //! record of what ran, as which Slurm job, in which process).
 
+use super::objectsplat::report_node;
 use super::plugin_build::{build_plugin, scratch_root};
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 /// Whether the local cluster answers. Under `CI=true` a missing cluster fails the test
@@ -63,22 +64,42 @@ pub fn fan_out_graph(item_params: &str, item_fields: &str, extra: &str) -> Strin
     )
 }
 
-/// `objectsplat ARGS` in `cwd`.
-pub fn objectsplat(args: &[&str], cwd: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_objectsplat"))
-        .args(args)
-        .current_dir(cwd)
-        .output()
-        .expect("objectsplat runs")
+/// A fresh [`test_dir`] holding [`fan_out_graph`] as `g.ron`, its items logging their
+/// attempts to the returned log (`item_params` come before the log's own param).
+pub fn fan_out_dir(
+    name: &str,
+    item_params: &str,
+    item_fields: &str,
+    extra: &str,
+) -> (PathBuf, PathBuf) {
+    let dir = test_dir(name);
+    let log = dir.join("attempts.log");
+    let params = format!(r#"{item_params}log: "{}""#, log.display());
+    std::fs::write(
+        dir.join("g.ron"),
+        fan_out_graph(&params, item_fields, extra),
+    )
+    .unwrap();
+    (dir, log)
 }
 
-/// Panics with the run's stderr unless it succeeded.
-pub fn assert_ok(out: &Output, what: &str) {
-    assert!(
-        out.status.success(),
-        "{what} failed:\n{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+/// `run g.ron` on Slurm with a `--json` report in `run.json`, polling every second, its
+/// jobs named after `job_name`.
+pub fn slurm_run_args(job_name: &str) -> Vec<&str> {
+    vec![
+        "run",
+        "g.ron",
+        "--cache",
+        "cache",
+        "--json",
+        "run.json",
+        "--executor",
+        "slurm",
+        "--slurm-poll",
+        "1",
+        "--slurm-job-name",
+        job_name,
+    ]
 }
 
 /// One line of the plugin's attempt log.
@@ -153,17 +174,8 @@ pub fn queued_jobs(prefix: &str) -> Vec<String> {
 
 /// Items of `node` in a `--json` report.
 pub fn items(report: &serde_json::Value, node: &str) -> Vec<serde_json::Value> {
-    report["nodes"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .find(|n| n["id"] == node)
-        .unwrap_or_else(|| panic!("no node {node} in the report"))["items"]
+    report_node(report, node)["items"]
         .as_array()
         .unwrap()
         .clone()
-}
-
-pub fn read_json(path: &Path) -> serde_json::Value {
-    serde_json::from_slice(&std::fs::read(path).unwrap()).unwrap()
 }

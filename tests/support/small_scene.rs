@@ -49,6 +49,16 @@ fn coloured(vertices: Vec<[f32; 3]>, faces: Vec<[u32; 3]>, rgb: [f32; 3]) -> Mod
     m
 }
 
+/// The six sides of a box, two triangles each (corner k has bits x, y, z).
+const CUBOID_SIDES: [[[u32; 3]; 2]; 6] = [
+    [[0, 2, 1], [1, 2, 3]],
+    [[4, 5, 6], [5, 7, 6]],
+    [[0, 1, 4], [1, 5, 4]],
+    [[2, 6, 3], [3, 6, 7]],
+    [[0, 4, 2], [2, 4, 6]],
+    [[1, 3, 5], [3, 7, 5]],
+];
+
 /// An axis-aligned box as 8 corners and 12 triangles.
 pub fn cuboid(lo: [f32; 3], hi: [f32; 3], rgb: [f32; 3]) -> Model<f32> {
     let vertices = (0..8u32)
@@ -60,20 +70,7 @@ pub fn cuboid(lo: [f32; 3], hi: [f32; 3], rgb: [f32; 3]) -> Model<f32> {
             ]
         })
         .collect();
-    let faces = vec![
-        [0, 2, 1],
-        [1, 2, 3],
-        [4, 5, 6],
-        [5, 7, 6],
-        [0, 1, 4],
-        [1, 5, 4],
-        [2, 6, 3],
-        [3, 6, 7],
-        [0, 4, 2],
-        [2, 4, 6],
-        [1, 3, 5],
-        [3, 7, 5],
-    ];
+    let faces = CUBOID_SIDES.iter().flatten().copied().collect();
     coloured(vertices, faces, rgb)
 }
 

@@ -1,12 +1,14 @@
 //! Test doubles: tiny numeric nodes whose runs are cheap and whose outputs are
-//! predictable, so tests can assert exactly which jobs executed (the "execution log").
+//! predictable, so tests can assert exactly which jobs executed (the "execution log");
+//! and the ways the tests run graphs of them (or of a kind of their own): in process, or
+//! in a child process that can be killed.
 
 #![allow(dead_code)]
 
 use anyhow::{Result, bail};
 use objectsplat_runtime::exec::{self, RunOptions, Silent};
 use objectsplat_runtime::graph::GraphSource;
-use objectsplat_runtime::plan::{self, Override};
+use objectsplat_runtime::plan::{self, Override, Plan};
 use objectsplat_runtime::report::{RunReport, Status};
 use objectsplat_runtime::store::Store;
 use objectsplat_runtime::{
@@ -14,6 +16,7 @@ use objectsplat_runtime::{
     Registry, TypeRef,
 };
 use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 
 fn read_num(dir: &Path) -> Result<i64> {
@@ -304,6 +307,13 @@ impl Workspace {
         std::fs::write(&p, text).unwrap();
         p
     }
+    /// Writes `text` to `data/<name>` beside the graph; returns the `data` folder.
+    pub fn data_file(&self, name: &str, text: &str) -> PathBuf {
+        let data = self.dir.path().join("data");
+        std::fs::create_dir_all(&data).unwrap();
+        std::fs::write(data.join(name), text).unwrap();
+        data
+    }
     pub fn cache(&self) -> PathBuf {
         self.dir.path().join("cache")
     }
@@ -331,13 +341,23 @@ pub fn run_graph(
     sets: &[&str],
     jobs: usize,
 ) -> RunReport {
-    let src = GraphSource::read(graph).unwrap();
+    execute(&plan_graph(graph, &registry(), sets, &[]), cache, out, jobs)
+}
+
+/// Plans the graph file at `graph` with `reg`'s kinds, `sets` (as `--set` would) and
+/// `targets` (none: the graph's own), panicking with the diagnostics of a bad graph.
+pub fn plan_graph(graph: &Path, reg: &Registry, sets: &[&str], targets: &[&str]) -> Plan {
+    let src = GraphSource::read(graph).unwrap_or_else(|d| panic!("{d}"));
     let overrides: Vec<Override> = sets.iter().map(|s| Override::parse(s).unwrap()).collect();
-    let plan =
-        plan::build_plan(&src, &registry(), &overrides, &[]).unwrap_or_else(|d| panic!("{d}"));
+    let targets: Vec<String> = targets.iter().map(|t| t.to_string()).collect();
+    plan::build_plan(&src, reg, &overrides, &targets).unwrap_or_else(|d| panic!("{d}"))
+}
+
+/// Runs `plan` on `jobs` workers with the cache at `cache`, materializing into `out`.
+pub fn execute(plan: &Plan, cache: &Path, out: Option<&Path>, jobs: usize) -> RunReport {
     let store = Store::open(cache).unwrap();
     exec::run(
-        &plan,
+        plan,
         &store,
         &RunOptions {
             jobs,
@@ -346,6 +366,72 @@ pub fn run_graph(
         },
     )
     .unwrap()
+}
+
+/// A node kind of one test's own: its spec, and the function that does a run.
+pub fn fn_kind(spec: NodeSpec, run: fn(&mut Context) -> Result<Outcome>) -> Arc<dyn Node> {
+    Arc::new(FnKind { spec, run })
+}
+
+struct FnKind {
+    spec: NodeSpec,
+    run: fn(&mut Context) -> Result<Outcome>,
+}
+
+impl Node for FnKind {
+    fn spec(&self) -> NodeSpec {
+        self.spec.clone()
+    }
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        (self.run)(ctx)
+    }
+}
+
+/// A registry of the one `kind` and the `ty` it reads or writes.
+pub fn registry_of(ty: &str, kind: Arc<dyn Node>) -> Registry {
+    let mut reg = Registry::new();
+    reg.add_type(ty, "files of the test's own kind");
+    reg.add_node(kind).unwrap();
+    reg
+}
+
+/// The body of a test binary's child process, started by [`spawn_child`]: runs the graph
+/// named by its environment on one worker (where that names none, it is not a child:
+/// nothing to do).
+pub fn run_child_graph_from_env() {
+    let (Ok(graph), Ok(cache)) = (std::env::var("CHILD_GRAPH"), std::env::var("CHILD_CACHE"))
+    else {
+        return;
+    };
+    let out = std::env::var("CHILD_OUT").ok();
+    let r = run_graph(
+        Path::new(&graph),
+        Path::new(&cache),
+        out.as_deref().map(Path::new),
+        &[],
+        1,
+    );
+    assert!(r.ok, "{}", r.render_table());
+}
+
+/// This test binary again, running only its ignored test `child_test` (whose body is
+/// [`run_child_graph_from_env`]) on `graph` with the cache at `cache` and outputs in `out`.
+pub fn spawn_child(
+    child_test: &str,
+    graph: &Path,
+    cache: &Path,
+    out: &Path,
+    stderr: Stdio,
+) -> Child {
+    Command::new(std::env::current_exe().unwrap())
+        .args(["--ignored", "--exact", child_test, "--nocapture"])
+        .env("CHILD_GRAPH", graph)
+        .env("CHILD_CACHE", cache)
+        .env("CHILD_OUT", out)
+        .stdout(Stdio::null())
+        .stderr(stderr)
+        .spawn()
+        .unwrap()
 }
 
 /// The execution log: every node or item that actually ran, sorted.
@@ -373,4 +459,13 @@ pub fn status(report: &RunReport, id: &str) -> Status {
         .node(id)
         .unwrap_or_else(|| panic!("no node {id} in report"))
         .status
+}
+
+/// Why node `id` failed or was skipped, if the report says.
+pub fn reason<'a>(report: &'a RunReport, id: &str) -> Option<&'a str> {
+    report
+        .node(id)
+        .unwrap_or_else(|| panic!("no node {id} in report"))
+        .reason
+        .as_deref()
 }
