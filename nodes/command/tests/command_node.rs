@@ -21,6 +21,24 @@ fn argv(args: &[&str]) -> String {
     )
 }
 
+/// Params for a program without inputs that writes the `produces` ports (RON map text).
+fn producing(produces: &str, args: &[&str]) -> String {
+    format!("(argv: {}, produces: {produces})", argv(args))
+}
+
+/// The full error chain of a run without inputs that must fail.
+fn failure(dir: &Path, params: &str) -> String {
+    let e = run_node(&CommandNode, &[], params, dir, None)
+        .err()
+        .unwrap();
+    format!("{e:#}")
+}
+
+/// Asserts that the message `e` contains every one of `parts`.
+fn assert_mentions(e: &str, parts: &[&str]) {
+    assert!(parts.iter().all(|part| e.contains(part)), "{e}");
+}
+
 fn input(dir: &Path, text: &str) -> std::path::PathBuf {
     let d = dir.join("input");
     std::fs::create_dir_all(&d).unwrap();
@@ -73,34 +91,19 @@ fn declared_ports_placeholders_and_options_reach_the_program() {
 #[test]
 fn a_failing_program_fails_the_node_with_its_stderr() {
     let dir = tempfile::tempdir().unwrap();
-    let params = format!(
-        "(argv: {}, produces: {{\"out\": \"File\"}})",
-        argv(&[
-            "python3",
-            "-c",
-            "import sys; print('CUDA out of memory', file=sys.stderr); sys.exit(3)"
-        ])
+    let script = "import sys; print('CUDA out of memory', file=sys.stderr); sys.exit(3)";
+    let params = producing("{\"out\": \"File\"}", &["python3", "-c", script]);
+    let e = failure(dir.path(), &params);
+    assert_mentions(
+        &e,
+        &[
+            "command \"python3\" failed (exit status: 3)",
+            "CUDA out of memory",
+        ],
     );
-    let e = run_node(&CommandNode, &[], &params, dir.path(), None)
-        .err()
-        .unwrap();
-    let e = format!("{e:#}");
-    assert!(
-        e.contains("command \"python3\" failed (exit status: 3)")
-            && e.contains("CUDA out of memory"),
-        "{e}"
-    );
-    let params = format!(
-        "(argv: {}, produces: {{\"out\": \"File\"}})",
-        argv(&["no-such-program-anywhere"])
-    );
-    let e = run_node(&CommandNode, &[], &params, dir.path(), None)
-        .err()
-        .unwrap();
-    assert!(
-        format!("{e:#}").contains("cannot start command \"no-such-program-anywhere\""),
-        "{e:#}"
-    );
+    let params = producing("{\"out\": \"File\"}", &["no-such-program-anywhere"]);
+    let e = failure(dir.path(), &params);
+    assert_mentions(&e, &["cannot start command \"no-such-program-anywhere\""]);
 }
 
 #[test]
@@ -112,47 +115,32 @@ fn a_program_past_its_timeout_is_killed() {
         argv(&["sh", "-c", "echo loading weights >&2; sleep 30"])
     );
     let t0 = Instant::now();
-    let e = run_node(&CommandNode, &[], &params, dir.path(), None)
-        .err()
-        .unwrap();
-    let e = format!("{e:#}");
+    let e = failure(dir.path(), &params);
     assert!(t0.elapsed().as_secs_f64() < 10.0);
-    assert!(
-        e.contains("command \"sh\" did not finish within 1.0 s and was killed")
-            && e.contains("loading weights"),
-        "{e}"
+    assert_mentions(
+        &e,
+        &[
+            "command \"sh\" did not finish within 1.0 s and was killed",
+            "loading weights",
+        ],
     );
 }
 
 #[test]
 fn outputs_must_be_written_in_their_encoding() {
     let dir = tempfile::tempdir().unwrap();
-    let params = format!(
-        "(argv: {}, produces: {{\"masks\": \"File\"}})",
-        argv(&["python3", "-c", "pass"])
+    let params = producing("{\"masks\": \"File\"}", &["python3", "-c", "pass"]);
+    let e = failure(dir.path(), &params);
+    assert!(e.contains("wrote nothing into output `masks`"), "{e}");
+    let script = "import sys; open(sys.argv[1] + '/cameras.json', 'w').write('[]')";
+    let params = producing(
+        "{\"frames\": \"Frames\"}",
+        &["python3", "-c", script, "{out:frames}"],
     );
-    let e = run_node(&CommandNode, &[], &params, dir.path(), None)
-        .err()
-        .unwrap();
+    let e = failure(dir.path(), &params);
     assert!(
-        format!("{e:#}").contains("wrote nothing into output `masks`"),
-        "{e:#}"
-    );
-    let params = format!(
-        "(argv: {}, produces: {{\"frames\": \"Frames\"}})",
-        argv(&[
-            "python3",
-            "-c",
-            "import sys; open(sys.argv[1] + '/cameras.json', 'w').write('[]')",
-            "{out:frames}"
-        ])
-    );
-    let e = run_node(&CommandNode, &[], &params, dir.path(), None)
-        .err()
-        .unwrap();
-    assert!(
-        format!("{e:#}").contains("wrote output `frames` (Frames) without frames.json"),
-        "{e:#}"
+        e.contains("wrote output `frames` (Frames) without frames.json"),
+        "{e}"
     );
 }
 
@@ -227,15 +215,15 @@ fn bad_declarations_are_refused_naming_the_param() {
 fn braces_that_are_no_placeholder_reach_the_program_verbatim() {
     let dir = tempfile::tempdir().unwrap();
     let literal = "{\"json\": [1, 2]} {unknown} {";
-    let params = format!(
-        "(argv: {}, produces: {{\"o\": \"File\"}})",
-        argv(&[
+    let params = producing(
+        "{\"o\": \"File\"}",
+        &[
             "python3",
             "-c",
             "import sys; open(sys.argv[2] + '/a.txt', 'w').write(sys.argv[1])",
             literal,
-            "{out:o}"
-        ])
+            "{out:o}",
+        ],
     );
     let run = run_node(&CommandNode, &[], &params, dir.path(), None).unwrap();
     assert_eq!(

@@ -15,10 +15,14 @@ mod common;
 
 use common::*;
 use objectsplat_core::Camera;
-use objectsplat_raster::loss::{DEFAULT_LAMBDA_DSSIM, Dims, photometric};
+use objectsplat_raster::loss::{DEFAULT_LAMBDA_DSSIM, Dims, LossGrad, photometric};
 use objectsplat_raster::{
     CpuBackend, Model, ModelGrads, OutputGrads, RenderBackend, RenderOutput, RenderSettings,
+    SavedForward,
 };
+
+/// The f64 render the objectives score.
+type Output = RenderOutput<f64>;
 
 #[derive(Clone, Copy, Debug)]
 enum Param {
@@ -64,13 +68,8 @@ fn analytic(g: &ModelGrads<f64>, p: Param) -> f64 {
 
 /// A scalar objective of the render and its gradient with respect to the outputs.
 trait Objective {
-    fn value(&self, out: &RenderOutput<f64>) -> f64;
-    fn backward(
-        &self,
-        problem: &Problem,
-        out: &RenderOutput<f64>,
-        saved: &objectsplat_raster::SavedForward,
-    ) -> ModelGrads<f64>;
+    fn value(&self, out: &Output) -> f64;
+    fn backward(&self, problem: &Problem, out: &Output, saved: &SavedForward) -> ModelGrads<f64>;
 }
 
 /// `Σ r·colour + Σ r·alpha + Σ r·depth + Σ r·median` with fixed random `r`:
@@ -100,18 +99,13 @@ fn dot(a: &[f64], b: &[f64]) -> f64 {
 }
 
 impl Objective for LinearProbe {
-    fn value(&self, out: &RenderOutput<f64>) -> f64 {
+    fn value(&self, out: &Output) -> f64 {
         dot(&self.color, &out.color)
             + dot(&self.alpha, &out.alpha)
             + dot(&self.depth, &out.depth)
             + dot(&self.median, &out.median_depth)
     }
-    fn backward(
-        &self,
-        problem: &Problem,
-        _: &RenderOutput<f64>,
-        saved: &objectsplat_raster::SavedForward,
-    ) -> ModelGrads<f64> {
+    fn backward(&self, problem: &Problem, _: &Output, saved: &SavedForward) -> ModelGrads<f64> {
         let grads = OutputGrads {
             color: &self.color,
             alpha: Some(&self.alpha),
@@ -131,32 +125,25 @@ struct Photometric {
     dims: Dims,
 }
 
-impl Objective for Photometric {
-    fn value(&self, out: &RenderOutput<f64>) -> f64 {
+impl Photometric {
+    fn loss(&self, color: &[f64]) -> LossGrad<f64> {
         photometric(
             self.dims,
-            &out.color,
+            color,
             &self.target,
             Some(&self.weights),
             DEFAULT_LAMBDA_DSSIM,
         )
         .expect("valid")
-        .value
     }
-    fn backward(
-        &self,
-        problem: &Problem,
-        out: &RenderOutput<f64>,
-        saved: &objectsplat_raster::SavedForward,
-    ) -> ModelGrads<f64> {
-        let l = photometric(
-            self.dims,
-            &out.color,
-            &self.target,
-            Some(&self.weights),
-            DEFAULT_LAMBDA_DSSIM,
-        )
-        .expect("valid");
+}
+
+impl Objective for Photometric {
+    fn value(&self, out: &Output) -> f64 {
+        self.loss(&out.color).value
+    }
+    fn backward(&self, problem: &Problem, out: &Output, saved: &SavedForward) -> ModelGrads<f64> {
+        let l = self.loss(&out.color);
         CpuBackend::new(2)
             .backward(&problem.model, saved, &OutputGrads::color_only(&l.grad))
             .expect("valid gradients")

@@ -27,19 +27,7 @@ fn stress_scene(seed: u64, faces: usize, scale: f64) -> (Model<f64>, Camera, Vec
     let mut model = Model::<f64>::empty();
     model.sh_degree = 3;
     for _ in 0..faces {
-        let c = [
-            rng.uniform(-1.0, 1.0),
-            rng.uniform(-1.0, 1.0),
-            rng.uniform(-1.0, 1.0),
-        ];
-        let r = rng.uniform(0.01, 0.8);
-        let mut corners = [0, 1, 2].map(|_| {
-            [
-                c[0] + rng.uniform(-r, r),
-                c[1] + rng.uniform(-r, r),
-                c[2] + rng.uniform(-r, r),
-            ]
-        });
+        let mut corners = random_corners(&mut rng, [1.0; 3], (0.01, 0.8));
         match rng.next_u64() % 6 {
             // Zero area: a repeated vertex.
             0 => corners[2] = corners[0],

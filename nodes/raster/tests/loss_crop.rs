@@ -4,16 +4,16 @@
 //! vanishes outside. Also: the row passes give bit-identical results for any
 //! thread count, and asking for no gradient changes nothing but the gradient.
 
+mod common;
+
+use common::Lcg;
 use objectsplat_raster::loss::{CROP_MARGIN, Dims, Normalization, PhotometricLoss};
 
-struct Rng(u64);
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+fn rgb(width: usize, height: usize) -> Dims {
+    Dims {
+        width,
+        height,
+        channels: 3,
     }
 }
 
@@ -26,7 +26,7 @@ fn scene(
     rect: [usize; 4],
     b: [f32; 3],
 ) -> (Vec<f32>, Vec<f32>, Vec<f32>) {
-    let mut r = Rng(seed);
+    let mut r = Lcg(seed);
     let mut x = vec![0.0f32; w * h * 3];
     let mut y = vec![0.0f32; w * h * 3];
     let mut wt = vec![1.0f32; w * h];
@@ -35,8 +35,8 @@ fn scene(
             let p = py * w + px;
             let inside = px >= rect[0] && px < rect[2] && py >= rect[1] && py < rect[3];
             for c in 0..3 {
-                x[3 * p + c] = if inside { r.uniform() as f32 } else { b[c] };
-                y[3 * p + c] = if inside { r.uniform() as f32 } else { b[c] };
+                x[3 * p + c] = if inside { r.unit() as f32 } else { b[c] };
+                y[3 * p + c] = if inside { r.unit() as f32 } else { b[c] };
             }
             // Some unsupervised pixels, inside and outside.
             if (px * 7 + py * 3) % 11 == 0 {
@@ -79,11 +79,7 @@ fn a_crop_gives_the_whole_images_loss_and_gradient() {
         let mut full = PhotometricLoss::<f32>::new();
         let vf = full
             .evaluate(
-                Dims {
-                    width: w,
-                    height: h,
-                    channels: 3,
-                },
+                rgb(w, h),
                 &x,
                 &y,
                 Some(&wt),
@@ -98,11 +94,7 @@ fn a_crop_gives_the_whole_images_loss_and_gradient() {
             total_weight: total,
             outside_weight: total - inside,
         };
-        let cdims = Dims {
-            width: c[2] - c[0],
-            height: c[3] - c[1],
-            channels: 3,
-        };
+        let cdims = rgb(c[2] - c[0], c[3] - c[1]);
         let vc = part
             .evaluate(cdims, &cx, &cy, Some(&cw), norm, 0.2, true, 2)
             .unwrap();
@@ -140,11 +132,7 @@ fn a_crop_gives_the_whole_images_loss_and_gradient() {
 fn thread_count_and_gradient_flag_change_nothing_else() {
     let (w, h) = (64, 45);
     let (x, y, wt) = scene(9, w, h, [5, 7, 60, 40], [0.5, 0.5, 0.5]);
-    let dims = Dims {
-        width: w,
-        height: h,
-        channels: 3,
-    };
+    let dims = rgb(w, h);
     let norm = Normalization::whole(wt.iter().map(|&v| v as f64).sum());
     let mut one = PhotometricLoss::<f32>::new();
     let v1 = one
@@ -169,11 +157,7 @@ fn thread_count_and_gradient_flag_change_nothing_else() {
     let mut empty = PhotometricLoss::<f32>::new();
     let v = empty
         .evaluate(
-            Dims {
-                width: 0,
-                height: 0,
-                channels: 3,
-            },
+            rgb(0, 0),
             &[],
             &[],
             Some(&[]),

@@ -2,26 +2,18 @@
 //! rendered image agree with f64 central differences, and per-pixel weights
 //! behave as documented (weight 0 = pixel not supervised).
 
+mod common;
+
+use common::Lcg;
 use objectsplat_raster::loss::{Dims, LossGrad, l1, photometric, ssim};
 
-struct Rng(u64);
-impl Rng {
-    fn uniform(&mut self) -> f64 {
-        self.0 = self
-            .0
-            .wrapping_mul(6364136223846793005)
-            .wrapping_add(1442695040888963407);
-        (self.0 >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
-
 fn images(seed: u64, dims: Dims) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
-    let mut r = Rng(seed);
+    let mut r = Lcg(seed);
     let n = dims.width * dims.height;
-    let x = (0..n * dims.channels).map(|_| r.uniform()).collect();
-    let y = (0..n * dims.channels).map(|_| r.uniform()).collect();
+    let x = (0..n * dims.channels).map(|_| r.unit()).collect();
+    let y = (0..n * dims.channels).map(|_| r.unit()).collect();
     let w = (0..n)
-        .map(|i| if i % 5 == 0 { 0.0 } else { r.uniform() })
+        .map(|i| if i % 5 == 0 { 0.0 } else { r.unit() })
         .collect();
     (x, y, w)
 }
@@ -29,11 +21,7 @@ fn images(seed: u64, dims: Dims) -> (Vec<f64>, Vec<f64>, Vec<f64>) {
 type LossFn = fn(Dims, &[f64], &[f64], Option<&[f64]>) -> anyhow::Result<LossGrad<f64>>;
 
 fn check(name: &str, f: LossFn, weighted: bool) {
-    let dims = Dims {
-        width: 15,
-        height: 12,
-        channels: 3,
-    };
+    let dims = Dims::rgb(15, 12);
     let (mut x, y, w) = images(3, dims);
     let weights = weighted.then_some(w.as_slice());
     let g = f(dims, &x, &y, weights).unwrap().grad;
@@ -85,11 +73,7 @@ fn photometric_gradient_matches_finite_differences() {
 
 #[test]
 fn weighted_l1_is_the_weighted_mean_of_absolute_errors() {
-    let dims = Dims {
-        width: 7,
-        height: 5,
-        channels: 3,
-    };
+    let dims = Dims::rgb(7, 5);
     let (x, y, w) = images(9, dims);
     let got = l1(dims, &x, &y, Some(&w)).unwrap().value;
     let mut num = 0.0;
@@ -107,11 +91,7 @@ fn weighted_l1_is_the_weighted_mean_of_absolute_errors() {
 
 #[test]
 fn all_zero_weights_give_zero_loss_and_gradient() {
-    let dims = Dims {
-        width: 6,
-        height: 4,
-        channels: 3,
-    };
+    let dims = Dims::rgb(6, 4);
     let (x, y, _) = images(1, dims);
     let zeros = vec![0.0; 24];
     let l = photometric(dims, &x, &y, Some(&zeros), 0.2).unwrap();
@@ -121,11 +101,7 @@ fn all_zero_weights_give_zero_loss_and_gradient() {
 
 #[test]
 fn invalid_loss_inputs_are_rejected_with_a_message() {
-    let dims = Dims {
-        width: 6,
-        height: 4,
-        channels: 3,
-    };
+    let dims = Dims::rgb(6, 4);
     let (mut x, y, mut w) = images(1, dims);
     w[3] = -1.0;
     let e = l1(dims, &x, &y, Some(&w)).unwrap_err().to_string();

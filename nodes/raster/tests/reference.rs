@@ -257,19 +257,7 @@ fn random_scene(seed: u64, count: usize) -> (Model<f64>, Camera, Vec<f64>) {
     let camera = orbit_camera(56, 44, 48.0, DVec3::new(0.2, 0.3, -3.2));
     let mut model = Model::<f64>::empty();
     for _ in 0..count {
-        let c = [
-            rng.uniform(-0.9, 0.9),
-            rng.uniform(-0.8, 0.8),
-            rng.uniform(-0.6, 0.6),
-        ];
-        let r = rng.uniform(0.3, 0.8);
-        let corners = [0, 1, 2].map(|_| {
-            [
-                c[0] + rng.uniform(-r, r),
-                c[1] + rng.uniform(-r, r),
-                c[2] + rng.uniform(-r, r),
-            ]
-        });
+        let corners = random_corners(&mut rng, [0.9, 0.8, 0.6], (0.3, 0.8));
         let logits = [0, 1, 2].map(|_| rng.uniform(-1.0, 3.0));
         push_triangle(&mut model, &mut rng, corners, logits);
     }

@@ -14,6 +14,16 @@ struct Fixture {
     ssim_weighted: f64,
 }
 
+impl Fixture {
+    fn dims(&self) -> Dims {
+        Dims {
+            width: self.width,
+            height: self.height,
+            channels: 3,
+        }
+    }
+}
+
 fn fixture() -> Fixture {
     let path = concat!(
         env!("CARGO_MANIFEST_DIR"),
@@ -26,11 +36,7 @@ fn fixture() -> Fixture {
 #[test]
 fn ssim_matches_scipy_reference() {
     let f = fixture();
-    let dims = Dims {
-        width: f.width,
-        height: f.height,
-        channels: 3,
-    };
+    let dims = f.dims();
     let plain = ssim(dims, &f.x, &f.y, None).unwrap().value;
     assert!(
         (plain - f.ssim_mean).abs() < 1e-12,
@@ -53,11 +59,7 @@ fn ssim_matches_scipy_reference() {
 #[test]
 fn ssim_of_an_image_with_itself_is_one() {
     let f = fixture();
-    let dims = Dims {
-        width: f.width,
-        height: f.height,
-        channels: 3,
-    };
+    let dims = f.dims();
     let s = ssim(dims, &f.x, &f.x, None).unwrap();
     assert!((s.value - 1.0).abs() < 1e-12);
     assert!(

@@ -8,10 +8,12 @@
 //! and our mask of the first camera (`mask_k<k>.png`, no pixel threshold), for
 //! `embree_peer.py` to time and cross-check against Embree ray casting.
 
-use anyhow::{Context, Result};
+mod common;
+
+use anyhow::Result;
 use objectsplat_core::{Frame, Frames, Mesh, Split};
 use objectsplat_synth::gt_masks::{face_mask_values, frame_mask};
-use objectsplat_synth::{GtMaskParams, RasterOptions, SyntheticParams, scene};
+use objectsplat_synth::{GtMaskParams, SyntheticParams, scene};
 use std::time::Instant;
 
 /// Splits every triangle into k² by a barycentric grid (object ids carried over).
@@ -66,20 +68,9 @@ fn cpu_seconds() -> Option<f64> {
 }
 
 fn main() -> Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let threads: usize = args
-        .first()
-        .map(|s| s.parse())
-        .transpose()
-        .context("THREADS")?
-        .unwrap_or(2);
-    let frames: usize = args
-        .get(1)
-        .map(|s| s.parse())
-        .transpose()
-        .context("FRAMES")?
-        .unwrap_or(6);
-    let export = args.get(2).map(std::path::PathBuf::from);
+    let threads: usize = common::arg_or(0, "THREADS", 2)?;
+    let frames: usize = common::arg_or(1, "FRAMES", 6)?;
+    let export = std::env::args().nth(3).map(std::path::PathBuf::from);
     let base = scene::generate(&SyntheticParams {
         views: frames.max(2),
         points: 10,
@@ -92,13 +83,7 @@ fn main() -> Result<()> {
         .iter()
         .map(|c| c.scaled(1752, 1168))
         .collect();
-    let params = GtMaskParams {
-        raster: RasterOptions {
-            near: 0.01,
-            threads,
-        },
-        ..GtMaskParams::default()
-    };
+    let params = common::mask_params(threads);
     println!(
         "threads {threads}, {} frames of 1752×1168 per mesh",
         cameras.len()

@@ -4,28 +4,19 @@
 //! threshold included) and the example checks that they are identical.
 //! Usage: cargo run --release -p objectsplat-synth --example bench_gt_masks_wgpu -- [THREADS] [FRAMES] [auto|gpu|lavapipe]
 
-use anyhow::{Context, Result, bail};
+mod common;
+
+use anyhow::{Result, bail};
 use objectsplat_synth::gpu_raster::IdRasterizer;
 use objectsplat_synth::gt_masks::{drop_small_objects, face_mask_values, frame_mask};
-use objectsplat_synth::{GtMaskParams, RasterOptions, SyntheticParams, scene};
+use objectsplat_synth::{SyntheticParams, scene};
 use objectsplat_wgpu::device::{AdapterChoice, GpuContext};
 use std::time::Instant;
 
 fn main() -> Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
-    let threads: usize = args
-        .first()
-        .map(|s| s.parse())
-        .transpose()
-        .context("THREADS")?
-        .unwrap_or(2);
-    let frames: usize = args
-        .get(1)
-        .map(|s| s.parse())
-        .transpose()
-        .context("FRAMES")?
-        .unwrap_or(24);
-    let choice = match args.get(2).map(String::as_str).unwrap_or("auto") {
+    let threads: usize = common::arg_or(0, "THREADS", 2)?;
+    let frames: usize = common::arg_or(1, "FRAMES", 24)?;
+    let choice = match std::env::args().nth(3).as_deref().unwrap_or("auto") {
         "auto" => AdapterChoice::Auto,
         "gpu" => AdapterChoice::Gpu,
         "lavapipe" => AdapterChoice::Lavapipe,
@@ -37,13 +28,7 @@ fn main() -> Result<()> {
         threads,
         ..Default::default()
     })?;
-    let params = GtMaskParams {
-        raster: RasterOptions {
-            near: 0.01,
-            threads,
-        },
-        ..GtMaskParams::default()
-    };
+    let params = common::mask_params(threads);
     let values = face_mask_values(&scene.mesh, &scene.labels, &params)?;
 
     let start = Instant::now();

@@ -11,7 +11,7 @@ use objectsplat_synth::raster::RasterOptions;
 use objectsplat_synth::{
     GtMaskParams, PartitionParams, SyntheticParams, gt_masks, rasterize, scene,
 };
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 fn one_box() -> (
     objectsplat_core::Mesh,
@@ -30,6 +30,18 @@ fn one_box() -> (
     )
 }
 
+/// What `gt_masks` says when it refuses to mask `mesh` seen by `cam`.
+fn gt_masks_error(
+    mesh: &objectsplat_core::Mesh,
+    labels: &objectsplat_core::ObjectLabels,
+    cam: objectsplat_core::Camera,
+    params: &GtMaskParams,
+) -> String {
+    gt_masks(mesh, labels, &[cam], params)
+        .unwrap_err()
+        .to_string()
+}
+
 #[test]
 fn unknown_keep_label_is_named() {
     let (mesh, labels, cam) = one_box();
@@ -37,9 +49,7 @@ fn unknown_keep_label_is_named() {
         keep_labels: vec!["sofa".into()],
         ..Default::default()
     };
-    let err = gt_masks(&mesh, &labels, &[cam], &params)
-        .unwrap_err()
-        .to_string();
+    let err = gt_masks_error(&mesh, &labels, cam, &params);
     assert!(
         err.contains("\"sofa\"") && err.contains("\"chair\""),
         "{err}"
@@ -49,27 +59,14 @@ fn unknown_keep_label_is_named() {
 #[test]
 fn unlabelled_object_and_missing_annotation_are_refused() {
     let (mut mesh, _, cam) = one_box();
-    let err = gt_masks(
-        &mesh,
-        &labels(&[(4, "x")]),
-        &[cam],
-        &GtMaskParams::default(),
-    )
-    .unwrap_err()
-    .to_string();
+    let no_params = GtMaskParams::default();
+    let err = gt_masks_error(&mesh, &labels(&[(4, "x")]), cam, &no_params);
     assert!(
         err.contains("object_id 3") && err.contains("no label"),
         "{err}"
     );
     mesh.object_ids = None;
-    let err = gt_masks(
-        &mesh,
-        &labels(&[(3, "chair")]),
-        &[cam],
-        &GtMaskParams::default(),
-    )
-    .unwrap_err()
-    .to_string();
+    let err = gt_masks_error(&mesh, &labels(&[(3, "chair")]), cam, &no_params);
     assert!(err.contains("object_id"), "{err}");
 }
 
@@ -77,9 +74,7 @@ fn unlabelled_object_and_missing_annotation_are_refused() {
 fn broken_meshes_and_cameras_are_errors() {
     let (mut mesh, labels, mut cam) = one_box();
     mesh.positions[2][1] = f32::NAN;
-    let err = gt_masks(&mesh, &labels, &[cam], &GtMaskParams::default())
-        .unwrap_err()
-        .to_string();
+    let err = gt_masks_error(&mesh, &labels, cam, &GtMaskParams::default());
     assert!(
         err.contains("vertex 2") && err.contains("non-finite"),
         "{err}"
@@ -121,23 +116,39 @@ fn write_frames(dir: &Path, sizes: &[(u32, u32)]) {
     Frames::write_json(dir, &frames).unwrap();
 }
 
+/// Frames of the given sizes and a masks folder that knows one object but holds
+/// no mask yet, in a temporary folder that also takes partition's output.
+struct PartitionInputs {
+    tmp: tempfile::TempDir,
+    frames: PathBuf,
+    masks: PathBuf,
+}
+
+impl PartitionInputs {
+    fn write(sizes: &[(u32, u32)]) -> Self {
+        let tmp = tempfile::tempdir().unwrap();
+        let (frames, masks) = (tmp.path().join("frames"), tmp.path().join("masks"));
+        write_frames(&frames, sizes);
+        std::fs::create_dir_all(&masks).unwrap();
+        write_objects(&masks, &labels(&[(1, "cup")])).unwrap();
+        PartitionInputs { tmp, frames, masks }
+    }
+
+    /// What partition says when it refuses these folders.
+    fn partition_error(&self) -> String {
+        let out = self.tmp.path().join("out");
+        partition_folders(&self.frames, &self.masks, &out, &PartitionParams::default())
+            .unwrap_err()
+            .to_string()
+    }
+}
+
 #[test]
 fn partition_names_a_mask_of_the_wrong_size() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (frames, masks) = (tmp.path().join("frames"), tmp.path().join("masks"));
-    write_frames(&frames, &[(8, 6), (8, 6)]);
-    std::fs::create_dir_all(&masks).unwrap();
-    write_objects(&masks, &labels(&[(1, "cup")])).unwrap();
-    IdMap::new(8, 6).save(&masks.join("f0.png")).unwrap();
-    IdMap::new(7, 6).save(&masks.join("f1.png")).unwrap();
-    let err = partition_folders(
-        &frames,
-        &masks,
-        &tmp.path().join("out"),
-        &PartitionParams::default(),
-    )
-    .unwrap_err()
-    .to_string();
+    let inputs = PartitionInputs::write(&[(8, 6), (8, 6)]);
+    IdMap::new(8, 6).save(&inputs.masks.join("f0.png")).unwrap();
+    IdMap::new(7, 6).save(&inputs.masks.join("f1.png")).unwrap();
+    let err = inputs.partition_error();
     assert!(
         err.contains("f1.png") && err.contains("7×6") && err.contains("8×6"),
         "{err}"
@@ -146,30 +157,20 @@ fn partition_names_a_mask_of_the_wrong_size() {
 
 #[test]
 fn partition_names_a_missing_mask_and_an_unknown_id() {
-    let tmp = tempfile::tempdir().unwrap();
-    let (frames, masks) = (tmp.path().join("frames"), tmp.path().join("masks"));
-    write_frames(&frames, &[(8, 6)]);
-    std::fs::create_dir_all(&masks).unwrap();
-    write_objects(&masks, &labels(&[(1, "cup")])).unwrap();
-    let out = tmp.path().join("out");
-    let err = partition_folders(&frames, &masks, &out, &PartitionParams::default())
-        .unwrap_err()
-        .to_string();
+    let inputs = PartitionInputs::write(&[(8, 6)]);
+    let masks = &inputs.masks;
+    let err = inputs.partition_error();
     assert!(err.contains("f0.png") && err.contains("no mask"), "{err}");
     let mut m = IdMap::new(8, 6);
     m.data[5] = 9;
     m.save(&masks.join("f0.png")).unwrap();
-    let err = partition_folders(&frames, &masks, &out, &PartitionParams::default())
-        .unwrap_err()
-        .to_string();
+    let err = inputs.partition_error();
     assert!(
         err.contains("id 9") && err.contains(&masks.display().to_string()),
         "{err}"
     );
     std::fs::remove_file(masks.join(OBJECTS_JSON)).unwrap();
-    let err = partition_folders(&frames, &masks, &out, &PartitionParams::default())
-        .unwrap_err()
-        .to_string();
+    let err = inputs.partition_error();
     assert!(err.contains(OBJECTS_JSON), "{err}");
 }
 

@@ -23,16 +23,17 @@ use std::sync::Arc;
 const NEAR: f64 = 0.01;
 
 fn adapter_or_skip() -> Option<Arc<GpuContext>> {
-    match GpuContext::shared(AdapterChoice::Auto) {
-        Ok((ctx, _)) => Some(ctx),
-        Err(e) => {
-            if std::env::var("OBJECTSPLAT_REQUIRE_ADAPTER").as_deref() == Ok("1") {
-                panic!("OBJECTSPLAT_REQUIRE_ADAPTER=1 but no wgpu adapter: {e:#}");
-            }
-            println!("SKIPPED (no wgpu adapter): {e:#}");
-            None
-        }
-    }
+    let err = match GpuContext::shared(AdapterChoice::Auto) {
+        Ok((ctx, _)) => return Some(ctx),
+        Err(err) => err,
+    };
+    let required = std::env::var("OBJECTSPLAT_REQUIRE_ADAPTER").as_deref() == Ok("1");
+    assert!(
+        !required,
+        "OBJECTSPLAT_REQUIRE_ADAPTER=1 but no wgpu adapter: {err:#}"
+    );
+    println!("SKIPPED (no wgpu adapter): {err:#}");
+    None
 }
 
 /// Asserts the device's nearest faces equal the CPU's, pixel for pixel.
@@ -62,12 +63,11 @@ fn assert_same_faces(
             ((i % w) as u32, (i / w) as u32, cpu.face[i], device[i])
         })
         .collect();
+    let (count, total) = (differing.len(), device.len());
+    let first = &differing[..count.min(8)];
     assert!(
         differing.is_empty(),
-        "{what}: {} of {} pixels differ; first (x, y, cpu face, wgpu face): {:?}",
-        differing.len(),
-        device.len(),
-        &differing[..differing.len().min(8)]
+        "{what}: {count} of {total} pixels differ; first (x, y, cpu face, wgpu face): {first:?}"
     );
 }
 
@@ -114,13 +114,8 @@ fn synthetic_scene_matches_cpu_in_every_frame() {
     // Odd sizes leave partial tiles at the right and bottom.
     for (i, camera) in scene.cameras().iter().enumerate().step_by(5) {
         let camera = camera.scaled(333, 217);
-        assert_same_faces(
-            &gpu,
-            positions,
-            faces,
-            &camera,
-            &format!("frame {i} at 333×217"),
-        );
+        let what = format!("frame {i} at 333×217");
+        assert_same_faces(&gpu, positions, faces, &camera, &what);
     }
 }
 
@@ -151,13 +146,12 @@ fn shared_edges_and_vertices_on_pixel_centres_follow_the_same_fill_rule() {
         for j in 0..n {
             for i in 0..n {
                 let [a, b, c, d] = [at(i, j), at(i + 1, j), at(i + 1, j + 1), at(i, j + 1)];
-                if (i + j) % 2 == 0 {
-                    faces.push([a, b, c]);
-                    faces.push([a, d, c]);
+                // Alternate diagonals and, with them, windings.
+                faces.extend(if (i + j) % 2 == 0 {
+                    [[a, b, c], [a, d, c]]
                 } else {
-                    faces.push([a, b, d]);
-                    faces.push([b, c, d]);
-                }
+                    [[a, b, d], [b, c, d]]
+                });
             }
         }
         assert_same_faces(&gpu, &positions, &faces, &camera, &format!("grid {grid}"));
@@ -235,13 +229,8 @@ fn triangles_crossing_the_near_plane_and_the_guard_band_are_clipped_alike() {
                 rng.random_range(-1.0..1.0),
             );
         let camera = Camera::look_at(73, 55, 30.0, 30.0, eye, target, DVec3::Z);
-        assert_same_faces(
-            &gpu,
-            &positions,
-            &faces,
-            &camera,
-            &format!("room view {view}"),
-        );
+        let what = format!("room view {view}");
+        assert_same_faces(&gpu, &positions, &faces, &camera, &what);
     }
 }
 
@@ -334,34 +323,25 @@ fn gt_masks_node_writes_the_same_masks_on_both_backends() {
         return;
     };
     let tmp = tempfile::tempdir().unwrap();
-    let scene = run_node(
-        &SyntheticSceneNode,
-        &[],
-        "(views: 6, width: 96, height: 72, points: 50)",
-        &tmp.path().join("scene"),
-        None,
-    )
-    .unwrap();
+    let scene_params = "(views: 6, width: 96, height: 72, points: 50)";
+    let scene_dir = tmp.path().join("scene");
+    let scene = run_node(&SyntheticSceneNode, &[], scene_params, &scene_dir, None).unwrap();
     let inputs = [
         ("frames", scene.outputs["frames"].as_path()),
         ("mesh", scene.outputs["mesh"].as_path()),
     ];
-    let cpu = run_node(
-        &GtMasksNode,
-        &inputs,
-        "(backend: \"cpu\")",
-        &tmp.path().join("cpu"),
-        None,
-    )
-    .unwrap();
-    let wgpu = run_node(
-        &GtMasksNode,
-        &inputs,
-        "(backend: \"wgpu\")",
-        &tmp.path().join("wgpu"),
-        None,
-    )
-    .unwrap();
+    let masks_on = |backend: &str| {
+        let params = format!("(backend: \"{backend}\")");
+        run_node(
+            &GtMasksNode,
+            &inputs,
+            &params,
+            &tmp.path().join(backend),
+            None,
+        )
+        .unwrap()
+    };
+    let (cpu, wgpu) = (masks_on("cpu"), masks_on("wgpu"));
     let note = |run: &objectsplat_runtime::testing::NodeRun| {
         run.notes
             .iter()

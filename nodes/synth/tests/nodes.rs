@@ -5,10 +5,24 @@ use objectsplat_core::artifact::{COMPONENT_JSON, OBJECTS_JSON, POINTS_PLY};
 use objectsplat_core::component::{OTHER, OWN};
 use objectsplat_core::masks::read_objects;
 use objectsplat_core::{ComponentInfo, ComponentKind, Frames, IdMap, Image, read_mesh_artifact};
-use objectsplat_runtime::Registry;
-use objectsplat_runtime::testing::run_node;
+use objectsplat_runtime::testing::{NodeRun, run_node};
+use objectsplat_runtime::{Node, Registry};
 use objectsplat_synth::nodes::{GtMasksNode, PartitionNode, SyntheticSceneNode};
 use std::path::Path;
+
+/// A temporary folder that takes the outputs of each node run.
+struct Workspace(tempfile::TempDir);
+
+impl Workspace {
+    fn new() -> Self {
+        Workspace(tempfile::tempdir().unwrap())
+    }
+
+    /// Runs `node`, writing its outputs under the folder `out`; it must succeed.
+    fn run(&self, node: &dyn Node, inputs: &[(&str, &Path)], params: &str, out: &str) -> NodeRun {
+        run_node(node, inputs, params, &self.0.path().join(out), None).unwrap()
+    }
+}
 
 fn component_dirs(dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(dir)
@@ -33,15 +47,9 @@ fn register_adds_the_three_kinds() {
 
 #[test]
 fn scene_masks_and_partition_chain_through_folders() {
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = run_node(
-        &SyntheticSceneNode,
-        &[],
-        "(views: 9, width: 96, height: 72, resolution: 1, max_width: Some(48), points: 200, split: \"sparse\")",
-        &tmp.path().join("scene"),
-        None,
-    )
-    .unwrap();
+    let work = Workspace::new();
+    let scene_params = "(views: 9, width: 96, height: 72, resolution: 1, max_width: Some(48), points: 200, split: \"sparse\")";
+    let scene = work.run(&SyntheticSceneNode, &[], scene_params, "scene");
     let (frames_dir, mesh_dir) = (&scene.outputs["frames"], &scene.outputs["mesh"]);
     let frames = Frames::read(frames_dir).unwrap();
     assert_eq!(frames.frames.len(), 9);
@@ -52,14 +60,9 @@ fn scene_masks_and_partition_chain_through_folders() {
         objectsplat_core::Points::read_ply(&scene.outputs["points"].join(POINTS_PLY)).unwrap();
     assert_eq!(points.positions.len(), 200);
 
-    let masks = run_node(
-        &GtMasksNode,
-        &[("frames", frames_dir), ("mesh", mesh_dir)],
-        "(min_pixels: Some(0))",
-        &tmp.path().join("masks"),
-        None,
-    )
-    .unwrap();
+    let frames_and_mesh = [("frames", frames_dir.as_path()), ("mesh", mesh_dir)];
+    let every_object = "(min_pixels: Some(0))";
+    let masks = work.run(&GtMasksNode, &frames_and_mesh, every_object, "masks");
     let masks_dir = &masks.outputs["masks"];
     let objects = read_objects(masks_dir).unwrap();
     assert!(objects.values().any(|l| l == "table") && !objects.values().any(|l| l == "wall"));
@@ -68,14 +71,9 @@ fn scene_masks_and_partition_chain_through_folders() {
         assert_eq!((m.width, m.height), (48, 36));
     }
 
-    let parts = run_node(
-        &PartitionNode,
-        &[("frames", frames_dir), ("masks", masks_dir)],
-        "(min_pixels: Some(1))",
-        &tmp.path().join("parts"),
-        None,
-    )
-    .unwrap();
+    let frames_and_masks = [("frames", frames_dir.as_path()), ("masks", masks_dir)];
+    let any_pixel = "(min_pixels: Some(1))";
+    let parts = work.run(&PartitionNode, &frames_and_masks, any_pixel, "parts");
     let out = &parts.outputs["components"];
     let names = component_dirs(out);
     assert!(names.contains(&"background".to_string()));
@@ -110,14 +108,12 @@ fn scene_masks_and_partition_chain_through_folders() {
         assert!(owners.iter().all(|&n| n == 1), "frame {}", f.name);
     }
 
-    let holistic = run_node(
+    let holistic = work.run(
         &PartitionNode,
-        &[("frames", frames_dir), ("masks", masks_dir)],
+        &frames_and_masks,
         "(holistic: true)",
-        &tmp.path().join("holistic"),
-        None,
-    )
-    .unwrap();
+        "holistic",
+    );
     let out = &holistic.outputs["components"];
     assert_eq!(component_dirs(out), vec!["scene".to_string()]);
     let mask = Image::load(&out.join("scene/masks/frame_000.png")).unwrap();
@@ -127,15 +123,9 @@ fn scene_masks_and_partition_chain_through_folders() {
 
 #[test]
 fn node_errors_name_the_file() {
-    let tmp = tempfile::tempdir().unwrap();
-    let scene = run_node(
-        &SyntheticSceneNode,
-        &[],
-        "(views: 4, width: 16, height: 12, points: 10)",
-        &tmp.path().join("scene"),
-        None,
-    )
-    .unwrap();
+    let work = Workspace::new();
+    let scene_params = "(views: 4, width: 16, height: 12, points: 10)";
+    let scene = work.run(&SyntheticSceneNode, &[], scene_params, "scene");
     let err = run_node(
         &GtMasksNode,
         &[
@@ -143,7 +133,7 @@ fn node_errors_name_the_file() {
             ("mesh", &scene.outputs["mesh"]),
         ],
         "(keep_labels: [\"sofa\"])",
-        &tmp.path().join("masks"),
+        &work.0.path().join("masks"),
         None,
     )
     .err()

@@ -8,15 +8,8 @@ use objectsplat_synth::{NO_FACE, rasterize};
 
 #[test]
 fn floor_reaching_behind_the_camera_matches_ray_plane_intersection() {
-    let camera = Camera::look_at(
-        80,
-        60,
-        50.0,
-        50.0,
-        DVec3::new(0.0, 0.0, 1.0),
-        DVec3::new(0.0, 5.0, 0.6),
-        DVec3::Z,
-    );
+    let (eye, target) = (DVec3::new(0.0, 0.0, 1.0), DVec3::new(0.0, 5.0, 0.6));
+    let camera = Camera::look_at(80, 60, 50.0, 50.0, eye, target, DVec3::Z);
     // Two huge triangles of the plane z = 0, extending far behind and beside the camera.
     let s = 1000.0f32;
     let positions = vec![[-s, -s, 0.0], [s, -s, 0.0], [s, s, 0.0], [-s, s, 0.0]];

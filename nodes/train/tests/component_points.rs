@@ -10,15 +10,8 @@ const W: u32 = 40;
 const H: u32 = 30;
 
 fn camera() -> Camera {
-    Camera::look_at(
-        W,
-        H,
-        30.0,
-        30.0,
-        DVec3::new(0.0, -4.0, 0.0),
-        DVec3::ZERO,
-        DVec3::Z,
-    )
+    let eye = DVec3::new(0.0, -4.0, 0.0);
+    Camera::look_at(W, H, 30.0, 30.0, eye, DVec3::ZERO, DVec3::Z)
 }
 
 /// Writes a component whose frames all share one camera; `masks[i]` gives the
@@ -38,6 +31,14 @@ fn write_component(dir: &Path, masks: &[(u8, u8, Split)]) {
         frames.push(frame);
     }
     Frames::write_json(dir, &frames).unwrap();
+}
+
+/// [`write_component`] into a temporary folder, read back as its masks.
+fn read_component(masks: &[(u8, u8, Split)]) -> (tempfile::TempDir, ComponentMasks) {
+    let dir = tempfile::tempdir().unwrap();
+    write_component(dir.path(), masks);
+    let component = ComponentMasks::read(dir.path()).unwrap();
+    (dir, component)
 }
 
 /// One point projecting into the left half, one into the right, one behind the camera.
@@ -60,19 +61,14 @@ fn points() -> Points {
 
 #[test]
 fn majority_of_training_views_decides() {
-    let dir = tempfile::tempdir().unwrap();
     // Left half owned in 2 of 3 training views; the test view disagrees and must not count.
-    write_component(
-        dir.path(),
-        &[
-            (OWN, OTHER, Split::Train),
-            (OWN, OTHER, Split::Train),
-            (OTHER, OWN, Split::Train),
-            (OTHER, OWN, Split::Test),
-            (OTHER, OWN, Split::Test),
-        ],
-    );
-    let c = ComponentMasks::read(dir.path()).unwrap();
+    let (_dir, c) = read_component(&[
+        (OWN, OTHER, Split::Train),
+        (OWN, OTHER, Split::Train),
+        (OTHER, OWN, Split::Train),
+        (OTHER, OWN, Split::Test),
+        (OTHER, OWN, Split::Test),
+    ]);
     assert_eq!(c.info.name, "obj_3_chair");
     assert_eq!(c.select_points(&points()), vec![0]);
     let chosen = c.component_points(&points()).unwrap();
@@ -81,26 +77,20 @@ fn majority_of_training_views_decides() {
 
 #[test]
 fn ignored_pixels_do_not_count_as_visible() {
-    let dir = tempfile::tempdir().unwrap();
     // Left: own once, other once, ignored once → 1 of 2 visible views is not a majority.
     // Right: ignored twice, own once → 1 of 1.
-    write_component(
-        dir.path(),
-        &[
-            (OWN, IGNORE, Split::Train),
-            (OTHER, IGNORE, Split::Train),
-            (IGNORE, OWN, Split::Train),
-        ],
-    );
-    let c = ComponentMasks::read(dir.path()).unwrap();
+    let views = [
+        (OWN, IGNORE, Split::Train),
+        (OTHER, IGNORE, Split::Train),
+        (IGNORE, OWN, Split::Train),
+    ];
+    let (_dir, c) = read_component(&views);
     assert_eq!(c.select_points(&points()), vec![1]);
 }
 
 #[test]
 fn a_component_without_points_is_a_clear_error() {
-    let dir = tempfile::tempdir().unwrap();
-    write_component(dir.path(), &[(OTHER, OTHER, Split::Train)]);
-    let c = ComponentMasks::read(dir.path()).unwrap();
+    let (_dir, c) = read_component(&[(OTHER, OTHER, Split::Train)]);
     let err = c.component_points(&points()).unwrap_err();
     assert!(format!("{err}").contains("obj_3_chair"), "{err}");
 }

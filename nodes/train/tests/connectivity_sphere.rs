@@ -182,32 +182,21 @@ fn an_empty_soup_gives_no_faces_and_bad_indices_are_refused() {
 #[test]
 fn segment_test_and_circumcentre_agree_with_hand_cases() {
     let tri = [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
-    assert!(segment_hits_triangle(
-        [0.2, 0.2, -1.0],
-        [0.2, 0.2, 1.0],
-        tri
-    ));
-    // Boundaries are inclusive: through a vertex, along an edge's line, touching at t = 1.
-    assert!(segment_hits_triangle(
-        [0.0, 0.0, -1.0],
-        [0.0, 0.0, 1.0],
-        tri
-    ));
-    assert!(segment_hits_triangle(
-        [0.5, 0.5, -1.0],
-        [0.5, 0.5, 1.0],
-        tri
-    ));
-    assert!(segment_hits_triangle(
-        [0.2, 0.2, -1.0],
-        [0.2, 0.2, 0.0],
-        tri
-    ));
-    assert!(!segment_hits_triangle(
-        [0.2, 0.2, -1.0],
-        [0.2, 0.2, -0.1],
-        tri
-    ));
+    let segments = [
+        ([0.2, 0.2, -1.0], [0.2, 0.2, 1.0], true),
+        // Boundaries are inclusive: through a vertex, along an edge's line, touching at t = 1.
+        ([0.0, 0.0, -1.0], [0.0, 0.0, 1.0], true),
+        ([0.5, 0.5, -1.0], [0.5, 0.5, 1.0], true),
+        ([0.2, 0.2, -1.0], [0.2, 0.2, 0.0], true),
+        ([0.2, 0.2, -1.0], [0.2, 0.2, -0.1], false),
+    ];
+    for (from, to, hits) in segments {
+        assert_eq!(
+            segment_hits_triangle(from, to, tri),
+            hits,
+            "{from:?} → {to:?}"
+        );
+    }
     assert!(!segment_hits_triangle(
         [0.6, 0.6, -1.0],
         [0.6, 0.6, 1.0],

@@ -5,17 +5,12 @@
 mod common;
 
 use objectsplat_raster::CpuBackend;
-use objectsplat_train::init::ComponentMasks;
-use objectsplat_train::trainer::{ComponentData, TrainSettings, train_component};
+use objectsplat_train::trainer::{TrainSettings, train_component};
 
 #[test]
 fn training_on_the_footprint_equals_training_on_whole_frames() {
-    let dir = tempfile::tempdir().unwrap();
     // Wide frames around the plate: it covers a small part of each.
-    common::write_component_sized(dir.path(), 128, 96);
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let points = masks.component_points(&common::points()).unwrap();
-    let data = ComponentData::read(dir.path()).unwrap();
+    let (_dir, data, points) = common::plate_sized(128, 96);
     let backend = CpuBackend::new(2);
     let run = |crop: bool| {
         let settings = TrainSettings {
@@ -32,20 +27,11 @@ fn training_on_the_footprint_equals_training_on_whole_frames() {
         "the footprint is a fraction of the frame: {fraction}"
     );
     assert_eq!(whole.log.rendered_fraction, Some(1.0));
-    let bits = |m: &objectsplat_raster::Model<f32>| -> Vec<u32> {
-        m.vertices
-            .iter()
-            .flatten()
-            .chain(m.sh.iter().flatten().flatten())
-            .chain(&m.opacity_logits)
-            .map(|x| x.to_bits())
-            .collect()
-    };
     assert!(cropped.model.face_count() > 0);
     assert_eq!(cropped.model.faces, whole.model.faces);
     assert_eq!(
-        bits(&cropped.model),
-        bits(&whole.model),
+        common::parameter_bits(&cropped.model),
+        common::parameter_bits(&whole.model),
         "parameters differ"
     );
     assert_eq!(cropped.best_iteration, whole.best_iteration);

@@ -59,21 +59,21 @@ fn selection_guards_and_forces_the_largest() {
     let mut m = two_triangles();
     m.vertices[3] = [3.0, 3.0, 0.0]; // face 1 becomes the larger one
     let mut rng = Pcg64Mcg::seed_from_u64(3);
-    let policy = DensifyPolicy {
+    let forced = DensifyPolicy {
         count: 5,
         min_area: 0.0,
         always_largest: 1,
     };
-    let chosen = select_faces_to_split(&m, &[0.0, 0.0], None, policy, &mut rng).unwrap();
+    let chosen = select_faces_to_split(&m, &[0.0, 0.0], None, forced, &mut rng).unwrap();
     assert_eq!(
         chosen,
         vec![1],
         "only the forced largest face; zero weights are not drawn"
     );
     let policy = DensifyPolicy {
-        count: 5,
         min_area: 10.0,
         always_largest: 0,
+        ..forced
     };
     let chosen = select_faces_to_split(&m, &[1.0, 1.0], None, policy, &mut rng).unwrap();
     assert!(

@@ -11,15 +11,6 @@ fn an_interrupted_run_resumes_to_the_same_model() {
     let (_dir, data, points) = common::plate();
     let backend = CpuBackend::new(2);
     let base = common::short_run_settings(200, 4, serde_json::json!({}));
-    let bits = |m: &objectsplat_raster::Model<f32>| -> Vec<u32> {
-        m.vertices
-            .iter()
-            .flatten()
-            .chain(m.sh.iter().flatten().flatten())
-            .chain(&m.opacity_logits)
-            .map(|x| x.to_bits())
-            .collect()
-    };
     let whole = train_component(&backend, &data, &points, &base, |_, _| true).unwrap();
 
     let state = tempfile::tempdir().unwrap();
@@ -51,7 +42,10 @@ fn an_interrupted_run_resumes_to_the_same_model() {
             .any(|n| n.starts_with("resumed at iteration"))
     );
     assert_eq!(resumed.model.faces, whole.model.faces);
-    assert_eq!(bits(&resumed.model), bits(&whole.model));
+    assert_eq!(
+        common::parameter_bits(&resumed.model),
+        common::parameter_bits(&whole.model)
+    );
     assert_eq!(resumed.best_iteration, whole.best_iteration);
     // A state of another run (other seed) is not used.
     let other = TrainSettings {

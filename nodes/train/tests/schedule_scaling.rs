@@ -3,13 +3,17 @@
 use objectsplat_train::Schedule;
 use serde_json::json;
 
+/// Each (iteration, SH degree) pair holds in `s`.
+fn assert_sh_degrees(s: &Schedule, expected: &[(u64, u32)]) {
+    for &(iteration, degree) in expected {
+        assert_eq!(s.sh_degree(iteration), degree, "iteration {iteration}");
+    }
+}
+
 #[test]
 fn reference_budget_gives_the_reference_numbers() {
     let s = Schedule::scaled(30_000);
-    assert_eq!(s.sh_degree(999), 0);
-    assert_eq!(s.sh_degree(1000), 1);
-    assert_eq!(s.sh_degree(3000), 3);
-    assert_eq!(s.sh_degree(29_999), 3);
+    assert_sh_degrees(&s, &[(999, 0), (1000, 1), (3000, 3), (29_999, 3)]);
     assert!((s.sigma(0) - 1.0).abs() < 1e-15);
     assert!((s.sigma(30_000) - 1e-4).abs() < 1e-15);
     assert!((s.sigma(15_000) - (1.0 + 1e-4) / 2.0).abs() < 1e-12);
@@ -67,9 +71,7 @@ fn vertex_learning_rates_follow_the_budget() {
 fn six_hundred_iterations_scale_every_iteration_count() {
     let s = Schedule::scaled(600);
     // Scale 1/50: 1000 → 20, 500 → 10, 5000 → 100, 19000 → 380, 11000 → 220.
-    assert_eq!(s.sh_degree(19), 0);
-    assert_eq!(s.sh_degree(20), 1);
-    assert_eq!(s.sh_degree(60), 3);
+    assert_sh_degrees(&s, &[(19, 0), (20, 1), (60, 3)]);
     assert_eq!(s.floor_update(99), None);
     assert_eq!(s.floor_update(100), Some(0.1));
     assert_eq!(s.floor_update(105), None);

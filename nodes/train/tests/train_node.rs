@@ -3,33 +3,67 @@
 mod common;
 
 use objectsplat_core::artifact::POINTS_PLY;
-use objectsplat_runtime::testing::run_node;
+use objectsplat_runtime::testing::{NodeRun, run_node};
 use objectsplat_train::node::TrainNode;
+use std::path::PathBuf;
+
+/// The node's two input folders, holding the plate, in a temporary folder that
+/// also takes the outputs.
+struct PlateInputs {
+    dir: tempfile::TempDir,
+    component: PathBuf,
+    points: PathBuf,
+}
+
+impl PlateInputs {
+    fn write() -> Self {
+        let dir = tempfile::tempdir().unwrap();
+        let component = dir.path().join("component");
+        let points = dir.path().join("points");
+        std::fs::create_dir_all(&component).unwrap();
+        std::fs::create_dir_all(&points).unwrap();
+        common::write_component(&component);
+        common::points()
+            .write_ply(&points.join(POINTS_PLY))
+            .unwrap();
+        PlateInputs {
+            dir,
+            component,
+            points,
+        }
+    }
+
+    /// Runs the node with `params`, writing under the folder `out`.
+    fn train(&self, params: &str, out: &str) -> anyhow::Result<NodeRun> {
+        let inputs = [
+            ("component", self.component.as_path()),
+            ("points", self.points.as_path()),
+        ];
+        run_node(
+            &TrainNode,
+            &inputs,
+            params,
+            &self.dir.path().join(out),
+            None,
+        )
+    }
+
+    /// The full error chain of a run that must fail.
+    fn refusal(&self, params: &str, out: &str) -> String {
+        let err = self.train(params, out).err().unwrap();
+        format!("{err:#}")
+    }
+}
 
 #[test]
 fn train_node_writes_a_model_and_its_training_log() {
-    let dir = tempfile::tempdir().unwrap();
-    let component = dir.path().join("component");
-    let points = dir.path().join("points");
-    std::fs::create_dir_all(&component).unwrap();
-    std::fs::create_dir_all(&points).unwrap();
-    common::write_component(&component);
-    common::points()
-        .write_ply(&points.join(POINTS_PLY))
+    let plate = PlateInputs::write();
+    let run = plate
+        .train(
+            "(iterations: 30, seed: 1, schedule: {\"lr_sh_dc\": 0.03, \"patience\": 10})",
+            "out",
+        )
         .unwrap();
-    let inputs = [
-        ("component", component.as_path()),
-        ("points", points.as_path()),
-    ];
-    let out = dir.path().join("out");
-    let run = run_node(
-        &TrainNode,
-        &inputs,
-        "(iterations: 30, seed: 1, schedule: {\"lr_sh_dc\": 0.03, \"patience\": 10})",
-        &out,
-        None,
-    )
-    .unwrap();
     let model = objectsplat_raster::load_model(&run.outputs["model"]).unwrap();
     assert!(model.face_count() > 0);
     // The training log travels with the model.
@@ -45,13 +79,7 @@ fn train_node_writes_a_model_and_its_training_log() {
             .any(|(k, v)| k == "backend" && v.contains("cpu"))
     );
     // Forcing wgpu runs on the adapter there is (lavapipe in CI) or fails saying why.
-    match run_node(
-        &TrainNode,
-        &inputs,
-        "(iterations: 30, backend: \"wgpu\")",
-        &dir.path().join("out2"),
-        None,
-    ) {
+    match plate.train("(iterations: 30, backend: \"wgpu\")", "out2") {
         Ok(run) => assert!(
             run.notes
                 .iter()
@@ -62,18 +90,10 @@ fn train_node_writes_a_model_and_its_training_log() {
         Err(err) => assert!(format!("{err:#}").contains("no usable adapter"), "{err:#}"),
     }
     // Unknown schedule settings are refused by name.
-    let err = run_node(
-        &TrainNode,
-        &inputs,
-        "(iterations: 30, schedule: {\"no_such\": 1})",
-        &dir.path().join("out4"),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{err:#}").contains("no_such"), "{err:#}");
+    let err = plate.refusal("(iterations: 30, schedule: {\"no_such\": 1})", "out4");
+    assert!(err.contains("no_such"), "{err}");
     // A component with no usable points is a clear error naming it.
-    let empty = dir.path().join("empty_points");
+    let empty = plate.dir.path().join("empty_points");
     std::fs::create_dir_all(&empty).unwrap();
     objectsplat_core::Points {
         positions: vec![[5.0, 5.0, 0.0]],
@@ -81,52 +101,25 @@ fn train_node_writes_a_model_and_its_training_log() {
     }
     .write_ply(&empty.join(POINTS_PLY))
     .unwrap();
-    let inputs = [
-        ("component", component.as_path()),
-        ("points", empty.as_path()),
-    ];
-    let err = run_node(
-        &TrainNode,
-        &inputs,
-        "(iterations: 30)",
-        &dir.path().join("out3"),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{err:#}").contains("obj_1_plate"), "{err:#}");
+    let plate = PlateInputs {
+        points: empty,
+        ..plate
+    };
+    let err = plate.refusal("(iterations: 30)", "out3");
+    assert!(err.contains("obj_1_plate"), "{err}");
 }
 
 #[test]
 fn a_component_unseen_in_every_training_view_is_skipped_with_a_reason() {
-    let dir = tempfile::tempdir().unwrap();
-    let component = dir.path().join("component");
-    let points = dir.path().join("points");
-    std::fs::create_dir_all(&component).unwrap();
-    std::fs::create_dir_all(&points).unwrap();
-    common::write_component(&component);
-    common::points()
-        .write_ply(&points.join(POINTS_PLY))
-        .unwrap();
+    let plate = PlateInputs::write();
     // Give every pixel of every mask to other components.
-    for entry in std::fs::read_dir(component.join("masks")).unwrap() {
+    for entry in std::fs::read_dir(plate.component.join("masks")).unwrap() {
         let path = entry.unwrap().path();
         let img = image::open(&path).unwrap().to_luma8();
         let blank = image::GrayImage::new(img.width(), img.height());
         blank.save(&path).unwrap();
     }
-    let inputs = [
-        ("component", component.as_path()),
-        ("points", points.as_path()),
-    ];
-    let run = run_node(
-        &TrainNode,
-        &inputs,
-        "(iterations: 30)",
-        &dir.path().join("out"),
-        None,
-    )
-    .unwrap();
+    let run = plate.train("(iterations: 30)", "out").unwrap();
     match run.outcome {
         objectsplat_runtime::Outcome::Skipped(reason) => {
             assert!(

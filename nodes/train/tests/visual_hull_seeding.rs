@@ -7,15 +7,10 @@ mod common;
 use glam::DVec3;
 use objectsplat_core::Points;
 use objectsplat_train::hull::{initial_points, visual_hull_points};
-use objectsplat_train::init::ComponentMasks;
-use objectsplat_train::trainer::ComponentData;
 
 #[test]
 fn seeds_lie_over_the_plate_in_its_colour() {
-    let dir = tempfile::tempdir().unwrap();
-    common::write_component(dir.path());
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let data = ComponentData::read(dir.path()).unwrap();
+    let (_dir, masks, data) = common::plate_read(common::W, common::H);
     // One point of its own: the search stays near it, not along the whole column
     // of space the near-vertical views leave undecided.
     let all = common::points();
@@ -47,10 +42,7 @@ fn seeds_lie_over_the_plate_in_its_colour() {
 
 #[test]
 fn only_objects_short_of_points_are_seeded() {
-    let dir = tempfile::tempdir().unwrap();
-    common::write_component(dir.path());
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let data = ComponentData::read(dir.path()).unwrap();
+    let (_dir, masks, data) = common::plate_read(common::W, common::H);
     let points = common::points();
     let own = masks.owned_points(&points).positions.len();
     assert!(own > 0);

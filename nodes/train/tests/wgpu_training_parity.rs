@@ -16,22 +16,7 @@ mod common;
 
 use objectsplat_core::Points;
 use objectsplat_raster::{CpuBackend, RenderBackend};
-use objectsplat_train::init::ComponentMasks;
 use objectsplat_train::trainer::{ComponentData, TrainSettings, held_out_eval, train_component};
-use objectsplat_wgpu::{AdapterChoice, GpuContext, WgpuBackend};
-
-fn gpu() -> Option<WgpuBackend> {
-    match GpuContext::shared(AdapterChoice::Auto) {
-        Ok((ctx, _)) => Some(WgpuBackend::new(ctx).unwrap()),
-        Err(e) => {
-            if std::env::var("OBJECTSPLAT_REQUIRE_ADAPTER").is_ok_and(|v| v == "1") {
-                panic!("no wgpu adapter but OBJECTSPLAT_REQUIRE_ADAPTER=1: {e:#}");
-            }
-            eprintln!("SKIPPED (no wgpu adapter): {e:#}");
-            None
-        }
-    }
-}
 
 /// The post-connectivity cleanup is off, and prunes come once per epoch or less
 /// (so they use the running statistics, not a fresh render): on the plate at
@@ -59,11 +44,7 @@ struct Plate {
 }
 
 fn plate() -> Plate {
-    let dir = tempfile::tempdir().unwrap();
-    common::write_component(dir.path());
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let points = masks.component_points(&common::points()).unwrap();
-    let data = ComponentData::read(dir.path()).unwrap();
+    let (dir, data, points) = common::plate();
     Plate {
         _dir: dir,
         data,
@@ -84,7 +65,9 @@ fn trained_psnr(backend: &dyn RenderBackend<f32>, plate: &Plate, settings: &Trai
 
 #[test]
 fn with_a_constant_window_wgpu_training_matches_the_cpu_within_0_02_db() {
-    let Some(gpu) = gpu() else { return };
+    let Some(gpu) = common::wgpu_backend() else {
+        return;
+    };
     let plate = plate();
     let mut settings = settings(3, 1.0);
     // Float-atomic sums differ from run to run on the device, and often enough
@@ -108,7 +91,9 @@ fn with_a_constant_window_wgpu_training_matches_the_cpu_within_0_02_db() {
 
 #[test]
 fn on_the_annealed_schedule_wgpu_and_cpu_agree_on_average_over_seeds() {
-    let Some(gpu) = gpu() else { return };
+    let Some(gpu) = common::wgpu_backend() else {
+        return;
+    };
     let plate = plate();
     let cpu = CpuBackend::new(2);
     // Paired differences wgpu − cpu over training seeds: 1σ of one difference measured

@@ -27,16 +27,43 @@ use objectsplat_wgpu::training::{
 use objectsplat_wgpu::{AdapterChoice, GpuContext, WgpuBackend};
 use std::time::{Duration, Instant};
 
-/// A deterministic soup of `count` triangles with depth complexity ≈ 6,
-/// each at least ~40 px² so the inradius cull keeps most of them.
-fn soup(count: usize, width: u32, height: u32) -> Model<f32> {
-    let mut state = 0x1234_5678_9abc_def0u64;
-    let mut uniform = move || {
+/// A xorshift64 generator of uniform numbers in [0, 1): scenes without files.
+fn uniform_from(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
         state ^= state << 13;
         state ^= state >> 7;
         state ^= state << 17;
         (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    }
+}
+
+/// Adds a triangle whose corners lie within `spread` (per axis) around `centre`,
+/// with random SH coefficients and opacity.
+fn push_random_triangle(
+    m: &mut Model<f32>,
+    uniform: &mut impl FnMut() -> f64,
+    centre: [f64; 3],
+    spread: f64,
+) {
+    let base = m.vertices.len() as u32;
+    for _ in 0..3 {
+        m.vertices
+            .push([0, 1, 2].map(|a| (centre[a] + (uniform() - 0.5) * spread) as f32));
+        let mut rows = [[0f32; 3]; SH_COEFFS];
+        for row in rows.iter_mut() {
+            *row = [0, 1, 2].map(|_| (uniform() * 0.4 - 0.2) as f32);
+        }
+        m.sh.push(rows);
+        m.opacity_logits.push((uniform() * 4.0 - 1.0) as f32);
+    }
+    m.faces.push([base, base + 1, base + 2]);
+}
+
+/// A deterministic soup of `count` triangles with depth complexity ≈ 6,
+/// each at least ~40 px² so the inradius cull keeps most of them.
+fn soup(count: usize, width: u32, height: u32) -> Model<f32> {
+    let mut uniform = uniform_from(0x1234_5678_9abc_def0);
     let mut m = Model::<f32>::empty();
     m.sh_degree = 3;
     let area_px = (6.0 * width as f64 * height as f64 / count as f64).max(40.0);
@@ -47,33 +74,15 @@ fn soup(count: usize, width: u32, height: u32) -> Model<f32> {
             uniform() * 1.8 - 0.9,
             uniform() * 2.0 - 1.0,
         ];
-        let base = m.vertices.len() as u32;
-        for _ in 0..3 {
-            m.vertices
-                .push([0, 1, 2].map(|a| (c[a] + (uniform() - 0.5) * 2.0 * size) as f32));
-            let mut rows = [[0f32; 3]; SH_COEFFS];
-            for row in rows.iter_mut() {
-                *row = [0, 1, 2].map(|_| (uniform() * 0.4 - 0.2) as f32);
-            }
-            m.sh.push(rows);
-            m.opacity_logits.push((uniform() * 4.0 - 1.0) as f32);
-        }
-        m.faces.push([base, base + 1, base + 2]);
+        push_random_triangle(&mut m, &mut uniform, c, 2.0 * size);
     }
     m
 }
 
 /// The camera every case looks through: 4 units back, focal length = image width.
 fn bench_camera(w: u32, h: u32) -> Camera {
-    Camera::look_at(
-        w,
-        h,
-        w as f64,
-        w as f64,
-        DVec3::new(0.0, 0.0, -4.0),
-        DVec3::ZERO,
-        DVec3::Y,
-    )
+    let eye = DVec3::new(0.0, 0.0, -4.0);
+    Camera::look_at(w, h, w as f64, w as f64, eye, DVec3::ZERO, DVec3::Y)
 }
 
 /// Iterations per second of forward + backward, running for at least `budget`.
@@ -262,29 +271,12 @@ fn device_view_rate(
 /// pixels (the central 80×80 box) keep a target, every other pixel is
 /// supervised toward the background colour.
 fn small_object(count: usize, w: u32, h: u32) -> (Model<f32>, TrainingView) {
-    let mut state = 0x0bad_5eed_1234_5678u64;
-    let mut uniform = move || {
-        state ^= state << 13;
-        state ^= state >> 7;
-        state ^= state << 17;
-        (state >> 11) as f64 / (1u64 << 53) as f64
-    };
+    let mut uniform = uniform_from(0x0bad_5eed_1234_5678);
     let mut m = Model::<f32>::empty();
     m.sh_degree = 3;
     for _ in 0..count {
         let c = [0, 1, 2].map(|_| uniform() * 0.8 - 0.4);
-        let base = m.vertices.len() as u32;
-        for _ in 0..3 {
-            m.vertices
-                .push([0, 1, 2].map(|a| (c[a] + (uniform() - 0.5) * 0.16) as f32));
-            let mut rows = [[0f32; 3]; SH_COEFFS];
-            for row in rows.iter_mut() {
-                *row = [0, 1, 2].map(|_| (uniform() * 0.4 - 0.2) as f32);
-            }
-            m.sh.push(rows);
-            m.opacity_logits.push((uniform() * 4.0 - 1.0) as f32);
-        }
-        m.faces.push([base, base + 1, base + 2]);
+        push_random_triangle(&mut m, &mut uniform, c, 0.16);
     }
     let own = |x: u32, y: u32| x.abs_diff(w / 2) < 40 && y.abs_diff(h / 2) < 40;
     let pixels = (w * h) as usize;

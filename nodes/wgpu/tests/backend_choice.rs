@@ -3,8 +3,8 @@
 mod support;
 
 use objectsplat_raster::{CpuBackend, OutputGrads, RenderBackend, RenderSettings};
-use objectsplat_wgpu::{WgpuBackend, backend_for};
-use support::{Rng, context, random_soup};
+use objectsplat_wgpu::backend_for;
+use support::{Rng, backend, context, facing_origin, random_soup};
 
 #[test]
 fn wgpu_picks_the_adapter_and_auto_skips_lavapipe() {
@@ -31,19 +31,10 @@ fn wgpu_picks_the_adapter_and_auto_skips_lavapipe() {
 
 #[test]
 fn invalid_inputs_are_errors_not_panics() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let mut rng = Rng(1);
     let model = random_soup(&mut rng, 10, 1, (0.1, 0.5));
-    let camera = objectsplat_core::Camera::look_at(
-        32,
-        24,
-        30.0,
-        30.0,
-        glam::DVec3::new(0.0, 0.0, -3.0),
-        glam::DVec3::ZERO,
-        glam::DVec3::Y,
-    );
+    let camera = facing_origin(32, 24, 30.0, glam::DVec3::new(0.0, 0.0, -3.0));
     let settings = RenderSettings::for_model(&model);
     let bg = vec![0.5f32; 32 * 24 * 3];
 
@@ -90,18 +81,9 @@ fn invalid_inputs_are_errors_not_panics() {
 
 #[test]
 fn empty_models_render_the_background() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let model = objectsplat_raster::Model::<f32>::empty();
-    let camera = objectsplat_core::Camera::look_at(
-        20,
-        17,
-        20.0,
-        20.0,
-        glam::DVec3::new(0.0, 0.0, -3.0),
-        glam::DVec3::ZERO,
-        glam::DVec3::Y,
-    );
+    let camera = facing_origin(20, 17, 20.0, glam::DVec3::new(0.0, 0.0, -3.0));
     let bg: Vec<f32> = (0..20 * 17 * 3).map(|i| (i % 7) as f32 / 7.0).collect();
     let (out, saved) = gpu
         .forward(&model, &camera, &RenderSettings::default(), &bg)

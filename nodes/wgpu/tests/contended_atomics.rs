@@ -4,9 +4,11 @@
 //! float-atomic and the compare-exchange paths.
 mod support;
 
-use objectsplat_raster::{CpuBackend, OutputGrads, RenderBackend, RenderSettings};
+use objectsplat_raster::{CpuBackend, RenderBackend, RenderSettings};
 use objectsplat_wgpu::{FloatAtomics, WgpuBackend};
-use support::{Rng, context, push_triangle, relative_difference, upstream};
+use support::{
+    Rng, context, every_output, facing_origin, push_triangle, relative_difference, upstream,
+};
 
 fn large_triangle_scene() -> (
     objectsplat_raster::Model<f32>,
@@ -22,15 +24,7 @@ fn large_triangle_scene() -> (
         [[-3.0, -2.5, 0.0], [3.0, -2.2, 0.3], [0.2, 3.0, -0.2]],
         [1.0, 2.0, 1.5],
     );
-    let camera = objectsplat_core::Camera::look_at(
-        128,
-        96,
-        110.0,
-        110.0,
-        glam::DVec3::new(0.1, 0.2, -3.0),
-        glam::DVec3::ZERO,
-        glam::DVec3::Y,
-    );
+    let camera = facing_origin(128, 96, 110.0, glam::DVec3::new(0.1, 0.2, -3.0));
     let bg = (0..128 * 96 * 3)
         .map(|_| rng.uniform(0.0, 1.0) as f32)
         .collect();
@@ -50,13 +44,8 @@ fn contended_gradient_sums_match_the_cpu_with_both_atomic_paths() {
         out.face_pixel_count[0]
     );
     let mut rng = Rng(3);
-    let [gc, ga, gd, gm] = upstream(&mut rng, 128 * 96);
-    let grads = OutputGrads {
-        color: &gc,
-        alpha: Some(&ga),
-        depth: Some(&gd),
-        median_depth: Some(&gm),
-    };
+    let upstream = upstream(&mut rng, 128 * 96);
+    let grads = every_output(&upstream);
     let want = cpu.backward(&model, &saved, &grads).unwrap();
     let mut modes = vec![FloatAtomics::CompareExchange];
     if ctx.float_atomics {

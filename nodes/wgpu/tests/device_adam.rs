@@ -4,13 +4,13 @@
 //! non-finite instead of carrying on silently.
 mod support;
 
-use objectsplat_raster::loss::{DEFAULT_LAMBDA_DSSIM, Dims, photometric};
 use objectsplat_raster::{CpuBackend, Model, OutputGrads, RenderBackend};
-use objectsplat_wgpu::WgpuBackend;
 use objectsplat_wgpu::training::{
-    AdamSettings, DeviceTrainer, LearningRates, Moments, OptimizerState, Step, TrainingView,
+    AdamSettings, LearningRates, Moments, OptimizerState, Step, TrainingView,
 };
-use support::{Rng, context, flat_view, parity_scenes, relative_difference, step_at};
+use support::{
+    Rng, backend, cpu_loss, flat_view, loaded_trainer, parity_scenes, relative_difference, step_at,
+};
 
 /// Written out, not `AdamSettings::default()`: the checks below use these numbers.
 const ADAM: AdamSettings = AdamSettings {
@@ -55,8 +55,7 @@ fn check_update(
 
 #[test]
 fn device_adam_follows_the_formula_on_the_cpu_gradient() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let cpu = CpuBackend::new(2);
     let mut rng = Rng(99);
     let scene = parity_scenes().swap_remove(3); // random soup, SH degree 3
@@ -68,38 +67,26 @@ fn device_adam_follows_the_formula_on_the_cpu_gradient() {
     let weights = vec![1.0f32; pixels];
     let view = TrainingView {
         camera,
-        target: target.clone(),
-        weights: weights.clone(),
+        target,
+        weights,
         from_background: vec![false; pixels],
     };
     let background = [0.3f32, 0.1, 0.7];
     let step = Step {
-        view: 0,
         background,
-        render: scene.settings.clone(),
         learning_rates: RATES,
-        lambda_dssim: DEFAULT_LAMBDA_DSSIM,
+        ..step_at(&scene, 0.0)
     };
     let nv = scene.model.vertex_count();
-    let mut trainer = DeviceTrainer::new(&gpu, &[view], ADAM).unwrap();
-    trainer
-        .load(&scene.model, &OptimizerState::zeros(nv))
-        .unwrap();
+    let mut trainer = loaded_trainer(&gpu, std::slice::from_ref(&view), ADAM, &scene.model);
 
     let mut model = scene.model.clone();
     let mut previous = OptimizerState::zeros(nv);
     for t in 1..=3u64 {
         // The CPU's gradient of the CPU loss at the current parameters.
-        let bg: Vec<f32> = (0..pixels * 3).map(|i| background[i % 3]).collect();
-        let (render, saved) = cpu.forward(&model, &camera, &scene.settings, &bg).unwrap();
-        let loss = photometric(
-            Dims::rgb(camera.width, camera.height),
-            &render.color,
-            &target,
-            Some(&weights),
-            DEFAULT_LAMBDA_DSSIM,
-        )
-        .unwrap();
+        // No pixel is the background's: the loss compares with the target itself.
+        let at_model = cpu_loss(&model, &view, &scene.settings, background);
+        let (saved, loss) = (at_model.saved, at_model.loss);
         let g = cpu
             .backward(&model, &saved, &OutputGrads::color_only(&loss.grad))
             .unwrap();
@@ -167,17 +154,10 @@ fn device_adam_follows_the_formula_on_the_cpu_gradient() {
 
 #[test]
 fn overflowing_parameters_are_flagged_not_hidden() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let scene = parity_scenes().swap_remove(0);
     let view = flat_view(&scene, 1.0);
-    let mut trainer = DeviceTrainer::new(&gpu, &[view], ADAM).unwrap();
-    trainer
-        .load(
-            &scene.model,
-            &OptimizerState::zeros(scene.model.vertex_count()),
-        )
-        .unwrap();
+    let mut trainer = loaded_trainer(&gpu, &[view], ADAM, &scene.model);
     // The first update moves every value by about the learning rate; the second
     // (|m̂/√v̂| ≈ 0.67 even where the gradient has vanished) passes f32's 3.4e38.
     for _ in 0..3 {

@@ -7,13 +7,16 @@
 mod support;
 
 use objectsplat_raster::backend::{PixelRect, Region};
-use objectsplat_raster::loss::{DEFAULT_LAMBDA_DSSIM, Dims, photometric};
-use objectsplat_raster::{CpuBackend, Model, RenderBackend, RenderSettings};
+use objectsplat_raster::loss::DEFAULT_LAMBDA_DSSIM;
+use objectsplat_raster::{Model, RenderSettings};
 use objectsplat_wgpu::WgpuBackend;
 use objectsplat_wgpu::training::{
     AdamSettings, DeviceTrainer, LearningRates, OptimizerState, Step, StepResult, TrainingView,
 };
-use support::{Scene, context, footprint, object_view, relative_difference, small_object_scene};
+use support::{
+    FROZEN, Scene, backend, cpu_loss, footprint, loaded_trainer, object_view, relative_difference,
+    small_object_scene,
+};
 
 const RATES: LearningRates = LearningRates {
     positions: 1e-3,
@@ -50,14 +53,21 @@ fn step(scene: &Scene, region: Region, background: [f32; 3], rates: LearningRate
     }
 }
 
+/// Every parameter of `m`: vertex positions, SH coefficients, opacity logits.
 fn flat(m: &Model<f32>) -> Vec<f32> {
-    m.vertices
-        .iter()
-        .flatten()
-        .chain(m.sh.iter().flatten().flatten())
+    let sh = m.sh.iter().flatten().flatten();
+    let positions = m.vertices.iter().flatten();
+    positions
+        .chain(sh)
         .chain(&m.opacity_logits)
         .copied()
         .collect()
+}
+
+/// A trainer on the object's one view, holding its model.
+fn object_trainer(gpu: &WgpuBackend, scene: &Scene, view: &TrainingView) -> DeviceTrainer {
+    let views = std::slice::from_ref(view);
+    loaded_trainer(gpu, views, AdamSettings::default(), &scene.model)
 }
 
 /// Three Adam steps over the three backgrounds; the losses and the model after.
@@ -67,12 +77,7 @@ fn train(
     view: &TrainingView,
     region: Region,
 ) -> (Vec<StepResult>, Model<f32>, OptimizerState) {
-    let mut trainer =
-        DeviceTrainer::new(gpu, std::slice::from_ref(view), AdamSettings::default()).unwrap();
-    let nv = scene.model.vertex_count();
-    trainer
-        .load(&scene.model, &OptimizerState::zeros(nv))
-        .unwrap();
+    let mut trainer = object_trainer(gpu, scene, view);
     for b in BACKGROUNDS {
         trainer.step(&step(scene, region, b, RATES)).unwrap();
     }
@@ -84,8 +89,7 @@ fn train(
 
 #[test]
 fn cropped_steps_equal_whole_frame_steps() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let (scene, view) = scene_and_view();
     let (whole_losses, whole, whole_state) = train(&gpu, &scene, &view, Region::Full);
     let (crop_losses, cropped, crop_state) = train(&gpu, &scene, &view, footprint());
@@ -124,44 +128,15 @@ fn cropped_steps_equal_whole_frame_steps() {
 
 #[test]
 fn a_cropped_step_matches_the_cpu_loss_on_the_cpu_render() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
-    let cpu = CpuBackend::new(2);
+    let Some(gpu) = backend() else { return };
     let (scene, view) = scene_and_view();
-    let frozen = LearningRates {
-        positions: 0.0,
-        sh_dc: 0.0,
-        sh_rest: 0.0,
-        opacity: 0.0,
-    };
-    let mut trainer =
-        DeviceTrainer::new(&gpu, std::slice::from_ref(&view), AdamSettings::default()).unwrap();
-    let nv = scene.model.vertex_count();
-    trainer
-        .load(&scene.model, &OptimizerState::zeros(nv))
-        .unwrap();
-    let camera = scene.camera;
-    let pixels = (camera.width * camera.height) as usize;
+    let mut trainer = object_trainer(&gpu, &scene, &view);
+    let pixels = (scene.camera.width * scene.camera.height) as usize;
     for b in BACKGROUNDS {
-        trainer.step(&step(&scene, footprint(), b, frozen)).unwrap();
+        trainer.step(&step(&scene, footprint(), b, FROZEN)).unwrap();
         let got = trainer.results().unwrap();
         let got_grad = trainer.last_image_gradient(0).unwrap();
-        let bg: Vec<f32> = (0..pixels * 3).map(|i| b[i % 3]).collect();
-        let (render, _) = cpu
-            .forward(&scene.model, &camera, &scene.settings, &bg)
-            .unwrap();
-        let mut goal = view.target.clone();
-        for p in (0..pixels).filter(|&p| view.from_background[p]) {
-            goal[3 * p..3 * p + 3].copy_from_slice(&b);
-        }
-        let want = photometric(
-            Dims::rgb(camera.width, camera.height),
-            &render.color,
-            &goal,
-            Some(&view.weights),
-            DEFAULT_LAMBDA_DSSIM,
-        )
-        .unwrap();
+        let want = cpu_loss(&scene.model, &view, &scene.settings, b).loss;
         let loss_error = (got[0].loss as f64 - want.value as f64).abs() / want.value as f64;
         let grad_error = relative_difference(&got_grad, &want.grad, 1e-12);
         eprintln!("background {b:?}: loss {loss_error:.2e}, gradient {grad_error:.2e}");
@@ -177,14 +152,9 @@ fn a_cropped_step_matches_the_cpu_loss_on_the_cpu_render() {
 
 #[test]
 fn steps_read_back_once_and_create_no_buffers_once_grown() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let (scene, view) = scene_and_view();
-    let mut trainer = DeviceTrainer::new(&gpu, &[view], AdamSettings::default()).unwrap();
-    let nv = scene.model.vertex_count();
-    trainer
-        .load(&scene.model, &OptimizerState::zeros(nv))
-        .unwrap();
+    let mut trainer = object_trainer(&gpu, &scene, &view);
     // Warm-up: the pools grow to the model, the entries, the image and a
     // readback of nine results.
     for region in [Region::Full, footprint(), footprint()] {
@@ -226,14 +196,9 @@ fn steps_read_back_once_and_create_no_buffers_once_grown() {
 
 #[test]
 fn a_margin_below_the_loss_window_is_an_error() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let (scene, view) = scene_and_view();
-    let mut trainer = DeviceTrainer::new(&gpu, &[view], AdamSettings::default()).unwrap();
-    let nv = scene.model.vertex_count();
-    trainer
-        .load(&scene.model, &OptimizerState::zeros(nv))
-        .unwrap();
+    let mut trainer = object_trainer(&gpu, &scene, &view);
     let narrow = Region::Footprint {
         include: PixelRect::default(),
         margin: 4,

@@ -7,15 +7,14 @@
 mod support;
 
 use glam::DVec3;
-use objectsplat_core::Camera;
 use objectsplat_raster::backend::{PixelRect, Region};
-use objectsplat_raster::loss::{DEFAULT_LAMBDA_DSSIM, Dims, photometric};
+use objectsplat_raster::loss::DEFAULT_LAMBDA_DSSIM;
 use objectsplat_raster::{CpuBackend, RenderBackend, RenderSettings};
-use objectsplat_wgpu::WgpuBackend;
-use objectsplat_wgpu::training::{
-    AdamSettings, DeviceTrainer, LearningRates, OptimizerState, Step, TrainingView,
+use objectsplat_wgpu::training::{AdamSettings, OptimizerState, Step, TrainingView};
+use support::{
+    CpuLoss, FROZEN, Scene, backend, cpu_loss, facing_origin, footprint, loaded_trainer,
+    object_view, small_object_scene,
 };
-use support::{Scene, context, footprint, object_view, small_object_scene};
 
 /// The object seen from two cameras, each view with its own pixels supervised.
 fn scene_and_views() -> (Scene, Vec<TrainingView>) {
@@ -30,16 +29,8 @@ fn scene_and_views() -> (Scene, Vec<TrainingView>) {
         },
         6,
     );
-    let mut other = scene.camera;
-    other = Camera::look_at(
-        other.width,
-        other.height,
-        other.fx,
-        other.fy,
-        DVec3::new(-0.6, 0.3, -2.8),
-        DVec3::ZERO,
-        DVec3::Y,
-    );
+    let (width, height) = (scene.camera.width, scene.camera.height);
+    let other = facing_origin(width, height, scene.camera.fx, DVec3::new(-0.6, 0.3, -2.8));
     let second_scene = Scene {
         camera: other,
         name: "second view".into(),
@@ -62,24 +53,10 @@ fn scene_and_views() -> (Scene, Vec<TrainingView>) {
 
 /// (loss, Σ w·d² over supervised pixels) of the CPU render over black.
 fn cpu_score(scene: &Scene, view: &TrainingView) -> (f64, f64) {
-    let camera = view.camera;
-    let pixels = (camera.width * camera.height) as usize;
-    let black = vec![0.0f32; pixels * 3];
-    let (render, _) = CpuBackend::new(2)
-        .forward(&scene.model, &camera, &scene.settings, &black)
-        .unwrap();
-    let mut goal = view.target.clone();
-    for p in (0..pixels).filter(|&p| view.from_background[p]) {
-        goal[3 * p..3 * p + 3].fill(0.0);
-    }
-    let loss = photometric(
-        Dims::rgb(camera.width, camera.height),
-        &render.color,
-        &goal,
-        Some(&view.weights),
-        DEFAULT_LAMBDA_DSSIM,
-    )
-    .unwrap();
+    let pixels = (view.camera.width * view.camera.height) as usize;
+    let CpuLoss {
+        render, goal, loss, ..
+    } = cpu_loss(&scene.model, view, &scene.settings, [0.0; 3]);
     let mut squared = 0.0;
     for p in (0..pixels).filter(|&p| view.weights[p] > 0.0) {
         let (rendered, wanted) = (&render.color[3 * p..3 * p + 3], &goal[3 * p..3 * p + 3]);
@@ -99,14 +76,9 @@ fn settings(scene: &Scene, region: Region) -> RenderSettings {
 
 #[test]
 fn device_evaluation_matches_the_cpu_with_one_readback() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let (scene, views) = scene_and_views();
-    let mut trainer = DeviceTrainer::new(&gpu, &views, AdamSettings::default()).unwrap();
-    let nv = scene.model.vertex_count();
-    trainer
-        .load(&scene.model, &OptimizerState::zeros(nv))
-        .unwrap();
+    let mut trainer = loaded_trainer(&gpu, &views, AdamSettings::default(), &scene.model);
     let want: Vec<(f64, f64)> = views.iter().map(|v| cpu_score(&scene, v)).collect();
     let weights: Vec<f64> = views
         .iter()
@@ -150,17 +122,10 @@ fn device_evaluation_matches_the_cpu_with_one_readback() {
 
 #[test]
 fn face_weights_are_running_maxima_of_the_training_renders() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let (scene, views) = scene_and_views();
     let nf = scene.model.face_count();
-    let mut trainer = DeviceTrainer::new(&gpu, &views, AdamSettings::default()).unwrap();
-    trainer
-        .load(
-            &scene.model,
-            &OptimizerState::zeros(scene.model.vertex_count()),
-        )
-        .unwrap();
+    let mut trainer = loaded_trainer(&gpu, &views, AdamSettings::default(), &scene.model);
     // Per view, the render's per-face maxima through the RenderBackend interface.
     let rendered: Vec<Vec<f32>> = views
         .iter()
@@ -180,17 +145,11 @@ fn face_weights_are_running_maxima_of_the_training_renders() {
         .collect();
     let max =
         |a: &[f32], b: &[f32]| -> Vec<f32> { a.iter().zip(b).map(|(x, y)| x.max(*y)).collect() };
-    let frozen = LearningRates {
-        positions: 0.0,
-        sh_dc: 0.0,
-        sh_rest: 0.0,
-        opacity: 0.0,
-    };
     let step = |view| Step {
         view,
         background: [0.4, 0.2, 0.9],
         render: settings(&scene, footprint()),
-        learning_rates: frozen,
+        learning_rates: FROZEN,
         lambda_dssim: DEFAULT_LAMBDA_DSSIM,
     };
     let bits = |v: &[f32]| -> Vec<u32> { v.iter().map(|x| x.to_bits()).collect() };

@@ -4,26 +4,15 @@
 //! step's background colour. Learning rates of 0 leave the parameters as they were.
 mod support;
 
-use objectsplat_raster::loss::{DEFAULT_LAMBDA_DSSIM, Dims, photometric};
-use objectsplat_raster::{CpuBackend, RenderBackend};
-use objectsplat_wgpu::WgpuBackend;
-use objectsplat_wgpu::training::{
-    AdamSettings, DeviceTrainer, LearningRates, OptimizerState, Step, TrainingView,
-};
-use support::{Rng, context, flat_view, parity_scenes, relative_difference, step_at};
-
-const FROZEN: LearningRates = LearningRates {
-    positions: 0.0,
-    sh_dc: 0.0,
-    sh_rest: 0.0,
-    opacity: 0.0,
+use objectsplat_wgpu::training::{AdamSettings, DeviceTrainer, OptimizerState, Step, TrainingView};
+use support::{
+    FROZEN, Rng, backend, cpu_loss, flat_view, loaded_trainer, parity_scenes, relative_difference,
+    step_at,
 };
 
 #[test]
 fn device_loss_and_image_gradient_match_the_cpu_loss() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
-    let cpu = CpuBackend::new(2);
+    let Some(gpu) = backend() else { return };
     let mut rng = Rng(4242);
     for scene in parity_scenes().into_iter().take(5) {
         let camera = scene.camera;
@@ -39,43 +28,23 @@ fn device_loss_and_image_gradient_match_the_cpu_loss() {
         let background = [0.25f32, 0.6, 0.9];
         let view = TrainingView {
             camera,
-            target: target.clone(),
-            weights: weights.clone(),
-            from_background: from_background.clone(),
+            target,
+            weights,
+            from_background,
         };
-        let mut trainer = DeviceTrainer::new(&gpu, &[view], AdamSettings::default()).unwrap();
-        let nv = scene.model.vertex_count();
-        trainer
-            .load(&scene.model, &OptimizerState::zeros(nv))
-            .unwrap();
+        let views = std::slice::from_ref(&view);
+        let mut trainer = loaded_trainer(&gpu, views, AdamSettings::default(), &scene.model);
         trainer
             .step(&Step {
-                view: 0,
                 background,
-                render: scene.settings.clone(),
                 learning_rates: FROZEN,
-                lambda_dssim: DEFAULT_LAMBDA_DSSIM,
+                ..step_at(&scene, 0.0)
             })
             .unwrap();
         let results = trainer.results().unwrap();
         let got_grad = trainer.last_image_gradient(0).unwrap();
 
-        let bg_image: Vec<f32> = (0..pixels * 3).map(|i| background[i % 3]).collect();
-        let (render, _) = cpu
-            .forward(&scene.model, &camera, &scene.settings, &bg_image)
-            .unwrap();
-        let mut goal = target.clone();
-        for p in (0..pixels).filter(|&p| from_background[p]) {
-            goal[3 * p..3 * p + 3].copy_from_slice(&background);
-        }
-        let want = photometric(
-            Dims::rgb(camera.width, camera.height),
-            &render.color,
-            &goal,
-            Some(&weights),
-            DEFAULT_LAMBDA_DSSIM,
-        )
-        .unwrap();
+        let want = cpu_loss(&scene.model, &view, &scene.settings, background).loss;
         assert_eq!(results.len(), 1);
         assert!(results[0].non_finite.is_empty(), "{:?}", results[0]);
         let loss_error = (results[0].loss as f64 - want.value as f64).abs() / want.value as f64;
@@ -103,17 +72,10 @@ fn device_loss_and_image_gradient_match_the_cpu_loss() {
 
 #[test]
 fn a_view_without_supervised_pixels_gives_zero_loss_and_moves_nothing() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let scene = parity_scenes().swap_remove(0);
     let view = flat_view(&scene, 0.0);
-    let mut trainer = DeviceTrainer::new(&gpu, &[view], AdamSettings::default()).unwrap();
-    trainer
-        .load(
-            &scene.model,
-            &OptimizerState::zeros(scene.model.vertex_count()),
-        )
-        .unwrap();
+    let mut trainer = loaded_trainer(&gpu, &[view], AdamSettings::default(), &scene.model);
     for _ in 0..2 {
         trainer.step(&step_at(&scene, 0.1)).unwrap();
     }
@@ -138,8 +100,7 @@ fn a_view_without_supervised_pixels_gives_zero_loss_and_moves_nothing() {
 
 #[test]
 fn bad_views_and_steps_are_errors_not_panics() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let scene = parity_scenes().swap_remove(0);
     let good = flat_view(&scene, 1.0);
     let mut short = good.clone();

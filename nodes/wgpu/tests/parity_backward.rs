@@ -6,9 +6,9 @@
 //! T by division, so bitwise equality is not expected.)
 mod support;
 
-use objectsplat_raster::{CpuBackend, OutputGrads, RenderBackend, SH_COEFFS};
+use objectsplat_raster::{CpuBackend, RenderBackend, SH_COEFFS};
 use objectsplat_wgpu::{FloatAtomics, KernelConfig, WgpuBackend};
-use support::{Rng, context, parity_scenes, relative_difference, upstream};
+use support::{Rng, context, every_output, parity_scenes, relative_difference, upstream};
 
 const TOLERANCE: f64 = 1e-3;
 
@@ -23,20 +23,11 @@ fn check_backend(gpu: &WgpuBackend) {
     let mut rng = Rng(77);
     for s in parity_scenes() {
         let pixels = (s.camera.width * s.camera.height) as usize;
-        let [gc, ga, gd, gm] = upstream(&mut rng, pixels);
-        let grads = OutputGrads {
-            color: &gc,
-            alpha: Some(&ga),
-            depth: Some(&gd),
-            median_depth: Some(&gm),
-        };
-        let (_, saved) = cpu
-            .forward(&s.model, &s.camera, &s.settings, &s.background)
-            .unwrap();
+        let upstream = upstream(&mut rng, pixels);
+        let grads = every_output(&upstream);
+        let (_, saved) = s.render_on(&cpu, &s.settings);
         let want = cpu.backward(&s.model, &saved, &grads).unwrap();
-        let (_, saved) = gpu
-            .forward(&s.model, &s.camera, &s.settings, &s.background)
-            .unwrap();
+        let (_, saved) = s.render_on(gpu, &s.settings);
         let got = gpu.backward(&s.model, &saved, &grads).unwrap();
         let mut groups: Vec<(String, Vec<f32>, Vec<f32>)> = vec![
             (

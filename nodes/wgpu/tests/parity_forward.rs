@@ -3,9 +3,9 @@
 //! every kernel layout (threads per tile).
 mod support;
 
-use objectsplat_raster::{CpuBackend, RenderBackend};
+use objectsplat_raster::CpuBackend;
 use objectsplat_wgpu::{KernelConfig, WgpuBackend};
-use support::{context, parity_scenes};
+use support::{context, paired_outputs, parity_scenes};
 
 fn max_abs_diff(a: &[f32], b: &[f32]) -> (f32, usize) {
     assert_eq!(a.len(), b.len());
@@ -35,25 +35,11 @@ fn forward_outputs_match_the_cpu_backend() {
 
 fn check_scenes(gpu: &WgpuBackend, cpu: &CpuBackend) {
     for s in parity_scenes() {
-        let (want, _) = cpu
-            .forward(&s.model, &s.camera, &s.settings, &s.background)
-            .unwrap();
-        let (got, _) = gpu
-            .forward(&s.model, &s.camera, &s.settings, &s.background)
-            .unwrap();
+        let (want, _) = s.render_on(cpu, &s.settings);
+        let (got, _) = s.render_on(gpu, &s.settings);
         let covered = want.face_pixel_count.iter().filter(|&&c| c > 0).count();
         assert!(covered > 0, "{}: the scene must draw something", s.name);
-        for (what, a, b) in [
-            ("color", &got.color, &want.color),
-            ("alpha", &got.alpha, &want.alpha),
-            ("depth", &got.depth, &want.depth),
-            ("median depth", &got.median_depth, &want.median_depth),
-            (
-                "face max weight",
-                &got.face_max_weight,
-                &want.face_max_weight,
-            ),
-        ] {
+        for (what, a, b) in paired_outputs(&got, &want) {
             let (d, i) = max_abs_diff(a, b);
             assert!(
                 d <= 1e-4,

@@ -9,8 +9,9 @@ mod support;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::CROP_MARGIN;
 use objectsplat_raster::{CpuBackend, Model, OutputGrads, RenderBackend, RenderSettings};
-use objectsplat_wgpu::WgpuBackend;
-use support::{Rng, Scene, context, parity_scenes, relative_difference, small_object_scene};
+use support::{
+    Rng, Scene, backend, paired_outputs, parity_scenes, relative_difference, small_object_scene,
+};
 
 /// The scenes and regions checked: a small object (a fraction of its frame),
 /// an include rectangle beyond the faces, a margin reaching the image border,
@@ -66,21 +67,14 @@ fn crop(full: &[f32], width: u32, region: PixelRect, channels: usize) -> Vec<f32
 
 #[test]
 fn a_footprint_render_is_the_full_render_inside_the_cpu_region() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let cpu = CpuBackend::new(2);
     let mut strict_subsets = 0;
     for (s, region) in cases() {
         let settings = with_region(&s, region);
-        let (want, _) = cpu
-            .forward(&s.model, &s.camera, &settings, &s.background)
-            .unwrap();
-        let (got, _) = gpu
-            .forward(&s.model, &s.camera, &settings, &s.background)
-            .unwrap();
-        let (full, _) = gpu
-            .forward(&s.model, &s.camera, &s.settings, &s.background)
-            .unwrap();
+        let (want, _) = s.render_on(&cpu, &settings);
+        let (got, _) = s.render_on(&gpu, &settings);
+        let (full, _) = s.render_on(&gpu, &s.settings);
         eprintln!(
             "{}: region {:?} ({} of {} pixels)",
             s.name,
@@ -128,29 +122,14 @@ fn a_footprint_render_is_the_full_render_inside_the_cpu_region() {
 
 #[test]
 fn footprint_outputs_and_gradients_match_the_cpu_backend() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let cpu = CpuBackend::new(2);
     let mut rng = Rng(31);
     for (s, region) in cases() {
         let settings = with_region(&s, region);
-        let (want, cpu_saved) = cpu
-            .forward(&s.model, &s.camera, &settings, &s.background)
-            .unwrap();
-        let (got, gpu_saved) = gpu
-            .forward(&s.model, &s.camera, &settings, &s.background)
-            .unwrap();
-        for (what, a, b) in [
-            ("color", &got.color, &want.color),
-            ("alpha", &got.alpha, &want.alpha),
-            ("depth", &got.depth, &want.depth),
-            ("median depth", &got.median_depth, &want.median_depth),
-            (
-                "face max weight",
-                &got.face_max_weight,
-                &want.face_max_weight,
-            ),
-        ] {
+        let (want, cpu_saved) = s.render_on(&cpu, &settings);
+        let (got, gpu_saved) = s.render_on(&gpu, &settings);
+        for (what, a, b) in paired_outputs(&got, &want) {
             assert_eq!(a.len(), b.len(), "{}: {what}", s.name);
             let d = a
                 .iter()
@@ -162,13 +141,8 @@ fn footprint_outputs_and_gradients_match_the_cpu_backend() {
         assert_eq!(got.face_pixel_count, want.face_pixel_count, "{}", s.name);
 
         let pixels = got.region.pixels();
-        let [gc, ga, gd, gm] = support::upstream(&mut rng, pixels);
-        let grads = OutputGrads {
-            color: &gc,
-            alpha: Some(&ga),
-            depth: Some(&gd),
-            median_depth: Some(&gm),
-        };
+        let upstream = support::upstream(&mut rng, pixels);
+        let grads = support::every_output(&upstream);
         let want = cpu.backward(&s.model, &cpu_saved, &grads).unwrap();
         let got = gpu.backward(&s.model, &gpu_saved, &grads).unwrap();
         assert_eq!(got.background.len(), pixels * 3, "{}", s.name);
@@ -202,12 +176,9 @@ fn footprint_outputs_and_gradients_match_the_cpu_backend() {
 
 #[test]
 fn a_region_gradient_of_the_wrong_size_is_an_error() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let (s, region) = cases().swap_remove(0);
-    let (out, saved) = gpu
-        .forward(&s.model, &s.camera, &with_region(&s, region), &s.background)
-        .unwrap();
+    let (out, saved) = s.render_on(&gpu, &with_region(&s, region));
     let whole = vec![0.1f32; (s.camera.width * s.camera.height * 3) as usize];
     assert!(out.region.pixels() * 3 < whole.len());
     let err = gpu

@@ -3,36 +3,34 @@
 mod support;
 
 use objectsplat_raster::{CpuBackend, Model, OutputGrads, RenderBackend};
-use objectsplat_wgpu::WgpuBackend;
-use support::{context, parity_scenes};
+use support::{backend, parity_scenes};
 
 #[test]
 fn foreign_saved_state_is_an_error() {
-    let Some(ctx) = context() else { return };
-    let gpu = WgpuBackend::new(ctx).unwrap();
+    let Some(gpu) = backend() else { return };
     let cpu = CpuBackend::new(1);
     let s = parity_scenes().swap_remove(0);
     let pixels = (s.camera.width * s.camera.height) as usize;
     let grad = vec![0.1f32; pixels * 3];
     let grads = OutputGrads::color_only(&grad);
 
-    let (_, from_cpu) = cpu
-        .forward(&s.model, &s.camera, &s.settings, &s.background)
-        .unwrap();
-    let err = gpu.backward(&s.model, &from_cpu, &grads).unwrap_err();
-    assert!(
-        format!("{err:#}").contains("wgpu backend cannot use state saved by the \"cpu\""),
-        "{err:#}"
-    );
-
-    let (_, from_gpu) = gpu
-        .forward(&s.model, &s.camera, &s.settings, &s.background)
-        .unwrap();
-    let err = cpu.backward(&s.model, &from_gpu, &grads).unwrap_err();
-    assert!(
-        format!("{err:#}").contains("cpu backend cannot use state saved by the \"wgpu\""),
-        "{err:#}"
-    );
+    let crossings: [(&dyn RenderBackend<f32>, &dyn RenderBackend<f32>, &str); 2] = [
+        (
+            &cpu,
+            &gpu,
+            "wgpu backend cannot use state saved by the \"cpu\"",
+        ),
+        (
+            &gpu,
+            &cpu,
+            "cpu backend cannot use state saved by the \"wgpu\"",
+        ),
+    ];
+    for (saver, user, expect) in crossings {
+        let (_, saved) = s.render_on(saver, &s.settings);
+        let err = user.backward(&s.model, &saved, &grads).unwrap_err();
+        assert!(format!("{err:#}").contains(expect), "{err:#}");
+    }
 
     // The same backend at f64 saved it: the type check catches it.
     let model64 = Model::<f64> {

@@ -22,6 +22,21 @@ impl Rng {
     }
 }
 
+/// A 64-bit linear congruential generator (Knuth's MMIX constants), the loss
+/// tests' source of images.
+pub struct Lcg(pub u64);
+
+impl Lcg {
+    /// Uniform in [0, 1).
+    pub fn unit(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
 /// A camera at the world origin looking down +z (world = camera frame), with
 /// a principal point off the pixel grid so no symmetry lines up with pixel centres.
 pub fn identity_camera(width: u32, height: u32, focal: f64) -> Camera {
@@ -177,6 +192,14 @@ pub fn settings(sigma: f64, sh_degree: u32) -> RenderSettings {
     }
 }
 
+/// A triangle's corners: a centre uniform in the box ±`extent`, then each corner
+/// uniform in the cube of half-side r around it, r uniform in `radius`.
+pub fn random_corners(rng: &mut Rng, extent: [f64; 3], radius: (f64, f64)) -> [[f64; 3]; 3] {
+    let centre = extent.map(|e| rng.uniform(-e, e));
+    let r = rng.uniform(radius.0, radius.1);
+    [0, 1, 2].map(|_| centre.map(|x| x + rng.uniform(-r, r)))
+}
+
 /// A random soup of `count` triangles around the origin in f32, seen by an orbit camera.
 pub fn random_soup_f32(
     seed: u64,
@@ -194,19 +217,7 @@ pub fn random_soup_f32(
     let mut model = Model::<f64>::empty();
     model.sh_degree = 3;
     for _ in 0..count {
-        let c = [
-            rng.uniform(-1.2, 1.2),
-            rng.uniform(-1.0, 1.0),
-            rng.uniform(-1.0, 1.0),
-        ];
-        let r = rng.uniform(0.08, 0.3);
-        let corners = [0, 1, 2].map(|_| {
-            [
-                c[0] + rng.uniform(-r, r),
-                c[1] + rng.uniform(-r, r),
-                c[2] + rng.uniform(-r, r),
-            ]
-        });
+        let corners = random_corners(&mut rng, [1.2, 1.0, 1.0], (0.08, 0.3));
         let logits = [0, 1, 2].map(|_| rng.uniform(-2.0, 4.0));
         push_triangle(&mut model, &mut rng, corners, logits);
     }

@@ -64,12 +64,38 @@ pub fn plate() -> (
     objectsplat_train::trainer::ComponentData,
     Points,
 ) {
-    let dir = tempfile::tempdir().unwrap();
-    write_component(dir.path());
-    let masks = objectsplat_train::init::ComponentMasks::read(dir.path()).unwrap();
+    plate_sized(W, H)
+}
+
+/// [`plate`] with `w`×`h` views.
+pub fn plate_sized(
+    w: u32,
+    h: u32,
+) -> (
+    tempfile::TempDir,
+    objectsplat_train::trainer::ComponentData,
+    Points,
+) {
+    let (dir, masks, data) = plate_read(w, h);
     let points = masks.component_points(&points()).unwrap();
-    let data = objectsplat_train::trainer::ComponentData::read(dir.path()).unwrap();
     (dir, data, points)
+}
+
+/// The plate component with `w`×`h` views written to a temporary folder and read
+/// back as its masks and as training data.
+pub fn plate_read(
+    w: u32,
+    h: u32,
+) -> (
+    tempfile::TempDir,
+    objectsplat_train::init::ComponentMasks,
+    objectsplat_train::trainer::ComponentData,
+) {
+    let dir = tempfile::tempdir().unwrap();
+    write_component_sized(dir.path(), w, h);
+    let masks = objectsplat_train::init::ComponentMasks::read(dir.path()).unwrap();
+    let data = objectsplat_train::trainer::ComponentData::read(dir.path()).unwrap();
+    (dir, masks, data)
 }
 
 /// The plate component with `w`×`h` views.
@@ -145,12 +171,22 @@ pub fn short_run_settings(
     for (key, value) in extra {
         overrides[key] = value.clone();
     }
+    let schedule = objectsplat_train::Schedule::new(
+        iterations,
+        overrides.as_object().expect("built as an object above"),
+    )
+    .expect("valid test schedule");
+    settings_with(schedule, seed)
+}
+
+/// The trainer's settings for `schedule`: random backgrounds, cropping on, saves
+/// every minute, no resume folder.
+pub fn settings_with(
+    schedule: objectsplat_train::Schedule,
+    seed: u64,
+) -> objectsplat_train::trainer::TrainSettings {
     objectsplat_train::trainer::TrainSettings {
-        schedule: objectsplat_train::Schedule::new(
-            iterations,
-            overrides.as_object().expect("built as an object above"),
-        )
-        .expect("valid test schedule"),
+        schedule,
         seed,
         background_randomization: true,
         fixed_background: [0.0; 3],
@@ -162,4 +198,32 @@ pub fn short_run_settings(
         resume_dir: None,
         save_seconds: 60.0,
     }
+}
+
+/// Every parameter's bit pattern (vertices, SH, opacity logits), for exact comparisons.
+pub fn parameter_bits(m: &objectsplat_raster::Model<f32>) -> Vec<u32> {
+    m.vertices
+        .iter()
+        .flatten()
+        .chain(m.sh.iter().flatten().flatten())
+        .chain(&m.opacity_logits)
+        .map(|x| x.to_bits())
+        .collect()
+}
+
+/// The wgpu backend on the shared adapter, or `None` after printing why the test
+/// is skipped; with `OBJECTSPLAT_REQUIRE_ADAPTER=1` a missing adapter fails instead.
+pub fn wgpu_backend() -> Option<objectsplat_wgpu::WgpuBackend> {
+    use objectsplat_wgpu::{AdapterChoice, GpuContext, WgpuBackend};
+    let err = match GpuContext::shared(AdapterChoice::Auto) {
+        Ok((ctx, _)) => return Some(WgpuBackend::new(ctx).unwrap()),
+        Err(err) => err,
+    };
+    let required = std::env::var("OBJECTSPLAT_REQUIRE_ADAPTER").is_ok_and(|v| v == "1");
+    assert!(
+        !required,
+        "no wgpu adapter but OBJECTSPLAT_REQUIRE_ADAPTER=1: {err:#}"
+    );
+    eprintln!("SKIPPED (no wgpu adapter): {err:#}");
+    None
 }

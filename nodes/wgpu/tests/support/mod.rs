@@ -76,15 +76,17 @@ pub fn random_sh(rng: &mut Rng) -> [[f32; 3]; SH_COEFFS] {
     rows
 }
 
+/// A camera at `eye` looking at the origin, +y up, with square pixels.
+pub fn facing_origin(width: u32, height: u32, focal: f64, eye: DVec3) -> Camera {
+    Camera::look_at(width, height, focal, focal, eye, DVec3::ZERO, DVec3::Y)
+}
+
 fn camera(width: u32, height: u32) -> Camera {
-    Camera::look_at(
+    facing_origin(
         width,
         height,
         0.9 * width as f64,
-        0.9 * width as f64,
         DVec3::new(0.2, -0.3, -3.0),
-        DVec3::new(0.0, 0.0, 0.0),
-        DVec3::Y,
     )
 }
 
@@ -180,7 +182,7 @@ pub fn parity_scenes() -> Vec<Scene> {
         v[1] = (y * a.cos() - z * a.sin()) as f32;
         v[2] = (y * a.sin() + z * a.cos()) as f32;
     }
-    edge_on.camera = Camera::look_at(96, 72, 86.0, 86.0, eye, DVec3::ZERO, DVec3::Y);
+    edge_on.camera = facing_origin(96, 72, 86.0, eye);
     scenes.push(edge_on);
 
     let m = random_soup(&mut rng, 400, 3, (0.08, 0.2));
@@ -337,5 +339,122 @@ pub fn footprint() -> Region {
     Region::Footprint {
         include: PixelRect::default(),
         margin: CROP_MARGIN,
+    }
+}
+
+use objectsplat_raster::loss::{LossGrad, photometric};
+use objectsplat_raster::{CpuBackend, OutputGrads, RenderBackend, RenderOutput, SavedForward};
+use objectsplat_wgpu::WgpuBackend;
+use objectsplat_wgpu::training::{AdamSettings, DeviceTrainer, OptimizerState};
+
+/// The wgpu backend on the shared context, or `None` after printing why the test is skipped.
+pub fn backend() -> Option<WgpuBackend> {
+    context().map(|ctx| WgpuBackend::new(ctx).unwrap())
+}
+
+/// A trainer on `views` holding `model`, its optimizer state all zeros.
+pub fn loaded_trainer(
+    gpu: &WgpuBackend,
+    views: &[TrainingView],
+    adam: AdamSettings,
+    model: &Model<f32>,
+) -> DeviceTrainer {
+    let mut trainer = DeviceTrainer::new(gpu, views, adam).unwrap();
+    trainer
+        .load(model, &OptimizerState::zeros(model.vertex_count()))
+        .unwrap();
+    trainer
+}
+
+/// What a device step's loss is checked against: the CPU backend's render of
+/// `model` over `background`, the view's target with its background pixels in
+/// that colour, and the photometric loss between the two.
+pub struct CpuLoss {
+    pub render: RenderOutput<f32>,
+    pub saved: SavedForward,
+    pub goal: Vec<f32>,
+    pub loss: LossGrad<f32>,
+}
+
+pub fn cpu_loss(
+    model: &Model<f32>,
+    view: &TrainingView,
+    settings: &RenderSettings,
+    background: [f32; 3],
+) -> CpuLoss {
+    let camera = view.camera;
+    let pixels = (camera.width * camera.height) as usize;
+    let image: Vec<f32> = (0..pixels * 3).map(|i| background[i % 3]).collect();
+    let (render, saved) = CpuBackend::new(2)
+        .forward(model, &camera, settings, &image)
+        .unwrap();
+    let mut goal = view.target.clone();
+    for p in (0..pixels).filter(|&p| view.from_background[p]) {
+        goal[3 * p..3 * p + 3].copy_from_slice(&background);
+    }
+    let loss = photometric(
+        objectsplat_raster::loss::Dims::rgb(camera.width, camera.height),
+        &render.color,
+        &goal,
+        Some(&view.weights),
+        DEFAULT_LAMBDA_DSSIM,
+    )
+    .unwrap();
+    CpuLoss {
+        render,
+        saved,
+        goal,
+        loss,
+    }
+}
+
+/// Learning rates of 0: a step scores and back-propagates but moves nothing.
+pub const FROZEN: LearningRates = LearningRates {
+    positions: 0.0,
+    sh_dc: 0.0,
+    sh_rest: 0.0,
+    opacity: 0.0,
+};
+
+impl Scene {
+    /// `backend`'s render of the scene with `settings` over its background, and
+    /// what its backward pass needs.
+    pub fn render_on(
+        &self,
+        backend: &dyn RenderBackend<f32>,
+        settings: &RenderSettings,
+    ) -> (RenderOutput<f32>, SavedForward) {
+        backend
+            .forward(&self.model, &self.camera, settings, &self.background)
+            .unwrap()
+    }
+}
+
+/// The per-pixel outputs and the per-face maximum weights of two renders, by name.
+pub fn paired_outputs<'a>(
+    got: &'a RenderOutput<f32>,
+    want: &'a RenderOutput<f32>,
+) -> [(&'static str, &'a [f32], &'a [f32]); 5] {
+    [
+        ("color", &got.color, &want.color),
+        ("alpha", &got.alpha, &want.alpha),
+        ("depth", &got.depth, &want.depth),
+        ("median depth", &got.median_depth, &want.median_depth),
+        (
+            "face max weight",
+            &got.face_max_weight,
+            &want.face_max_weight,
+        ),
+    ]
+}
+
+/// Gradients for every output, borrowed from [`upstream`]'s four vectors.
+pub fn every_output(upstream: &[Vec<f32>; 4]) -> OutputGrads<'_> {
+    let [color, alpha, depth, median] = upstream;
+    OutputGrads {
+        color,
+        alpha: Some(alpha),
+        depth: Some(depth),
+        median_depth: Some(median),
     }
 }
