@@ -10,7 +10,6 @@ mod common;
 use objectsplat_completion::external::{ExternalCommand, FillRequest};
 use objectsplat_completion::nodes::InpaintBackgroundNode;
 use objectsplat_runtime::Outcome;
-use objectsplat_runtime::testing::run_node;
 use std::path::PathBuf;
 use std::time::{Duration, Instant};
 
@@ -19,6 +18,13 @@ fn script() -> String {
         .join("tests/scripts/fake_inpainter.sh")
         .display()
         .to_string()
+}
+
+/// Asserts `text` contains every one of `parts`, showing `text` when it does not.
+fn assert_mentions(text: &str, parts: &[&str]) {
+    for part in parts {
+        assert!(text.contains(part), "{text}");
+    }
 }
 
 fn command(mode: &str, extra: &[&str], timeout_s: f64) -> ExternalCommand {
@@ -34,6 +40,12 @@ fn command(mode: &str, extra: &[&str], timeout_s: f64) -> ExternalCommand {
         argv,
         timeout: Duration::from_secs_f64(timeout_s),
     }
+}
+
+/// The error `command` gives for `requests`, run in a fresh work folder.
+fn error_of(command: ExternalCommand, requests: &[FillRequest]) -> String {
+    let work = tempfile::tempdir().unwrap();
+    command.run(requests, work.path()).unwrap_err().to_string()
 }
 
 fn request(stem: &str) -> FillRequest {
@@ -76,52 +88,35 @@ fn program_output_is_used_inside_the_mask_only() {
 
 #[test]
 fn non_zero_exit_fails_with_status_and_stderr() {
-    let work = tempfile::tempdir().unwrap();
-    let err = command("fail", &[], 30.0)
-        .run(&[request("f0")], work.path())
-        .unwrap_err()
-        .to_string();
-    assert!(
-        err.contains("exit status: 3") && err.contains("model weights not found"),
-        "{err}"
-    );
+    let err = error_of(command("fail", &[], 30.0), &[request("f0")]);
+    assert_mentions(&err, &["exit status: 3", "model weights not found"]);
 }
 
 #[test]
 fn a_hanging_program_is_killed_at_the_timeout() {
-    let work = tempfile::tempdir().unwrap();
     let start = Instant::now();
-    let err = command("hang", &[], 0.5)
-        .run(&[request("f0")], work.path())
-        .unwrap_err()
-        .to_string();
+    let err = error_of(command("hang", &[], 0.5), &[request("f0")]);
     assert!(
         start.elapsed() < Duration::from_secs(10),
         "took {:?}",
         start.elapsed()
     );
-    assert!(
-        err.contains("did not finish within 0.5 s") && err.contains("loading model"),
-        "{err}"
-    );
+    assert_mentions(&err, &["did not finish within 0.5 s", "loading model"]);
 }
 
 #[test]
 fn missing_and_wrong_size_outputs_are_reported() {
-    let work = tempfile::tempdir().unwrap();
-    let err = command("missing", &[], 30.0)
-        .run(&[request("f0"), request("f1")], work.path())
-        .unwrap_err()
-        .to_string();
+    let err = error_of(
+        command("missing", &[], 30.0),
+        &[request("f0"), request("f1")],
+    );
     assert!(err.contains("did not write f0.png, f1.png"), "{err}");
 
-    let other =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/inpaint/masks/corner.png");
-    let work = tempfile::tempdir().unwrap();
-    let err = command("wrong_size", &[&other.display().to_string()], 30.0)
-        .run(&[request("f0")], work.path())
-        .unwrap_err()
-        .to_string();
+    let other = common::fixture("inpaint/masks/corner.png");
+    let err = error_of(
+        command("wrong_size", &[&other.display().to_string()], 30.0),
+        &[request("f0")],
+    );
     assert!(err.contains("128×128 image for a 6×4 input"), "{err}");
 }
 
@@ -147,14 +142,11 @@ fn node_writes_one_fill_per_background_frame() {
         "(method: \"command\", command: [\"sh\", {:?}, \"ok\", \"{{input}}\", \"{{output}}\"], timeout_s: 30.0)",
         script()
     );
-    let run = run_node(
-        &InpaintBackgroundNode,
-        &[("components", &scene.components), ("frames", &scene.frames)],
-        &params,
-        &out,
-        None,
-    )
-    .unwrap();
+    let inputs = [
+        ("components", scene.components.as_path()),
+        ("frames", &scene.frames),
+    ];
+    let run = common::run(&InpaintBackgroundNode, &inputs, &params, &out);
     assert_eq!(run.outcome, Outcome::Done);
     for f in 0..2 {
         let fill = common::read_rgb(&run.outputs["fills"].join(format!("f{f}.png")));

@@ -17,16 +17,23 @@ use std::sync::Arc;
 /// Serves a fixture folder as an artifact: one output per port, copied from
 /// `<path>/<port>` (collections keep their item sub-folders).
 struct Fixture;
+
+/// The fixture node's ports with their types; each has a path param of the same name.
+const FIXTURE_PORTS: [(&str, &str); 2] = [("components", "[Component]"), ("frames", "Frames")];
+
 impl Node for Fixture {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("fixture", "1")
-            .output("components", "[Component]", "")
-            .output("frames", "Frames", "")
-            .param("components", ParamType::Path, None, "")
-            .param("frames", ParamType::Path, None, "")
+        let mut spec = NodeSpec::new("fixture", "1");
+        for (port, ty) in FIXTURE_PORTS {
+            spec = spec.output(port, ty, "");
+        }
+        for (port, _) in FIXTURE_PORTS {
+            spec = spec.param(port, ParamType::Path, None, "");
+        }
+        spec
     }
     fn run(&self, ctx: &mut Context) -> anyhow::Result<Outcome> {
-        for port in ["components", "frames"] {
+        for (port, _) in FIXTURE_PORTS {
             let from: String = ctx.param(port)?;
             copy_tree(Path::new(&from), &ctx.output(port)?);
         }
@@ -64,22 +71,16 @@ fn run(dir: &Path) -> (Status, Vec<u8>) {
     }
     reg.add_node(Arc::new(Fixture)).unwrap();
     reg.add_node(Arc::new(InpaintBackgroundNode)).unwrap();
-    let src = GraphSource::read(&dir.join("g.ron")).unwrap();
-    let plan = build_plan(&src, &reg, &[], &[]).unwrap_or_else(|d| panic!("{d}"));
-    let store = Store::open(&dir.join("cache")).unwrap();
-    let out = dir.join("out");
-    let r = exec::run(
-        &plan,
-        &store,
-        &RunOptions {
-            jobs: 1,
-            out_dir: Some(out.clone()),
-            observer: Arc::new(Silent),
-        },
-    )
-    .unwrap();
+    let graph = GraphSource::read(&dir.join("g.ron")).unwrap();
+    let plan = build_plan(&graph, &reg, &[], &[]).unwrap_or_else(|d| panic!("{d}"));
+    let options = RunOptions {
+        jobs: 1,
+        out_dir: Some(dir.join("out")),
+        observer: Arc::new(Silent),
+    };
+    let r = exec::run(&plan, &Store::open(&dir.join("cache")).unwrap(), &options).unwrap();
     assert!(r.ok, "{}", r.render_table());
-    let fill = common::read_rgb(&out.join("fill/fills/f0.png"));
+    let fill = common::read_rgb(&dir.join("out/fill/fills/f0.png"));
     (r.node("fill").unwrap().status, fill)
 }
 

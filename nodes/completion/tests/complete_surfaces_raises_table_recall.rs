@@ -6,14 +6,12 @@
 
 mod room;
 
-use objectsplat_completion::nodes::CompleteSurfacesNode;
 use objectsplat_completion::surface_mesh::METADATA_KEY;
 use objectsplat_core::Mesh;
 use objectsplat_core::glam::DVec3;
 use objectsplat_metrics::{MeshEvalParams, fscore, mesh_points};
 use objectsplat_raster::sh::SH_DC;
 use objectsplat_runtime::Outcome;
-use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::load_scene;
 use objectsplat_scene::surface::visible_mesh;
 use room::{RESTING, TABLE_TOP, id_of, object_faces};
@@ -26,23 +24,7 @@ fn table_scores(pred: &objectsplat_raster::Model<f32>, gt: &[[f64; 3]], tau: f64
 
 #[test]
 fn completion_raises_table_recall_and_keeps_its_precision() {
-    let room = room::build();
-    let scene = room::trained_scene(&room);
-    let scene_dir = room::write_scene(&scene, &room.root.path().join("trained"));
-    let run = run_node(
-        &CompleteSurfacesNode,
-        &[
-            ("scene", &scene_dir),
-            ("components", &room.completed),
-            ("frames", &room.frames),
-            ("points", &room.points),
-        ],
-        "()",
-        &room.root.path().join("out"),
-        None,
-    )
-    .unwrap();
-    assert_eq!(run.outcome, Outcome::Done, "{:?}", run.notes);
+    let (room, scene, scene_dir, run) = room::complete_trained_room(true);
     let completed = load_scene(&run.outputs["scene"]).unwrap();
 
     let table_id = id_of(&room.labels, "table");
@@ -90,9 +72,7 @@ fn completion_raises_table_recall_and_keeps_its_precision() {
         (p.z - TABLE_TOP).abs() < 1e-3
     });
     let patch_colour = mean_colour(&after, first..after.vertices.len(), |_| true);
-    let distance = (0..3)
-        .map(|c| (table_colour[c] - patch_colour[c]).abs())
-        .fold(0.0, f64::max);
+    let distance = room::colour_distance(table_colour, patch_colour);
     assert!(
         distance < 0.12,
         "patch colour {patch_colour:?} is far from the tabletop's {table_colour:?}"
@@ -119,18 +99,8 @@ fn completion_raises_table_recall_and_keeps_its_precision() {
         );
     }
     // The points input is optional: without it the same plane and patch come out.
-    let without_points = run_node(
-        &CompleteSurfacesNode,
-        &[
-            ("scene", &scene_dir),
-            ("components", &room.completed),
-            ("frames", &room.frames),
-        ],
-        "()",
-        &room.root.path().join("out_no_points"),
-        None,
-    )
-    .unwrap();
+    let out = room.root.path().join("out_no_points");
+    let without_points = room::complete_surfaces(&room, &scene_dir, &room.completed, false, &out);
     assert_eq!(without_points.outcome, Outcome::Done);
 }
 

@@ -5,12 +5,9 @@
 
 mod room;
 
-use objectsplat_completion::nodes::CompleteSurfacesNode;
 use objectsplat_core::Camera;
 use objectsplat_core::glam::DVec3;
 use objectsplat_raster::CpuBackend;
-use objectsplat_runtime::Outcome;
-use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::edit::Num;
 use objectsplat_scene::render::{Backdrop, render_view};
 use objectsplat_scene::{Edit, Scene, Target, apply_edits, load_scene};
@@ -73,22 +70,7 @@ fn look(scene: &Scene, camera: &Camera, pixels: &[usize]) -> (f64, [f64; 3]) {
 
 #[test]
 fn a_removed_or_moved_box_uncovers_completed_tabletop() {
-    let room = room::build();
-    let off = room::trained_scene(&room);
-    let scene_dir = room::write_scene(&off, &room.root.path().join("trained"));
-    let run = run_node(
-        &CompleteSurfacesNode,
-        &[
-            ("scene", &scene_dir),
-            ("components", &room.completed),
-            ("frames", &room.frames),
-        ],
-        "()",
-        &room.root.path().join("out"),
-        None,
-    )
-    .unwrap();
-    assert_eq!(run.outcome, Outcome::Done, "{:?}", run.notes);
+    let (room, off, _, run) = room::complete_trained_room(false);
     let on = load_scene(&run.outputs["scene"]).unwrap();
 
     let box_id = id_of(&room.labels, "box");
@@ -154,9 +136,7 @@ fn a_removed_or_moved_box_uncovers_completed_tabletop() {
             "{edit}: {:.0}% of the box's place shows the backdrop",
             hole_on * 100.0
         );
-        let distance = (0..3)
-            .map(|c| (colour_on[c] - table_colour[c]).abs())
-            .fold(0.0, f64::max);
+        let distance = room::colour_distance(colour_on, table_colour);
         assert!(
             distance < 0.15,
             "{edit}: tabletop colour {colour_on:?} far from {table_colour:?}"

@@ -5,11 +5,10 @@
 
 mod room;
 
-use objectsplat_completion::nodes::CompleteSurfacesNode;
 use objectsplat_core::component::OTHER;
 use objectsplat_core::glam::{DVec2, DVec3};
 use objectsplat_runtime::Outcome;
-use objectsplat_runtime::testing::{NodeRun, run_node};
+use objectsplat_runtime::testing::NodeRun;
 use objectsplat_scene::Scene;
 use room::{Room, Soup, TABLE_TOP, id_of, object_faces, soup, subdivide};
 use std::path::Path;
@@ -20,22 +19,8 @@ fn run(room: &Room, scene: &Scene, components: &Path, name: &str) -> NodeRun {
 
 fn run_with(room: &Room, scene: &Scene, components: &Path, name: &str, points: bool) -> NodeRun {
     let dir = room::write_scene(scene, &room.root.path().join(format!("{name}_in")));
-    let mut inputs: Vec<(&str, &Path)> = vec![
-        ("scene", &dir),
-        ("components", components),
-        ("frames", &room.frames),
-    ];
-    if points {
-        inputs.push(("points", &room.points));
-    }
-    let run = run_node(
-        &CompleteSurfacesNode,
-        &inputs,
-        "()",
-        &room.root.path().join(format!("{name}_out")),
-        None,
-    )
-    .unwrap();
+    let out = room.root.path().join(format!("{name}_out"));
+    let run = room::complete_surfaces(room, &dir, components, points, &out);
     // Skipped: the output is the input scene itself, so nothing was added anywhere.
     if matches!(run.outcome, Outcome::Skipped(_)) {
         assert_eq!(
@@ -108,6 +93,11 @@ fn top_face(room: &Room) -> Soup {
         .collect()
 }
 
+/// The mean of the triangles' corners.
+fn centroid(tris: &Soup) -> DVec3 {
+    tris.iter().map(|(p, _)| p[0] + p[1] + p[2]).sum::<DVec3>() / (3 * tris.len()) as f64
+}
+
 fn inside(tris: &Soup, p: DVec3) -> bool {
     let q = DVec2::new(p.x, p.y);
     tris.iter().any(|(t, _)| {
@@ -122,8 +112,7 @@ fn inside(tris: &Soup, p: DVec3) -> bool {
 fn objects_covering_the_whole_top() {
     let room = room::build();
     let top = top_face(&room);
-    let centre =
-        top.iter().map(|(p, _)| p[0] + p[1] + p[2]).sum::<DVec3>() / (3 * top.len()) as f64;
+    let centre = centroid(&top);
     // A tray over 90% of the top (each way), lying on it.
     let tray: Soup = top
         .iter()
@@ -162,8 +151,7 @@ fn a_table_that_is_not_planar() {
     let room = room::build();
     // The tabletop bent into a bowl: 35 cm higher at the corners than at the centre.
     let top = top_face(&room);
-    let centre =
-        top.iter().map(|(p, _)| p[0] + p[1] + p[2]).sum::<DVec3>() / (3 * top.len()) as f64;
+    let centre = centroid(&top);
     let bowl: Soup = subdivide(top, 2)
         .into_iter()
         .map(|(p, c)| {

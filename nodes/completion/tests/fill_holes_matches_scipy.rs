@@ -7,8 +7,10 @@ use objectsplat_completion::fill_holes::{Connectivity, fill_holes};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 
+mod common;
+
 fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/fill_holes")
+    common::fixture("fill_holes")
 }
 
 fn load(path: &Path) -> (Vec<bool>, usize, usize) {
@@ -27,9 +29,7 @@ struct Manifest {
 #[test]
 fn random_masks_and_horse_match_scipy_exactly() {
     let root = fixtures();
-    let manifest: Manifest =
-        serde_json::from_str(&std::fs::read_to_string(root.join("manifest.json")).unwrap())
-            .unwrap();
+    let manifest: Manifest = common::read_json(&root.join("manifest.json"));
     assert!(manifest.masks.contains(&"horse".to_string()));
     let mut changed_pixels = 0usize;
     for name in &manifest.masks {

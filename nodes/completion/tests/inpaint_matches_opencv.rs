@@ -6,8 +6,10 @@
 use objectsplat_completion::inpaint::{Method, Options, Raster, Sample, inpaint};
 use std::path::{Path, PathBuf};
 
+mod common;
+
 fn fixtures() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/fixtures/inpaint")
+    common::fixture("inpaint")
 }
 
 #[derive(serde::Deserialize)]
@@ -108,9 +110,7 @@ fn read_bin(path: &Path) -> Vec<u8> {
 #[test]
 fn ns_and_telea_agree_with_opencv_on_photos() {
     let root = fixtures();
-    let manifest: Manifest =
-        serde_json::from_str(&std::fs::read_to_string(root.join("manifest.json")).unwrap())
-            .unwrap();
+    let manifest: Manifest = common::read_json(&root.join("manifest.json"));
     println!("fixtures made with OpenCV {}", manifest.opencv);
     let mut failures = Vec::new();
     let (mut all_samples, mut all_exact) = (0usize, 0usize);

@@ -6,57 +6,41 @@
 
 mod common;
 
+use common::{fixture, read_gray, read_rgb, run_error};
 use objectsplat_completion::nodes::{FillHolesNode, InpaintBackgroundNode, InpaintNode};
 use objectsplat_core::artifact::{IMAGE_PNG, MASK_PNG};
+use objectsplat_core::image::{write_gray8, write_rgb8};
 use objectsplat_runtime::Outcome;
-use objectsplat_runtime::testing::run_node;
 use std::path::{Path, PathBuf};
 
-fn fixture(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures")
-        .join(rel)
-}
-
-fn artifact(root: &Path, name: &str, file: &str, src: &Path) -> PathBuf {
+/// The folder `root/name`, created, for an artifact of one file.
+fn artifact_dir(root: &Path, name: &str) -> PathBuf {
     let dir = root.join(name);
     std::fs::create_dir_all(&dir).unwrap();
-    std::fs::copy(src, dir.join(file)).unwrap();
+    dir
+}
+
+/// An artifact folder `root/name` holding the fixture `rel` as `file`.
+fn artifact(root: &Path, name: &str, file: &str, rel: &str) -> PathBuf {
+    let dir = artifact_dir(root, name);
+    std::fs::copy(fixture(rel), dir.join(file)).unwrap();
     dir
 }
 
 #[test]
 fn inpaint_node_reproduces_opencv_on_an_rgb_photo() {
     let tmp = tempfile::tempdir().unwrap();
-    let image = artifact(
-        tmp.path(),
-        "image",
-        IMAGE_PNG,
-        &fixture("inpaint/images/coffee.png"),
-    );
-    let mask = artifact(
-        tmp.path(),
-        "mask",
-        MASK_PNG,
-        &fixture("inpaint/masks/blobs.png"),
-    );
-    let run = run_node(
+    let image = artifact(tmp.path(), "image", IMAGE_PNG, "inpaint/images/coffee.png");
+    let mask = artifact(tmp.path(), "mask", MASK_PNG, "inpaint/masks/blobs.png");
+    let run = common::run(
         &InpaintNode,
         &[("image", &image), ("mask", &mask)],
         "(method: \"telea\", radius: 3.0)",
         &tmp.path().join("out"),
-        None,
-    )
-    .unwrap();
+    );
     assert_eq!(run.outcome, Outcome::Done);
-    let out = image::open(run.outputs["image"].join(IMAGE_PNG))
-        .unwrap()
-        .to_rgb8()
-        .into_raw();
-    let m = image::open(fixture("inpaint/masks/blobs.png"))
-        .unwrap()
-        .to_luma8()
-        .into_raw();
+    let out = read_rgb(&run.outputs["image"].join(IMAGE_PNG));
+    let m = read_gray(&fixture("inpaint/masks/blobs.png"));
     let expected = std::fs::read(fixture("inpaint/expected/coffee_blobs_telea_r3_u8.bin")).unwrap();
     let got: Vec<u8> = m
         .iter()
@@ -72,8 +56,7 @@ fn inpaint_node_keeps_sixteen_bit_depth() {
     let tmp = tempfile::tempdir().unwrap();
     let (w, h) = (9u32, 7u32);
     let samples: Vec<u16> = (0..w * h).map(|i| (i * 900) as u16).collect();
-    let dir = tmp.path().join("image");
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = artifact_dir(tmp.path(), "image");
     let bytes: Vec<u8> = samples.iter().flat_map(|v| v.to_ne_bytes()).collect();
     image::save_buffer_with_format(
         dir.join(IMAGE_PNG),
@@ -84,27 +67,12 @@ fn inpaint_node_keeps_sixteen_bit_depth() {
         image::ImageFormat::Png,
     )
     .unwrap();
-    let mdir = tmp.path().join("mask");
-    std::fs::create_dir_all(&mdir).unwrap();
+    let mdir = artifact_dir(tmp.path(), "mask");
     let mut mask = vec![0u8; (w * h) as usize];
     mask[30] = 255;
-    image::save_buffer_with_format(
-        mdir.join(MASK_PNG),
-        &mask,
-        w,
-        h,
-        image::ExtendedColorType::L8,
-        image::ImageFormat::Png,
-    )
-    .unwrap();
-    let run = run_node(
-        &InpaintNode,
-        &[("image", &dir), ("mask", &mdir)],
-        "()",
-        &tmp.path().join("out"),
-        None,
-    )
-    .unwrap();
+    write_gray8(&mdir.join(MASK_PNG), &mask, w, h).unwrap();
+    let inputs = [("image", dir.as_path()), ("mask", &mdir)];
+    let run = common::run(&InpaintNode, &inputs, "()", &tmp.path().join("out"));
     let out = image::open(run.outputs["image"].join(IMAGE_PNG)).unwrap();
     let image::DynamicImage::ImageLuma16(buf) = out else {
         panic!("bit depth lost: {:?}", out.color())
@@ -126,69 +94,37 @@ fn inpaint_node_keeps_sixteen_bit_depth() {
 #[test]
 fn inpaint_node_rejects_a_mask_of_another_size() {
     let tmp = tempfile::tempdir().unwrap();
-    let image = artifact(
-        tmp.path(),
-        "image",
-        IMAGE_PNG,
-        &fixture("inpaint/images/camera.png"),
-    );
-    let mask = artifact(
-        tmp.path(),
-        "mask",
-        MASK_PNG,
-        &fixture("fill_holes/horse.png"),
-    );
-    let err = run_node(
-        &InpaintNode,
-        &[("image", &image), ("mask", &mask)],
-        "()",
-        &tmp.path().join("out"),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{err:#}").contains("mask is 400×328"), "{err:#}");
+    let image = artifact(tmp.path(), "image", IMAGE_PNG, "inpaint/images/camera.png");
+    let mask = artifact(tmp.path(), "mask", MASK_PNG, "fill_holes/horse.png");
+    let inputs = [("image", image.as_path()), ("mask", &mask)];
+    let err = run_error(&InpaintNode, &inputs, "()", &tmp.path().join("out"));
+    assert!(err.contains("mask is 400×328"), "{err}");
 }
 
 #[test]
 fn fill_holes_node_matches_scipy_on_the_horse() {
     let tmp = tempfile::tempdir().unwrap();
-    let mask = artifact(
-        tmp.path(),
-        "mask",
-        MASK_PNG,
-        &fixture("fill_holes/horse.png"),
-    );
+    let mask = artifact(tmp.path(), "mask", MASK_PNG, "fill_holes/horse.png");
+    let inputs = [("mask", mask.as_path())];
     for n in [4, 8] {
         let out = tmp.path().join(format!("out{n}"));
-        let run = run_node(
+        let run = common::run(
             &FillHolesNode,
-            &[("mask", &mask)],
+            &inputs,
             &format!("(connectivity: {n})"),
             &out,
-            None,
-        )
-        .unwrap();
-        let got = image::open(run.outputs["mask"].join(MASK_PNG))
-            .unwrap()
-            .to_luma8()
-            .into_raw();
-        let want = image::open(fixture(&format!("fill_holes/horse_filled_{n}.png")))
-            .unwrap()
-            .to_luma8()
-            .into_raw();
+        );
+        let got = read_gray(&run.outputs["mask"].join(MASK_PNG));
+        let want = read_gray(&fixture(&format!("fill_holes/horse_filled_{n}.png")));
         assert_eq!(got, want, "connectivity {n}");
     }
-    let err = run_node(
+    let err = run_error(
         &FillHolesNode,
-        &[("mask", &mask)],
+        &inputs,
         "(connectivity: 6)",
         &tmp.path().join("bad"),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{err:#}").contains("4 or 8"), "{err:#}");
+    );
+    assert!(err.contains("4 or 8"), "{err}");
 }
 
 #[test]
@@ -198,21 +134,19 @@ fn background_node_fills_object_pixels_with_builtin_ns_and_from_a_folder() {
         ("components", scene.components.as_path()),
         ("frames", scene.frames.as_path()),
     ];
-    let run = run_node(
+    let run = common::run(
         &InpaintBackgroundNode,
         &inputs,
         "(method: \"ns\")",
         &scene.root.path().join("ns"),
-        None,
-    )
-    .unwrap();
+    );
     assert_eq!(run.outcome, Outcome::Done);
     assert!(
         run.notes
             .iter()
             .any(|(k, v)| k == "use" && v.contains("never fed to metrics"))
     );
-    let fill = common::read_rgb(&run.outputs["fills"].join("f0.png"));
+    let fill = read_rgb(&run.outputs["fills"].join("f0.png"));
     // Everything around the objects is background grey, so NS fills grey.
     assert!(
         fill.chunks(3).all(|p| p == common::BACKGROUND_RGB),
@@ -224,13 +158,11 @@ fn background_node_fills_object_pixels_with_builtin_ns_and_from_a_folder() {
     std::fs::create_dir_all(&folder).unwrap();
     for f in 0..2 {
         let white = vec![255u8; (common::W * common::H * 3) as usize];
-        image::save_buffer_with_format(
-            folder.join(format!("f{f}.png")),
+        write_rgb8(
+            &folder.join(format!("f{f}.png")),
             &white,
             common::W,
             common::H,
-            image::ExtendedColorType::Rgb8,
-            image::ImageFormat::Png,
         )
         .unwrap();
     }
@@ -238,15 +170,13 @@ fn background_node_fills_object_pixels_with_builtin_ns_and_from_a_folder() {
         "(method: \"folder\", path: {:?})",
         folder.display().to_string()
     );
-    let run = run_node(
+    let run = common::run(
         &InpaintBackgroundNode,
         &inputs,
         &params,
         &scene.root.path().join("folder"),
-        None,
-    )
-    .unwrap();
-    let fill = common::read_rgb(&run.outputs["fills"].join("f1.png"));
+    );
+    let fill = read_rgb(&run.outputs["fills"].join("f1.png"));
     let whites = fill.chunks(3).filter(|p| *p == [255, 255, 255]).count();
     let objects = (0..common::H)
         .flat_map(|y| (0..common::W).map(move |x| (x, y)))
@@ -255,17 +185,14 @@ fn background_node_fills_object_pixels_with_builtin_ns_and_from_a_folder() {
     assert_eq!(whites, objects);
 
     std::fs::remove_file(folder.join("f1.png")).unwrap();
-    let err = run_node(
+    let err = run_error(
         &InpaintBackgroundNode,
         &inputs,
         &params,
         &scene.root.path().join("folder2"),
-        None,
-    )
-    .err()
-    .unwrap();
+    );
     assert!(
-        format!("{err:#}").contains("no precomputed fill for frame \"f1\""),
-        "{err:#}"
+        err.contains("no precomputed fill for frame \"f1\""),
+        "{err}"
     );
 }

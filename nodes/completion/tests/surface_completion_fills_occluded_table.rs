@@ -14,7 +14,11 @@ use objectsplat_core::component::OWN;
 use objectsplat_core::glam::DVec3;
 use objectsplat_core::{Frames, Points};
 use objectsplat_runtime::Outcome;
-use objectsplat_runtime::testing::run_node;
+
+/// The scene's components and frames, as the surface-completion node's inputs.
+fn inputs(scene: &common::Scene) -> [(&str, &std::path::Path); 2] {
+    [("components", &scene.components), ("frames", &scene.frames)]
+}
 
 fn pixels() -> impl Iterator<Item = (u32, u32, usize)> {
     (0..H).flat_map(|y| (0..W).map(move |x| (x, y, (y * W + x) as usize)))
@@ -85,14 +89,7 @@ fn table_mask_covers_the_cup_footprint_and_targets_carry_table_colour() {
 fn node_is_skipped_without_a_support_surface_and_forwards_its_input() {
     let scene = common::build("sofa");
     let out = scene.root.path().join("run");
-    let run = run_node(
-        &SurfaceCompletionNode,
-        &[("components", &scene.components), ("frames", &scene.frames)],
-        "()",
-        &out,
-        None,
-    )
-    .unwrap();
+    let run = common::run(&SurfaceCompletionNode, &inputs(&scene), "()", &out);
     match run.outcome {
         Outcome::Skipped(reason) => assert!(reason.contains("support surface"), "{reason}"),
         other => panic!("expected a skip, got {other:?}"),
@@ -104,14 +101,12 @@ fn node_is_skipped_without_a_support_surface_and_forwards_its_input() {
 fn node_completes_the_table_with_default_params() {
     let scene = common::build("Dining Table");
     let out = scene.root.path().join("run");
-    let run = run_node(
+    let run = common::run(
         &SurfaceCompletionNode,
-        &[("components", &scene.components), ("frames", &scene.frames)],
+        &inputs(&scene),
         "(radius: 3.0)",
         &out,
-        None,
-    )
-    .unwrap();
+    );
     assert_eq!(run.outcome, Outcome::Done);
     let table = run.outputs["components"].join("obj_1_dining_table");
     assert!(table.join("targets/f0.png").is_file());
@@ -149,26 +144,18 @@ fn planarity_accepts_a_flat_table_and_rejects_a_bumpy_one() {
     let scene = common::build("table");
     let items = common::items(&scene.components);
     let params = SurfaceParams::default();
-    let flat = complete_surfaces(
-        &items,
-        Some(&table_points(0.0)),
-        &params,
-        &scene.root.path().join("a"),
-    )
-    .unwrap();
+    let complete = |bump: f64, out: &str| {
+        let points = table_points(bump);
+        complete_surfaces(&items, Some(&points), &params, &scene.root.path().join(out)).unwrap()
+    };
+    let flat = complete(0.0, "a");
     assert_eq!(flat.skipped, None);
     assert!(
         flat.surfaces[0].plane_inlier_fraction.unwrap() > 0.99,
         "{:?}",
         flat.surfaces[0]
     );
-    let bumpy = complete_surfaces(
-        &items,
-        Some(&table_points(0.1)),
-        &params,
-        &scene.root.path().join("b"),
-    )
-    .unwrap();
+    let bumpy = complete(0.1, "b");
     assert!(!bumpy.surfaces[0].accepted, "{:?}", bumpy.surfaces[0]);
     assert!(bumpy.skipped.unwrap().contains("not planar"));
     assert!(

@@ -11,6 +11,12 @@ fn parse(bytes: &[u8]) -> gltf::Gltf {
     gltf::Gltf::from_slice(bytes).expect("exported .glb must parse")
 }
 
+/// The test scene exported without asset extras, parsed back.
+fn scene_document() -> gltf::Gltf {
+    let (bytes, _) = build_glb(&scene(), None).unwrap();
+    parse(&bytes)
+}
+
 fn node<'a>(doc: &'a gltf::Gltf, name: &str) -> gltf::Node<'a> {
     doc.nodes()
         .find(|n| n.name() == Some(name))
@@ -23,8 +29,7 @@ fn extras(node: &gltf::Node) -> serde_json::Value {
 
 #[test]
 fn root_node_rotates_z_up_to_y_up_and_holds_one_child_per_component() {
-    let (bytes, _) = build_glb(&scene(), None).unwrap();
-    let doc = parse(&bytes);
+    let doc = scene_document();
     let scene = doc.default_scene().expect("default scene");
     let roots: Vec<_> = scene.nodes().collect();
     assert_eq!(roots.len(), 1);
@@ -110,6 +115,11 @@ struct PrimitiveData {
     bounds: gltf::mesh::Bounds<[f32; 3]>,
 }
 
+/// The primitive of node `name` in the exported test scene.
+fn scene_primitive(name: &str) -> PrimitiveData {
+    primitive_data(&scene_document(), name)
+}
+
 fn primitive_data(doc: &gltf::Gltf, name: &str) -> PrimitiveData {
     let blob = doc.blob.as_deref().expect("GLB has a BIN chunk");
     let mesh = node(doc, name).mesh().expect("node has a mesh");
@@ -132,11 +142,9 @@ fn primitive_data(doc: &gltf::Gltf, name: &str) -> PrimitiveData {
 
 #[test]
 fn position_bounds_cover_exactly_the_drawn_vertices() {
-    let (bytes, _) = build_glb(&scene(), None).unwrap();
-    let doc = parse(&bytes);
     let PrimitiveData {
         positions, bounds, ..
-    } = primitive_data(&doc, "obj_7_desk_lamp");
+    } = scene_primitive("obj_7_desk_lamp");
     // The unused vertex at (100,100,100) is gone; the box is [1,-1,0.7]–[1.2,-0.8,1.3].
     assert_eq!(positions.len(), 8);
     assert_eq!(bounds.min, [1.0, -1.0, 0.7]);
@@ -154,12 +162,10 @@ const LINEAR_OF_SRGB8: [(u8, f32); 5] = [
 
 #[test]
 fn vertex_colours_are_linear() {
-    let (bytes, _) = build_glb(&scene(), None).unwrap();
-    let doc = parse(&bytes);
+    let chair = &scene()[0];
     let PrimitiveData {
         positions, colours, ..
-    } = primitive_data(&doc, "obj_3_chair");
-    let chair = &scene()[0];
+    } = scene_primitive("obj_3_chair");
     for (p, c) in positions.iter().zip(&colours) {
         // Find the input vertex by position (the exporter may reorder vertices).
         let v = chair
@@ -183,18 +189,16 @@ fn vertex_colours_are_linear() {
         }
     }
     // Float input: 0.5 sRGB is 0.214041 linear; the knee value 0.04045 is 0.0031308.
-    let floor_colours = primitive_data(&doc, "background").colours;
+    let floor_colours = scene_primitive("background").colours;
     assert!((floor_colours[0][0] - 0.214_041_14).abs() < 1e-6);
     assert!((floor_colours[3][2] - 0.003_130_8).abs() < 1e-6);
 }
 
 #[test]
 fn triangles_are_the_input_faces_minus_degenerate_ones() {
-    let (bytes, _) = build_glb(&scene(), None).unwrap();
-    let doc = parse(&bytes);
     let PrimitiveData {
         positions, indices, ..
-    } = primitive_data(&doc, "obj_7_desk_lamp");
+    } = scene_primitive("obj_7_desk_lamp");
     let lamp = &scene()[1];
     let written: Vec<[[f32; 3]; 3]> = indices
         .chunks(3)

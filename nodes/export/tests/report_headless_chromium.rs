@@ -12,15 +12,32 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
+/// `CHROMIUM` when set, else the first Chromium or Chrome executable on `PATH`.
 fn find_chromium() -> Option<PathBuf> {
-    if let Some(p) = std::env::var_os("CHROMIUM") {
-        return Some(PathBuf::from(p));
+    std::env::var_os("CHROMIUM").map(PathBuf::from).or_else(|| {
+        let path = std::env::var_os("PATH")?;
+        let names = ["chromium", "chromium-browser", "google-chrome"];
+        names
+            .iter()
+            .flat_map(|name| std::env::split_paths(&path).map(move |dir| dir.join(name)))
+            .find(|candidate| candidate.is_file())
+    })
+}
+
+/// Chromium, or `None` with a loud skip notice when it is not installed; CI requires it.
+fn chromium_or_skip() -> Option<PathBuf> {
+    let found = find_chromium();
+    if found.is_none() {
+        let in_ci = std::env::var("CI").as_deref() == Ok("true");
+        assert!(
+            !in_ci,
+            "chromium is not installed (apt-get install -y chromium); CI requires this test"
+        );
+        eprintln!(
+            "\n!!!!! SKIPPED report_renders_in_headless_chromium: no chromium on PATH (apt-get install -y chromium) !!!!!\n"
+        );
     }
-    let path = std::env::var_os("PATH")?;
-    ["chromium", "chromium-browser", "google-chrome"]
-        .iter()
-        .flat_map(|name| std::env::split_paths(&path).map(move |dir| dir.join(name)))
-        .find(|candidate| candidate.is_file())
+    found
 }
 
 fn screenshot(chromium: &Path, page: &Path, out: &Path, profile: &Path) {
@@ -71,15 +88,7 @@ fn hex_rgb(hex: &str) -> [i32; 3] {
 
 #[test]
 fn report_renders_in_headless_chromium() {
-    let Some(chromium) = find_chromium() else {
-        if std::env::var("CI").as_deref() == Ok("true") {
-            panic!(
-                "chromium is not installed (apt-get install -y chromium); CI requires this test"
-            );
-        }
-        eprintln!(
-            "\n!!!!! SKIPPED report_renders_in_headless_chromium: no chromium on PATH (apt-get install -y chromium) !!!!!\n"
-        );
+    let Some(chromium) = chromium_or_skip() else {
         return;
     };
     let dir = tempfile::tempdir().unwrap();

@@ -51,75 +51,62 @@ fn report_data_roundtrips_through_json() {
     assert_eq!(serde_json::from_str::<ReportData>(&text).unwrap(), data);
 }
 
-fn error_of(data: &ReportData) -> String {
+/// The error rendering the synthetic report gives after `spoil` changes its data (given
+/// the folder the data's images are in).
+fn error_of(spoil: impl FnOnce(&mut ReportData, &std::path::Path)) -> String {
     let dir = tempfile::tempdir().unwrap();
+    let mut data = common::synthetic_report::report_data(dir.path());
+    spoil(&mut data, dir.path());
+    let out = tempfile::tempdir().unwrap();
     format!(
         "{:#}",
-        render_report(dir.path(), data).expect_err("must be rejected")
+        render_report(out.path(), &data).expect_err("must be rejected")
     )
+}
+
+/// The error for the synthetic report with an extra edge `from` → `to`.
+fn error_with_edge(from: &str, to: &str) -> String {
+    error_of(|data, _| {
+        data.run.edges.push(GraphEdge {
+            from: from.into(),
+            to: to.into(),
+        })
+    })
 }
 
 #[test]
 fn cyclic_graph_is_rejected() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut data = common::synthetic_report::report_data(dir.path());
-    data.run.edges.push(GraphEdge {
-        from: "train".into(),
-        to: "decompose".into(),
-    });
-    let e = error_of(&data);
-    assert!(
-        e.contains("cycle") && e.contains("train") && e.contains("decompose"),
-        "{e}"
-    );
+    let e = error_with_edge("train", "decompose");
+    common::assert_mentions(&e, &["cycle", "train", "decompose"]);
 }
 
 #[test]
 fn edge_to_an_unknown_node_is_rejected() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut data = common::synthetic_report::report_data(dir.path());
-    data.run.edges.push(GraphEdge {
-        from: "train".into(),
-        to: "ghost".into(),
-    });
-    let e = error_of(&data);
-    assert!(
-        e.contains("train → ghost") && e.contains("not in the run report"),
-        "{e}"
-    );
+    let e = error_with_edge("train", "ghost");
+    common::assert_mentions(&e, &["train → ghost", "not in the run report"]);
 }
 
 #[test]
 fn mismatched_view_sizes_name_both_files() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut data = common::synthetic_report::report_data(dir.path());
-    let small = dir.path().join("small.png");
-    objectsplat_core::Image::new(10, 10, 3)
-        .save_png8(&small)
-        .unwrap();
-    data.views[1].render = small;
-    let e = error_of(&data);
-    assert!(
-        e.contains("DSC01") && e.contains("small.png is 10×10") && e.contains("gt_1.png is 64×48"),
-        "{e}"
-    );
+    let e = error_of(|data, dir| {
+        let small = dir.join("small.png");
+        objectsplat_core::Image::new(10, 10, 3)
+            .save_png8(&small)
+            .unwrap();
+        data.views[1].render = small;
+    });
+    common::assert_mentions(&e, &["DSC01", "small.png is 10×10", "gt_1.png is 64×48"]);
 }
 
 #[test]
 fn missing_view_image_names_the_file() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut data = common::synthetic_report::report_data(dir.path());
-    data.views[0].ground_truth = dir.path().join("nowhere.png");
-    let e = error_of(&data);
+    let e = error_of(|data, dir| data.views[0].ground_truth = dir.join("nowhere.png"));
     assert!(e.contains("nowhere.png"), "{e}");
 }
 
 #[test]
 fn invalid_node_seconds_are_rejected() {
-    let dir = tempfile::tempdir().unwrap();
-    let mut data = common::synthetic_report::report_data(dir.path());
-    data.run.nodes[0].seconds = f64::NAN;
-    let e = error_of(&data);
+    let e = error_of(|data, _| data.run.nodes[0].seconds = f64::NAN);
     assert!(e.contains("node scene has invalid seconds NaN"), "{e}");
 }
 

@@ -8,10 +8,10 @@ use objectsplat_core::artifact::{METRICS_JSON, PAGE_HTML};
 use objectsplat_core::frames::Split;
 use objectsplat_core::{Camera, Frame, Frames};
 use objectsplat_export::nodes::ReportNode;
-use objectsplat_runtime::testing::run_node;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
-fn write_inputs(root: &Path) {
+/// Writes the metrics, frames and renders folders under `root`; returns them in that order.
+fn write_inputs(root: &Path) -> [PathBuf; 3] {
     let metrics = root.join("metrics");
     std::fs::create_dir_all(&metrics).unwrap();
     std::fs::write(
@@ -55,26 +55,18 @@ fn write_inputs(root: &Path) {
         }
     }
     Frames::write_json(&frames_dir, &frames).unwrap();
+    [metrics, frames_dir, renders]
 }
 
 #[test]
 fn report_node_writes_metrics_and_the_rendered_test_views() {
     let dir = tempfile::tempdir().unwrap();
-    write_inputs(dir.path());
-    let (m, f, r) = (
-        dir.path().join("metrics"),
-        dir.path().join("frames"),
-        dir.path().join("renders"),
-    );
-    let run = run_node(
-        &ReportNode,
+    let [m, f, r] = write_inputs(dir.path());
+    let (run, html) = common::run_report(
         &[("metrics", &m), ("frames", &f), ("renders", &r)],
         r#"(title: "room 7", max_views: 2)"#,
         &dir.path().join("out"),
-        None,
-    )
-    .unwrap();
-    let html = std::fs::read_to_string(run.outputs["file"].join(PAGE_HTML)).unwrap();
+    );
     assert!(html.contains("<title>room 7</title>"));
     assert!(html.contains("<td class=\"num\">23.5000</td>") && html.contains("obj_4_sofa"));
     // Test frames with renders are 1, 2, 4; two spread evenly are 1 and 2 (indices 0 and 1 of 3).
@@ -90,32 +82,18 @@ fn report_node_writes_metrics_and_the_rendered_test_views() {
 #[test]
 fn report_node_without_views_still_reports_metrics() {
     let dir = tempfile::tempdir().unwrap();
-    write_inputs(dir.path());
-    let m = dir.path().join("metrics");
-    let run = run_node(
-        &ReportNode,
-        &[("metrics", &m)],
-        "()",
-        &dir.path().join("out"),
-        None,
-    )
-    .unwrap();
-    let html = std::fs::read_to_string(run.outputs["file"].join(PAGE_HTML)).unwrap();
+    let [m, _, _] = write_inputs(dir.path());
+    let (_, html) = common::run_report(&[("metrics", &m)], "()", &dir.path().join("out"));
     assert!(html.contains("<title>ObjectSplat run</title>") && html.contains("No test views."));
 }
 
 #[test]
 fn report_node_output_is_deterministic() {
     let dir = tempfile::tempdir().unwrap();
-    write_inputs(dir.path());
-    let (m, f, r) = (
-        dir.path().join("metrics"),
-        dir.path().join("frames"),
-        dir.path().join("renders"),
-    );
+    let [m, f, r] = write_inputs(dir.path());
     let inputs: [(&str, &Path); 3] = [("metrics", &m), ("frames", &f), ("renders", &r)];
-    let a = run_node(&ReportNode, &inputs, "()", &dir.path().join("a"), None).unwrap();
-    let b = run_node(&ReportNode, &inputs, "()", &dir.path().join("b"), None).unwrap();
+    let a = common::node_result(&ReportNode, &inputs, "()", &dir.path().join("a")).unwrap();
+    let b = common::node_result(&ReportNode, &inputs, "()", &dir.path().join("b")).unwrap();
     assert_eq!(
         std::fs::read(a.outputs["file"].join(PAGE_HTML)).unwrap(),
         std::fs::read(b.outputs["file"].join(PAGE_HTML)).unwrap()
@@ -128,20 +106,8 @@ fn unreadable_metrics_name_the_file() {
     let m = dir.path().join("metrics");
     std::fs::create_dir_all(&m).unwrap();
     std::fs::write(m.join(METRICS_JSON), "{not json").unwrap();
-    let e = run_node(
-        &ReportNode,
-        &[("metrics", &m)],
-        "()",
-        &dir.path().join("out"),
-        None,
-    )
-    .err()
-    .expect("must fail");
-    let e = format!("{e:#}");
-    assert!(
-        e.contains(METRICS_JSON) && e.contains("not a valid metrics file"),
-        "{e}"
-    );
+    let e = common::report_error(&[("metrics", &m)], &dir.path().join("out"), "must fail");
+    common::assert_mentions(&e, &[METRICS_JSON, "not a valid metrics file"]);
 }
 
 #[test]

@@ -7,9 +7,7 @@ mod common;
 use common::svg::{best_ring, polylines, section, stop_line, svg_blocks};
 use common::synthetic_report::{fixture_models, fixture_training};
 use objectsplat_core::artifact::{MODEL_JSON, TRAINING_JSON};
-use objectsplat_export::nodes::ReportNode;
 use objectsplat_export::report::*;
-use objectsplat_runtime::testing::run_node;
 
 // Pixel coordinates are written with 2 decimals (±0.005 each); the maps are fitted on the
 // extreme points, so an interpolated position is off by at most about three roundings.
@@ -91,6 +89,32 @@ fn check_affine(
     (x, y)
 }
 
+/// Parses `plot` and checks its chair and background series against the logged values
+/// (see [`check_affine`]); returns the document and the two maps.
+fn parse_and_check_affine(
+    plot: &str,
+    chair: Vec<(f64, f64)>,
+    background: Vec<(f64, f64)>,
+) -> (roxmltree::Document<'_>, Axis, Axis) {
+    let doc = roxmltree::Document::parse(plot).unwrap();
+    let (x, y) = check_affine(
+        &polylines(&doc),
+        &[("obj_3_chair", chair), ("background", background)],
+    );
+    (doc, x, y)
+}
+
+/// Asserts `name`'s best-checkpoint ring is drawn where the maps put the logged `(x, y)`.
+fn assert_best_ring_at(
+    doc: &roxmltree::Document,
+    name: &str,
+    (x, y): (Axis, Axis),
+    at: (f64, f64),
+) {
+    let (cx, cy) = best_ring(doc, name).unwrap();
+    assert!(close(cx, x.at(at.0)) && close(cy, y.at(at.1)), "{cx},{cy}");
+}
+
 fn training_plots() -> Vec<String> {
     let dir = tempfile::tempdir().unwrap();
     let data = ReportData {
@@ -109,39 +133,24 @@ fn training_plots() -> Vec<String> {
 fn loss_and_triangle_curves_follow_the_steps() {
     let plots = training_plots();
     assert_eq!(plots.len(), 4);
-    let loss = roxmltree::Document::parse(&plots[0]).unwrap();
-    let (x, _) = check_affine(
-        &polylines(&loss),
-        &[
-            (
-                "obj_3_chair",
-                vec![(100.0, 0.5), (200.0, 0.25), (300.0, 0.125), (400.0, 0.1)],
-            ),
-            ("background", vec![(200.0, 0.4), (400.0, 0.3), (600.0, 0.2)]),
-        ],
+    let (loss, x, _) = parse_and_check_affine(
+        &plots[0],
+        vec![(100.0, 0.5), (200.0, 0.25), (300.0, 0.125), (400.0, 0.1)],
+        vec![(200.0, 0.4), (400.0, 0.3), (600.0, 0.2)],
     );
     // The chair stopped early after 400 iterations; the background ran its budget.
     assert!(close(stop_line(&loss, "obj_3_chair").unwrap(), x.at(400.0)));
     assert_eq!(stop_line(&loss, "background"), None);
 
-    let faces = roxmltree::Document::parse(&plots[3]).unwrap();
-    check_affine(
-        &polylines(&faces),
-        &[
-            (
-                "obj_3_chair",
-                vec![
-                    (100.0, 1000.0),
-                    (200.0, 1200.0),
-                    (300.0, 1100.0),
-                    (400.0, 900.0),
-                ],
-            ),
-            (
-                "background",
-                vec![(200.0, 5000.0), (400.0, 6000.0), (600.0, 6500.0)],
-            ),
+    let (faces, _, _) = parse_and_check_affine(
+        &plots[3],
+        vec![
+            (100.0, 1000.0),
+            (200.0, 1200.0),
+            (300.0, 1100.0),
+            (400.0, 900.0),
         ],
+        vec![(200.0, 5000.0), (400.0, 6000.0), (600.0, 6500.0)],
     );
     assert!(stop_line(&faces, "obj_3_chair").is_some());
 }
@@ -149,22 +158,14 @@ fn loss_and_triangle_curves_follow_the_steps() {
 #[test]
 fn held_out_psnr_marks_the_best_checkpoint_and_the_early_stop() {
     let plots = training_plots();
-    let by_iteration = roxmltree::Document::parse(&plots[1]).unwrap();
-    let (x, y) = check_affine(
-        &polylines(&by_iteration),
-        &[
-            (
-                "obj_3_chair",
-                vec![(100.0, 18.0), (200.0, 21.0), (300.0, 24.0), (400.0, 23.5)],
-            ),
-            ("background", vec![(300.0, 15.0), (600.0, 17.0)]),
-        ],
+    let (by_iteration, x, y) = parse_and_check_affine(
+        &plots[1],
+        vec![(100.0, 18.0), (200.0, 21.0), (300.0, 24.0), (400.0, 23.5)],
+        vec![(300.0, 15.0), (600.0, 17.0)],
     );
     // Best checkpoints: the chair's at 300 (24 dB, not the last eval), the background's at 600.
-    let (cx, cy) = best_ring(&by_iteration, "obj_3_chair").unwrap();
-    assert!(close(cx, x.at(300.0)) && close(cy, y.at(24.0)), "{cx},{cy}");
-    let (bx, by) = best_ring(&by_iteration, "background").unwrap();
-    assert!(close(bx, x.at(600.0)) && close(by, y.at(17.0)), "{bx},{by}");
+    assert_best_ring_at(&by_iteration, "obj_3_chair", (x, y), (300.0, 24.0));
+    assert_best_ring_at(&by_iteration, "background", (x, y), (600.0, 17.0));
     assert!(close(
         stop_line(&by_iteration, "obj_3_chair").unwrap(),
         x.at(400.0)
@@ -172,19 +173,12 @@ fn held_out_psnr_marks_the_best_checkpoint_and_the_early_stop() {
     assert_eq!(stop_line(&by_iteration, "background"), None);
 
     // Run time against error: the same evaluations placed by wall time.
-    let by_time = roxmltree::Document::parse(&plots[2]).unwrap();
-    let (x, y) = check_affine(
-        &polylines(&by_time),
-        &[
-            (
-                "obj_3_chair",
-                vec![(1.25, 18.0), (2.25, 21.0), (3.25, 24.0), (4.25, 23.5)],
-            ),
-            ("background", vec![(3.5, 15.0), (6.5, 17.0)]),
-        ],
+    let (by_time, x, y) = parse_and_check_affine(
+        &plots[2],
+        vec![(1.25, 18.0), (2.25, 21.0), (3.25, 24.0), (4.25, 23.5)],
+        vec![(3.5, 15.0), (6.5, 17.0)],
     );
-    let (cx, cy) = best_ring(&by_time, "obj_3_chair").unwrap();
-    assert!(close(cx, x.at(3.25)) && close(cy, y.at(24.0)), "{cx},{cy}");
+    assert_best_ring_at(&by_time, "obj_3_chair", (x, y), (3.25, 24.0));
     // The loop ended with the last evaluation, at 4.25 s.
     assert!(close(
         stop_line(&by_time, "obj_3_chair").unwrap(),
@@ -233,15 +227,7 @@ fn models_collection(root: &std::path::Path) -> std::path::PathBuf {
 fn report_node_tabulates_every_model_and_says_which_have_no_log() {
     let dir = tempfile::tempdir().unwrap();
     let models = models_collection(dir.path());
-    let run = run_node(
-        &ReportNode,
-        &[("models", &models)],
-        "()",
-        &dir.path().join("out"),
-        None,
-    )
-    .unwrap();
-    let html = std::fs::read_to_string(run.outputs["file"].join(REPORT_FILE)).unwrap();
+    let (run, html) = common::run_report(&[("models", &models)], "()", &dir.path().join("out"));
     let table = section(&html, "training");
     assert!(table.contains(
         r#"<tr data-component="obj_3_chair"><td>obj_3_chair</td><td class="num">600</td><td class="num">400</td><td class="num">300</td><td>best</td><td>–</td><td>yes</td><td class="num">4.75</td><td class="num">23.75</td><td class="num">850</td></tr>"#
@@ -272,18 +258,10 @@ fn a_broken_training_log_names_the_model_and_the_file() {
         "{\"component\": 3}",
     )
     .unwrap();
-    let Err(e) = run_node(
-        &ReportNode,
+    let msg = common::report_error(
         &[("models", &models)],
-        "()",
         &dir.path().join("out"),
-        None,
-    ) else {
-        panic!("a broken log is an error, not a silently missing curve");
-    };
-    let msg = format!("{e:#}");
-    assert!(
-        msg.contains("models item \"background\"") && msg.contains(TRAINING_JSON),
-        "{msg}"
+        "a broken log is an error, not a silently missing curve",
     );
+    common::assert_mentions(&msg, &["models item \"background\"", TRAINING_JSON]);
 }

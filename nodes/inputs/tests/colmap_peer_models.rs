@@ -3,28 +3,25 @@
 
 use objectsplat_inputs::colmap::{self, ColmapModel, Encoding};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
+
+mod common;
+use common::{floats as f64s, read_json};
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/colmap")
-        .join(name)
+    common::fixture("colmap").join(name)
 }
 
-fn f64s(v: &Value) -> Vec<f64> {
-    v.as_array()
-        .unwrap()
-        .iter()
-        .map(|x| x.as_f64().unwrap())
-        .collect()
+/// The expected `key` entries, after asserting the model has `count` of them.
+fn listed<'a>(exp: &'a Value, key: &str, count: usize, what: &str) -> &'a [Value] {
+    let all = exp[key].as_array().unwrap();
+    assert_eq!(count, all.len(), "{what}");
+    all
 }
 
 fn assert_matches_pycolmap(model: &ColmapModel, what: &str) {
-    let exp: Value =
-        serde_json::from_str(&std::fs::read_to_string(fixture("expected.json")).unwrap()).unwrap();
-    let cams = exp["cameras"].as_array().unwrap();
-    assert_eq!(model.cameras.len(), cams.len(), "{what}");
-    for c in cams {
+    let exp = read_json(&fixture("expected.json"));
+    for c in listed(&exp, "cameras", model.cameras.len(), what) {
         let got = &model.cameras[&(c["id"].as_u64().unwrap() as u32)];
         assert_eq!(got.model, c["model"].as_str().unwrap(), "{what}");
         assert_eq!(
@@ -33,9 +30,7 @@ fn assert_matches_pycolmap(model: &ColmapModel, what: &str) {
         );
         assert_eq!(got.params, f64s(&c["params"]), "{what}: camera {}", got.id);
     }
-    let imgs = exp["images"].as_array().unwrap();
-    assert_eq!(model.images.len(), imgs.len(), "{what}");
-    for i in imgs {
+    for i in listed(&exp, "images", model.images.len(), what) {
         let got = &model.images[&(i["id"].as_u64().unwrap() as u32)];
         assert_eq!(got.name, i["name"].as_str().unwrap(), "{what}");
         assert_eq!(
@@ -75,9 +70,7 @@ fn assert_matches_pycolmap(model: &ColmapModel, what: &str) {
             .collect();
         assert_eq!(ours, p2d, "{what}: image {} keypoints", got.id);
     }
-    let pts = exp["points"].as_array().unwrap();
-    assert_eq!(model.points.len(), pts.len(), "{what}");
-    for p in pts {
+    for p in listed(&exp, "points", model.points.len(), what) {
         let got = &model.points[&p["id"].as_u64().unwrap()];
         assert_eq!(
             got.xyz.to_vec(),

@@ -5,12 +5,12 @@ use objectsplat_core::artifact::POINTS_PLY;
 use objectsplat_core::{Frames, Points, Split, SplitPolicy};
 use objectsplat_inputs::scene::{self, Resolution, SplitChoice};
 use objectsplat_inputs::{colmap, colmap_scene};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
+
+mod common;
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/colmap")
-        .join(name)
+    common::fixture("colmap").join(name)
 }
 
 #[test]

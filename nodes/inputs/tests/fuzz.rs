@@ -15,7 +15,6 @@ use objectsplat_core::artifact::{FRAMES_JSON, OBJECTS_JSON};
 use objectsplat_inputs::masks_import::{self, MaskFormat, OverlapPolicy};
 use objectsplat_inputs::{colmap, label_png, nerfstudio};
 use proptest::prelude::*;
-use std::path::{Path, PathBuf};
 
 /// `PROPTEST_CASES` when set (a longer fuzzing session), else the brief default.
 fn cases(brief: u32) -> u32 {
@@ -25,11 +24,8 @@ fn cases(brief: u32) -> u32 {
         .unwrap_or(brief)
 }
 
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures")
-        .join(name)
-}
+mod common;
+use common::fixture;
 
 /// One edit of a valid file: overwrite, insert or delete a byte at a position.
 #[derive(Debug, Clone)]

@@ -4,34 +4,21 @@
 //! the engine's cache, never the old image.
 
 use objectsplat_core::Image;
-use objectsplat_runtime::Registry;
 use objectsplat_runtime::exec::{self, RunOptions, Silent};
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::build_plan;
 use objectsplat_runtime::report::Status;
 use objectsplat_runtime::store::Store;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures")
-        .join(name)
-}
-
-fn registry() -> Registry {
-    let mut reg = Registry::new();
-    for t in ["Frames", "Points", "Mesh", "Masks", "File"] {
-        reg.add_type(t, "test");
-    }
-    objectsplat_inputs::register(&mut reg);
-    reg
-}
+mod common;
+use common::{copy_dir, fixture};
 
 /// Runs `graph` and returns the source node's status and the first frame's image.
 fn run(dir: &Path) -> (Status, Image) {
     let src = GraphSource::read(&dir.join("g.ron")).unwrap();
-    let plan = build_plan(&src, &registry(), &[], &[]).unwrap_or_else(|d| panic!("{d}"));
+    let plan = build_plan(&src, &common::registry(), &[], &[]).unwrap_or_else(|d| panic!("{d}"));
     let store = Store::open(&dir.join("cache")).unwrap();
     let out = dir.join("out");
     let r = exec::run(
@@ -59,30 +46,20 @@ fn repaint(path: &Path) {
     new.save_png8(path).unwrap();
 }
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
-    }
-}
-
-#[test]
-fn colmap_images_beside_the_model_are_in_the_key() {
-    let dir = tempfile::tempdir().unwrap();
-    copy_dir(&fixture("colmap/classic_bin"), &dir.path().join("sparse/0"));
-    copy_dir(&fixture("colmap/images"), &dir.path().join("images"));
+/// Writes a graph of one source node `scene` with `params`, runs it twice (ran, then
+/// cached), repaints the first image and asserts the rerun sees the new pixels.
+fn assert_repainted_image_reruns(dir: &Path, kind: &str, params: &str) {
     std::fs::write(
-        dir.path().join("g.ron"),
-        r#"(nodes: { "scene": (kind: "colmap_scene", params: (path: "sparse/0", split: "all")) })"#,
+        dir.join("g.ron"),
+        format!(r#"(nodes: {{ "scene": (kind: "{kind}", params: {params}) }})"#),
     )
     .unwrap();
-    let (status, before) = run(dir.path());
+    let (status, before) = run(dir);
     assert_eq!(status, Status::Ran);
-    assert_eq!(run(dir.path()).0, Status::Cached);
+    assert_eq!(run(dir).0, Status::Cached);
 
-    repaint(&dir.path().join("images/camera000001_frame000000.png"));
-    let (status, after) = run(dir.path());
+    repaint(&dir.join("images/camera000001_frame000000.png"));
+    let (status, after) = run(dir);
     assert_eq!(
         status,
         Status::Ran,
@@ -90,6 +67,18 @@ fn colmap_images_beside_the_model_are_in_the_key() {
     );
     assert_ne!(before.data, after.data);
     assert!((after.get(0, 0, 0) - 0.9).abs() < 0.01);
+}
+
+#[test]
+fn colmap_images_beside_the_model_are_in_the_key() {
+    let dir = tempfile::tempdir().unwrap();
+    copy_dir(&fixture("colmap/classic_bin"), &dir.path().join("sparse/0"));
+    copy_dir(&fixture("colmap/images"), &dir.path().join("images"));
+    assert_repainted_image_reruns(
+        dir.path(),
+        "colmap_scene",
+        r#"(path: "sparse/0", split: "all")"#,
+    );
 }
 
 #[test]
@@ -106,22 +95,9 @@ fn nerfstudio_images_listed_in_the_json_are_in_the_key() {
         ),
     )
     .unwrap();
-    std::fs::write(
-        dir.path().join("g.ron"),
-        r#"(nodes: { "scene": (kind: "nerfstudio_scene", params: (path: "transforms.json", split: "all")) })"#,
-    )
-    .unwrap();
-    let (status, before) = run(dir.path());
-    assert_eq!(status, Status::Ran);
-    assert_eq!(run(dir.path()).0, Status::Cached);
-
-    repaint(&dir.path().join("images/camera000001_frame000000.png"));
-    let (status, after) = run(dir.path());
-    assert_eq!(
-        status,
-        Status::Ran,
-        "a replaced image must rerun the source"
+    assert_repainted_image_reruns(
+        dir.path(),
+        "nerfstudio_scene",
+        r#"(path: "transforms.json", split: "all")"#,
     );
-    assert_ne!(before.data, after.data);
-    assert!((after.get(0, 0, 0) - 0.9).abs() < 0.01);
 }

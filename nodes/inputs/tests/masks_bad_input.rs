@@ -6,22 +6,11 @@ use objectsplat_inputs::{npy, rle};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/masks")
-        .join(name)
-}
+mod common;
+use common::{assert_mentions, copy_dir};
 
-fn copy_dir(from: &Path, to: &Path) {
-    std::fs::create_dir_all(to).unwrap();
-    for e in std::fs::read_dir(from).unwrap() {
-        let e = e.unwrap();
-        if e.path().is_dir() {
-            copy_dir(&e.path(), &to.join(e.file_name()));
-        } else {
-            std::fs::copy(e.path(), to.join(e.file_name())).unwrap();
-        }
-    }
+fn fixture(name: &str) -> PathBuf {
+    common::fixture("masks").join(name)
 }
 
 fn import_err(source: &Path, format: MaskFormat, policy: OverlapPolicy) -> String {
@@ -46,9 +35,9 @@ fn mask_png_of_the_wrong_size_names_file_and_sizes() {
         .save(dir.path().join("f001.png"))
         .unwrap();
     let e = import_err(dir.path(), MaskFormat::Davis, OverlapPolicy::LowerId);
-    assert!(
-        e.contains("f001.png: mask is 15×12 but frame \"f001.jpg\" is 16×12"),
-        "{e}"
+    assert_mentions(
+        &e,
+        &["f001.png: mask is 15×12 but frame \"f001.jpg\" is 16×12"],
     );
 }
 
@@ -77,26 +66,20 @@ fn exact_multiple_of_the_frame_size_is_sampled_down() {
 #[test]
 fn rle_whose_size_disagrees_with_the_frame_is_refused() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(
-        dir.path().join("f000.json"),
-        r#"[{"segmentation": {"size": [12, 15], "counts": [180]}}]"#,
-    )
-    .unwrap();
-    let e = import_err(dir.path(), MaskFormat::CocoRle, OverlapPolicy::LowerId);
-    assert!(
-        e.contains("f000.json mask 0: mask is 15×12 but frame \"f000.jpg\" is 16×12"),
-        "{e}"
-    );
-    std::fs::write(
-        dir.path().join("f000.json"),
-        r#"[{"segmentation": {"size": [12, 16], "counts": [100]}}]"#,
-    )
-    .unwrap();
-    let e = import_err(dir.path(), MaskFormat::CocoRle, OverlapPolicy::LowerId);
-    assert!(
-        e.contains("f000.json: mask 0: RLE runs cover 100 pixels but its size is 12×16 = 192"),
-        "{e}"
-    );
+    for (rle, want) in [
+        (
+            r#"[{"segmentation": {"size": [12, 15], "counts": [180]}}]"#,
+            "f000.json mask 0: mask is 15×12 but frame \"f000.jpg\" is 16×12",
+        ),
+        (
+            r#"[{"segmentation": {"size": [12, 16], "counts": [100]}}]"#,
+            "f000.json: mask 0: RLE runs cover 100 pixels but its size is 12×16 = 192",
+        ),
+    ] {
+        std::fs::write(dir.path().join("f000.json"), rle).unwrap();
+        let e = import_err(dir.path(), MaskFormat::CocoRle, OverlapPolicy::LowerId);
+        assert_mentions(&e, &[want]);
+    }
 }
 
 #[test]
@@ -109,9 +92,9 @@ fn instance_without_a_label_names_both_files() {
     )
     .unwrap();
     let e = import_err(dir.path(), MaskFormat::GroundedSam2, OverlapPolicy::LowerId);
-    assert!(
-        e.contains("mask_f002.json: instance id 3 appears in") && e.contains("mask_f002.npy"),
-        "{e}"
+    assert_mentions(
+        &e,
+        &["mask_f002.json: instance id 3 appears in", "mask_f002.npy"],
     );
 }
 
@@ -122,9 +105,9 @@ fn higher_score_without_scores_says_which_policy_to_use() {
         MaskFormat::PerObjectPng,
         OverlapPolicy::HigherScore,
     );
-    assert!(
-        e.contains("001/f000.png: has no score") && e.contains("use lower_id or smaller_area"),
-        "{e}"
+    assert_mentions(
+        &e,
+        &["001/f000.png: has no score", "use lower_id or smaller_area"],
     );
 }
 
@@ -147,33 +130,30 @@ fn unknown_names_and_missing_folders_are_errors() {
         MaskFormat::Davis,
         OverlapPolicy::LowerId,
     );
-    assert!(
-        e.contains("/nonexistent/masks: mask source is not a folder"),
-        "{e}"
-    );
+    assert_mentions(&e, &["/nonexistent/masks: mask source is not a folder"]);
+}
+
+/// A version 1.0 .npy file's magic and `header`, before any data.
+fn npy_header(header: &str) -> Vec<u8> {
+    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
+    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
+    bytes.extend_from_slice(header.as_bytes());
+    bytes
 }
 
 #[test]
 fn npy_header_that_lies_is_refused() {
-    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
-    let header = "{'descr': '<u2', 'fortran_order': False, 'shape': (1000000, 1000000), }";
-    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
-    bytes.extend_from_slice(header.as_bytes());
+    let mut bytes =
+        npy_header("{'descr': '<u2', 'fortran_order': False, 'shape': (1000000, 1000000), }");
     bytes.extend_from_slice(&[0; 8]);
     let e = npy::parse(&bytes).unwrap_err();
-    assert!(
-        e.contains("needs 2000000000000 data bytes but the file has 8"),
-        "{e}"
-    );
+    assert_mentions(&e, &["needs 2000000000000 data bytes but the file has 8"]);
 }
 
 #[test]
 fn npy_fortran_order_and_big_endian_read_correctly() {
     // 2×3 array [[1,2,3],[4,5,6]] stored column-major as big-endian u2.
-    let mut bytes = b"\x93NUMPY\x01\x00".to_vec();
-    let header = "{'descr': '>u2', 'fortran_order': True, 'shape': (2, 3), }";
-    bytes.extend_from_slice(&(header.len() as u16).to_le_bytes());
-    bytes.extend_from_slice(header.as_bytes());
+    let mut bytes = npy_header("{'descr': '>u2', 'fortran_order': True, 'shape': (2, 3), }");
     for v in [1u16, 4, 2, 5, 3, 6] {
         bytes.extend_from_slice(&v.to_be_bytes());
     }

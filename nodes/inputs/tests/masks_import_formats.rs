@@ -5,18 +5,16 @@ use objectsplat_core::artifact::OBJECTS_JSON;
 use objectsplat_core::masks::{IdMap, read_objects};
 use objectsplat_inputs::masks_import::{self, MaskFormat, OverlapPolicy};
 use serde_json::Value;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
+
+mod common;
 
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/masks")
-        .join(name)
+    common::fixture("masks").join(name)
 }
 
 fn expected(case: &str) -> Value {
-    let all: Value =
-        serde_json::from_str(&std::fs::read_to_string(fixture("expected.json")).unwrap()).unwrap();
-    all[case].clone()
+    common::read_json(&fixture("expected.json"))[case].clone()
 }
 
 fn run(

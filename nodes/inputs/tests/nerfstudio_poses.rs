@@ -6,6 +6,9 @@ use objectsplat_core::Camera;
 use objectsplat_inputs::nerfstudio::{self, Roots};
 use serde_json::json;
 
+mod common;
+use common::{assert_mentions, write_json};
+
 /// The OpenGL camera-to-world of `cam`, built by hand: invert the pose, then flip the
 /// camera's y and z axes (columns 1 and 2).
 fn c2w_gl(cam: &Camera) -> Vec<Vec<f64>> {
@@ -40,7 +43,7 @@ fn opengl_camera_to_world_becomes_opencv_world_to_camera() {
     let doc = json!({"fl_x": 14.0, "fl_y": 15.0, "cx": 8.0, "cy": 6.0, "w": 16, "h": 12, "camera_model": "OPENCV",
         "k1": 0.0, "k2": 0.0, "p1": 0.0, "p2": 0.0, "frames": frames});
     let path = dir.path().join("transforms.json");
-    std::fs::write(&path, doc.to_string()).unwrap();
+    write_json(&path, &doc);
     let t = nerfstudio::read(&path, &Roots::default()).unwrap();
     let views = t.views(glam::DMat4::IDENTITY).unwrap();
     for (v, want) in views.iter().zip(&cams) {
@@ -79,7 +82,7 @@ fn per_frame_intrinsics_override_and_bad_frames_are_skipped() {
                    {"file_path": "b.png", "transform_matrix": c2w_gl(&cams[1]), "is_bad": true}],
         "test_frames": [{"file_path": "c.png", "transform_matrix": c2w_gl(&cams[1])}]});
     let path = dir.path().join("t.json");
-    std::fs::write(&path, doc.to_string()).unwrap();
+    write_json(&path, &doc);
     let t = nerfstudio::read(&path, &Roots::default()).unwrap();
     assert_eq!(t.skipped_bad, 1);
     let v = t.views(glam::DMat4::IDENTITY).unwrap();
@@ -115,7 +118,7 @@ fn distortion_and_bad_matrices_are_errors_naming_the_frame() {
     ] {
         let doc = json!({"fl_x": 14.0, "w": 16, "h": 12, "camera_model": model, key: 0.1,
             "frames": [{"file_path": "a.png", "transform_matrix": c2w_gl(&cams[0])}]});
-        std::fs::write(&path, doc.to_string()).unwrap();
+        write_json(&path, &doc);
         let e = nerfstudio::read(&path, &Roots::default())
             .unwrap_err()
             .to_string();
@@ -126,7 +129,7 @@ fn distortion_and_bad_matrices_are_errors_naming_the_frame() {
         row[0] *= 2.0;
     }
     let doc = json!({"fl_x": 14.0, "w": 16, "h": 12, "frames": [{"file_path": "a.png", "transform_matrix": scaled}]});
-    std::fs::write(&path, doc.to_string()).unwrap();
+    write_json(&path, &doc);
     let e = format!(
         "{:#}",
         nerfstudio::read(&path, &Roots::default())
@@ -161,7 +164,7 @@ fn nerfstudio_filename_lists_give_the_split_and_their_absence_is_named() {
     let path = dir.path().join("transforms.json");
     let mut doc = json!({"fl_x": 14.0, "w": 16, "h": 12, "frames": frames,
         "train_filenames": ["images/f0.png", "images/f2.png"], "test_filenames": ["images/f1.png"]});
-    std::fs::write(&path, doc.to_string()).unwrap();
+    write_json(&path, &doc);
     let params = format!("(path: {:?}, split: \"lists\")", path.display().to_string());
     let out = tempfile::tempdir().unwrap();
     let run = run_node(&NerfstudioScene, &[], &params, out.path(), None).unwrap();
@@ -174,15 +177,10 @@ fn nerfstudio_filename_lists_give_the_split_and_their_absence_is_named() {
     assert_eq!(got, [Split::Train, Split::Test, Split::Train]);
     doc.as_object_mut().unwrap().remove("train_filenames");
     doc.as_object_mut().unwrap().remove("test_filenames");
-    std::fs::write(&path, doc.to_string()).unwrap();
-    let e = format!(
-        "{:#}",
-        run_node(&NerfstudioScene, &[], &params, out.path(), None)
-            .err()
-            .unwrap()
-    );
-    assert!(
-        e.contains("transforms.json: split \"lists\" needs the JSON's own split"),
-        "{e}"
+    write_json(&path, &doc);
+    let e = common::node_error(&NerfstudioScene, &[], &params);
+    assert_mentions(
+        &e,
+        &["transforms.json: split \"lists\" needs the JSON's own split"],
     );
 }

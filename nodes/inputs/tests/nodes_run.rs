@@ -3,42 +3,34 @@
 use objectsplat_core::artifact::{OBJECTS_JSON, POINTS_PLY};
 use objectsplat_core::{Frames, IdMap, Points, Split};
 use objectsplat_inputs::nodes::{ColmapScene, ImportMasks, NerfstudioScene, ScannetppScene};
+use objectsplat_runtime::Outcome;
 use objectsplat_runtime::testing::run_node;
-use objectsplat_runtime::{Outcome, Registry};
-use std::path::{Path, PathBuf};
 
-fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures")
-        .join(name)
-}
+mod common;
+use common::{fixture, node_error};
 
 #[test]
 fn register_declares_all_four_kinds_with_valid_specs() {
-    let mut reg = Registry::new();
-    for t in ["Frames", "Points", "Mesh", "Masks", "File"] {
-        reg.add_type(t, "test");
-    }
-    objectsplat_inputs::register(&mut reg);
-    for kind in [
+    let kinds = [
         "colmap_scene",
         "nerfstudio_scene",
         "scannetpp_scene",
         "import_masks",
-    ] {
+    ];
+    let reg = common::registry();
+    for kind in kinds {
         assert!(reg.get(kind).is_some(), "{kind}");
     }
 }
 
 #[test]
 fn colmap_scene_writes_frames_and_points() {
-    let out = tempfile::tempdir().unwrap();
-    let params = format!(
-        "(path: {:?}, images: Some({:?}), split: \"dense\", max_width: Some(32))",
-        fixture("colmap/rig_bin").display().to_string(),
-        fixture("colmap/images").display().to_string()
+    let params = common::params_with_images(
+        &fixture("colmap/rig_bin"),
+        &fixture("colmap/images"),
+        ", split: \"dense\", max_width: Some(32)",
     );
-    let run = run_node(&ColmapScene, &[], &params, out.path(), None).unwrap();
+    let (_out, run) = common::run_source(&ColmapScene, &params);
     assert_eq!(run.outcome, Outcome::Done);
     let frames = Frames::read(&run.outputs["frames"]).unwrap();
     assert_eq!(frames.frames.len(), 6);
@@ -87,40 +79,27 @@ fn import_masks_writes_id_maps_and_reports_objects() {
 
 #[test]
 fn bad_params_are_errors_not_panics() {
-    let out = tempfile::tempdir().unwrap();
-    let e = run_node(
-        &NerfstudioScene,
-        &[],
-        "(path: \"/nonexistent/transforms.json\")",
-        out.path(),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(
-        format!("{e:#}").contains("/nonexistent/transforms.json: cannot read"),
-        "{e:#}"
-    );
-    let e = run_node(
-        &ScannetppScene,
-        &[],
-        "(path: \"/nonexistent\", overlap: \"biggest\")",
-        out.path(),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{e:#}").contains("biggest"), "{e:#}");
-    let e = run_node(
-        &ColmapScene,
-        &[],
-        "(path: \"/nonexistent\", resolution: 0)",
-        out.path(),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{e:#}").contains("resolution"), "{e:#}");
+    let cases: [(&dyn objectsplat_runtime::Node, &str, &str); 3] = [
+        (
+            &NerfstudioScene,
+            "(path: \"/nonexistent/transforms.json\")",
+            "/nonexistent/transforms.json: cannot read",
+        ),
+        (
+            &ScannetppScene,
+            "(path: \"/nonexistent\", overlap: \"biggest\")",
+            "biggest",
+        ),
+        (
+            &ColmapScene,
+            "(path: \"/nonexistent\", resolution: 0)",
+            "resolution",
+        ),
+    ];
+    for (node, params, want) in cases {
+        let e = node_error(node, &[], params);
+        assert!(e.contains(want), "{e}");
+    }
 }
 
 #[test]
@@ -156,25 +135,12 @@ fn import_masks_reads_a_wired_source_or_a_path_never_both() {
             "{f}"
         );
     }
-    let out = tempfile::tempdir().unwrap();
-    let both = run_node(
+    let both = node_error(
         &ImportMasks,
         &[("frames", &frames), ("source", &gsam)],
         &params,
-        out.path(),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{both:#}").contains("both the `source` input and `path`"));
-    let neither = run_node(
-        &ImportMasks,
-        &[("frames", &frames)],
-        "(format: \"davis\")",
-        out.path(),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{neither:#}").contains("no masks: set `path`"));
+    );
+    assert!(both.contains("both the `source` input and `path`"));
+    let neither = node_error(&ImportMasks, &[("frames", &frames)], "(format: \"davis\")");
+    assert!(neither.contains("no masks: set `path`"));
 }

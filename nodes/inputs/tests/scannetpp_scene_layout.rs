@@ -13,6 +13,9 @@ use objectsplat_runtime::testing::run_node;
 use serde_json::json;
 use std::path::{Path, PathBuf};
 
+mod common;
+use common::{assert_mentions, node_error, write_json};
+
 const NAMES: [&str; 3] = ["DSC00001.JPG", "DSC00002.JPG", "DSC00003.JPG"];
 
 fn cameras() -> Vec<Camera> {
@@ -143,6 +146,11 @@ fn build(root: &Path, with_colmap: bool, frame_change_in_json: bool) {
     std::fs::write(root.join("scans/segments_anno.json"), anno.to_string()).unwrap();
 }
 
+/// The error `scannetpp::load` gives for the scene at `root`, without background labels.
+fn load_error(root: &Path, overlap: GroupOverlap) -> anyhow::Error {
+    scannetpp::load(root, overlap, &[]).err().unwrap()
+}
+
 fn assert_poses(views: &[objectsplat_inputs::scene::SourceView], tolerance: f64) {
     for (v, want) in views.iter().zip(cameras()) {
         let d = (v.camera.view() - want.view())
@@ -188,19 +196,10 @@ fn json_fallback_applies_the_frame_change() {
 fn json_in_the_wrong_frame_is_caught_both_ways() {
     let dir = tempfile::tempdir().unwrap();
     build(dir.path(), true, false);
-    let e = scannetpp::load(dir.path(), GroupOverlap::Smallest, &[])
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(
-        e.contains("DSC00001.JPG") && e.contains("the two pose sources disagree"),
-        "{e}"
-    );
+    let e = load_error(dir.path(), GroupOverlap::Smallest).to_string();
+    assert_mentions(&e, &["DSC00001.JPG", "the two pose sources disagree"]);
     std::fs::remove_dir_all(dir.path().join("dslr/colmap")).unwrap();
-    let e = scannetpp::load(dir.path(), GroupOverlap::Smallest, &[])
-        .err()
-        .unwrap()
-        .to_string();
+    let e = load_error(dir.path(), GroupOverlap::Smallest).to_string();
     assert!(e.contains("lies outside the mesh bounds"), "{e}");
 }
 
@@ -261,47 +260,31 @@ fn object_ids_are_the_annotations_and_must_fit_a_mask() {
     );
     assert_eq!(&s.mesh.object_ids.as_ref().unwrap()[..4], &[-1, -1, -1, -1]);
     write(65535);
-    let e = format!(
-        "{:#}",
-        scannetpp::load(dir.path(), GroupOverlap::First, &[])
-            .err()
-            .unwrap()
-    );
-    assert!(
-        e.contains(
-            "segments_anno.json: segGroups[2]: objectId 65535 (label \"cup\") does not fit a mask"
-        ) && e.contains("1..=65534"),
-        "{e}"
+    let e = format!("{:#}", load_error(dir.path(), GroupOverlap::First));
+    assert_mentions(
+        &e,
+        &[
+            "segments_anno.json: segGroups[2]: objectId 65535 (label \"cup\") does not fit a mask",
+            "1..=65534",
+        ],
     );
 }
 
 #[test]
 fn missing_pieces_are_named() {
     let dir = tempfile::tempdir().unwrap();
-    let e = scannetpp::load(dir.path(), GroupOverlap::Smallest, &[])
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(
-        e.contains(
-            "no dslr/resized_undistorted_images, dslr/undistorted_images or dslr/resized_images"
-        ),
-        "{e}"
+    let e = load_error(dir.path(), GroupOverlap::Smallest).to_string();
+    assert_mentions(
+        &e,
+        &["no dslr/resized_undistorted_images, dslr/undistorted_images or dslr/resized_images"],
     );
     build(dir.path(), true, true);
-    std::fs::write(
-        dir.path().join("scans/segments.json"),
-        json!({"segIndices": [0, 1]}).to_string(),
-    )
-    .unwrap();
-    let e = scannetpp::load(dir.path(), GroupOverlap::Smallest, &[])
-        .err()
-        .unwrap()
-        .to_string();
-    assert!(
-        e.contains("segments.json: 2 segIndices for 10 mesh vertices"),
-        "{e}"
+    write_json(
+        &dir.path().join("scans/segments.json"),
+        &json!({"segIndices": [0, 1]}),
     );
+    let e = load_error(dir.path(), GroupOverlap::Smallest).to_string();
+    assert_mentions(&e, &["segments.json: 2 segIndices for 10 mesh vertices"]);
 }
 
 fn run_scene(
@@ -319,6 +302,14 @@ fn run_scene(
     (frames, run.notes)
 }
 
+/// A full scene (COLMAP poses, JSON in the mesh frame) and its root as text.
+fn built_scene() -> (tempfile::TempDir, String) {
+    let dir = tempfile::tempdir().unwrap();
+    build(dir.path(), true, true);
+    let root = dir.path().display().to_string();
+    (dir, root)
+}
+
 fn split_of(frames: &Frames) -> Vec<(&str, Split)> {
     frames
         .frames
@@ -329,9 +320,7 @@ fn split_of(frames: &Frames) -> Vec<(&str, Split)> {
 
 #[test]
 fn nerfstudio_scene_reads_the_scannetpp_json_with_an_images_folder() {
-    let dir = tempfile::tempdir().unwrap();
-    build(dir.path(), true, true);
-    let root = dir.path().display().to_string();
+    let (_scene, root) = built_scene();
     let json = format!("{root}/dslr/nerfstudio/transforms_undistorted.json");
     let images = format!("{root}/dslr/resized_undistorted_images");
     let (ours, _) = run_scene(
@@ -362,31 +351,19 @@ fn nerfstudio_scene_reads_the_scannetpp_json_with_an_images_folder() {
         assert!(gap < 1e-3, "{}: {gap}", a.name);
     }
     // Without `images` the bare file names are looked up beside the JSON, and the error says so.
-    let out = tempfile::tempdir().unwrap();
-    let e = format!(
-        "{:#}",
-        run_node(
-            &NerfstudioScene,
-            &[],
-            &format!("(path: {json:?})"),
-            out.path(),
-            None
-        )
-        .err()
-        .unwrap()
-    );
-    assert!(
-        e.contains("transforms_undistorted.json: frame 0: file_path \"DSC00001.JPG\"")
-            && e.contains("does not exist; set `images`"),
-        "{e}"
+    let e = node_error(&NerfstudioScene, &[], &format!("(path: {json:?})"));
+    assert_mentions(
+        &e,
+        &[
+            "transforms_undistorted.json: frame 0: file_path \"DSC00001.JPG\"",
+            "does not exist; set `images`",
+        ],
     );
 }
 
 #[test]
 fn test_frames_stay_test_frames_under_a_rule() {
-    let dir = tempfile::tempdir().unwrap();
-    build(dir.path(), true, true);
-    let root = dir.path().display().to_string();
+    let (_scene, root) = built_scene();
     // `frames` holds DSC00001 and DSC00002, `test_frames` DSC00003. The rule splits the
     // two free frames (fewer than 8: the middle one, index 1, is marked).
     for (split, want) in [
@@ -397,24 +374,24 @@ fn test_frames_stay_test_frames_under_a_rule() {
     ] {
         let json = format!("{root}/dslr/nerfstudio/transforms_undistorted.json");
         let images = format!("{root}/dslr/resized_undistorted_images");
-        let (frames, _) = run_scene(
-            &NerfstudioScene,
-            &format!("(path: {json:?}, images: Some({images:?}), split: {split:?})"),
-        );
-        assert_eq!(
-            split_of(&frames),
-            NAMES.iter().copied().zip(want).collect::<Vec<_>>(),
-            "nerfstudio_scene {split}"
-        );
+        let mut sources = vec![(
+            "nerfstudio_scene",
+            &NerfstudioScene as &dyn objectsplat_runtime::Node,
+            format!("(path: {json:?}, images: Some({images:?}), split: {split:?})"),
+        )];
         if split != "lists" {
-            let (frames, _) = run_scene(
+            sources.push((
+                "scannetpp_scene",
                 &ScannetppScene,
-                &format!("(path: {root:?}, split: {split:?})"),
-            );
+                format!("(path: {root:?}, split: {split:?})"),
+            ));
+        }
+        for (kind, node, params) in sources {
+            let (frames, _) = run_scene(node, &params);
             assert_eq!(
                 split_of(&frames),
                 NAMES.iter().copied().zip(want).collect::<Vec<_>>(),
-                "scannetpp_scene {split}"
+                "{kind} {split}"
             );
         }
     }
@@ -422,30 +399,20 @@ fn test_frames_stay_test_frames_under_a_rule() {
 
 #[test]
 fn split_lists_reads_train_test_lists_json() {
-    let dir = tempfile::tempdir().unwrap();
-    build(dir.path(), true, true);
-    let root = dir.path().display().to_string();
+    let (dir, root) = built_scene();
     let params = format!("(path: {root:?}, split: \"lists\")");
-    let out = tempfile::tempdir().unwrap();
-    let e = format!(
-        "{:#}",
-        run_node(&ScannetppScene, &[], &params, out.path(), None)
-            .err()
-            .unwrap()
-    );
-    assert!(
-        e.contains("dslr/train_test_lists.json: not found; split \"lists\""),
-        "{e}"
+    let e = node_error(&ScannetppScene, &[], &params);
+    assert_mentions(
+        &e,
+        &["dslr/train_test_lists.json: not found; split \"lists\""],
     );
     let lists = dir.path().join(scannetpp::TRAIN_TEST_LISTS);
     // The official lists disagree with the JSON's test_frames on purpose; they win. The
     // is_bad frame is listed but not loaded.
-    std::fs::write(
+    write_json(
         &lists,
-        json!({"train": ["DSC00001.JPG", "DSC00003.JPG"], "test": ["DSC00002.JPG", "DSC09999.JPG"]})
-            .to_string(),
-    )
-    .unwrap();
+        &json!({"train": ["DSC00001.JPG", "DSC00003.JPG"], "test": ["DSC00002.JPG", "DSC09999.JPG"]}),
+    );
     let (frames, notes) = run_scene(&ScannetppScene, &params);
     assert_eq!(
         split_of(&frames),
@@ -462,36 +429,19 @@ fn split_lists_reads_train_test_lists_json() {
         "{notes:?}"
     );
     // A loaded frame in neither list, and a malformed list, are errors naming the file.
-    std::fs::write(
-        &lists,
-        json!({"train": ["DSC00001.JPG"], "test": ["DSC00002.JPG"]}).to_string(),
-    )
-    .unwrap();
-    let e = format!(
-        "{:#}",
-        run_node(&ScannetppScene, &[], &params, out.path(), None)
-            .err()
-            .unwrap()
-    );
-    assert!(
-        e.contains("train_test_lists.json: frame \"DSC00003.JPG\" is in neither the train nor the test list"),
-        "{e}"
-    );
-    std::fs::write(
-        &lists,
-        json!({"train": ["DSC00001.JPG", 7], "test": []}).to_string(),
-    )
-    .unwrap();
-    let e = format!(
-        "{:#}",
-        run_node(&ScannetppScene, &[], &params, out.path(), None)
-            .err()
-            .unwrap()
-    );
-    assert!(
-        e.contains("train_test_lists.json: train[1] is not an image name"),
-        "{e}"
-    );
+    for (doc, want) in [
+        (
+            json!({"train": ["DSC00001.JPG"], "test": ["DSC00002.JPG"]}),
+            "train_test_lists.json: frame \"DSC00003.JPG\" is in neither the train nor the test list",
+        ),
+        (
+            json!({"train": ["DSC00001.JPG", 7], "test": []}),
+            "train_test_lists.json: train[1] is not an image name",
+        ),
+    ] {
+        write_json(&lists, &doc);
+        assert_mentions(&node_error(&ScannetppScene, &[], &params), &[want]);
+    }
 }
 
 #[test]

@@ -10,14 +10,14 @@ use objectsplat_runtime::testing::run_node;
 use serde_json::Value;
 use std::path::{Path, PathBuf};
 
+mod common;
+
 fn fixture(name: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/fixtures/undistort")
-        .join(name)
+    common::fixture("undistort").join(name)
 }
 
 fn expected() -> Value {
-    serde_json::from_str(&std::fs::read_to_string(fixture("expected.json")).unwrap()).unwrap()
+    common::read_json(&fixture("expected.json"))
 }
 
 /// Pixels this far from the output border are compared (OpenCV and we both blend
@@ -64,17 +64,20 @@ fn assert_matches(model: &str, frames_dir: &Path) {
     );
 }
 
+/// `colmap_scene` params for the fixture model of camera `model` and the fixture images.
+fn colmap_params(model: &str, rest: &str) -> String {
+    common::params_with_images(
+        &fixture(&format!("sparse_{model}")),
+        &fixture("images"),
+        rest,
+    )
+}
+
 fn colmap_frames(model: &str, out: &Path) -> PathBuf {
-    let params = format!(
-        "(path: {:?}, images: Some({:?}), split: \"all\")",
-        fixture(&format!("sparse_{model}")).display().to_string(),
-        fixture("images").display().to_string()
-    );
+    let params = colmap_params(model, ", split: \"all\"");
     let run = run_node(&ColmapScene, &[], &params, out, None).unwrap();
     assert!(
-        run.notes
-            .iter()
-            .any(|(k, v)| k == "undistorted" && v.starts_with("1 frames; 96×72 → pinhole")),
+        common::has_note(&run.notes, "undistorted", "1 frames; 96×72 → pinhole"),
         "{model}: {:?}",
         run.notes
     );
@@ -118,13 +121,8 @@ fn nerfstudio_distortion_keys_give_the_same_frames() {
 
 #[test]
 fn downscaling_follows_undistortion() {
-    let out = tempfile::tempdir().unwrap();
-    let params = format!(
-        "(path: {:?}, images: Some({:?}), split: \"all\", resolution: 3)",
-        fixture("sparse_OPENCV_FISHEYE").display().to_string(),
-        fixture("images").display().to_string()
-    );
-    let run = run_node(&ColmapScene, &[], &params, out.path(), None).unwrap();
+    let params = colmap_params("OPENCV_FISHEYE", ", split: \"all\", resolution: 3");
+    let (_out, run) = common::run_source(&ColmapScene, &params);
     let frames = Frames::read(&run.outputs["frames"]).unwrap();
     let f = &frames.frames[0];
     let want = &expected()["OPENCV_FISHEYE"]["undistorted"];
@@ -149,21 +147,13 @@ fn an_unusable_lens_is_an_error_naming_the_camera() {
     )
     .unwrap();
     std::fs::write(dir.path().join("points3D.txt"), "").unwrap();
-    let params = format!(
-        "(path: {:?}, images: Some({:?}))",
-        dir.path().display().to_string(),
-        fixture("images").display().to_string()
-    );
-    let out = tempfile::tempdir().unwrap();
-    let e = format!(
-        "{:#}",
-        run_node(&ColmapScene, &[], &params, out.path(), None)
-            .err()
-            .unwrap()
-    );
-    assert!(
-        e.contains("camera 1 (SIMPLE_RADIAL)")
-            && e.contains("cannot be inverted along the image border"),
-        "{e}"
+    let params = common::params_with_images(dir.path(), &fixture("images"), "");
+    let e = common::node_error(&ColmapScene, &[], &params);
+    common::assert_mentions(
+        &e,
+        &[
+            "camera 1 (SIMPLE_RADIAL)",
+            "cannot be inverted along the image border",
+        ],
     );
 }

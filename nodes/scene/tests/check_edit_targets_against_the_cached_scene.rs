@@ -6,25 +6,15 @@
 
 mod common;
 
+use common::registry;
+use objectsplat_runtime::Diagnostic;
 use objectsplat_runtime::check;
 use objectsplat_runtime::exec::{self, RunOptions, Silent};
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::build_plan;
 use objectsplat_runtime::store::Store;
-use objectsplat_runtime::{Diagnostic, Registry};
 use std::path::Path;
 use std::sync::Arc;
-
-fn registry() -> Registry {
-    let mut reg = Registry::new();
-    for t in [
-        "Model", "Scene", "Images", "Frames", "Mesh", "Masks", "Metrics", "File",
-    ] {
-        reg.add_type(t, "test type");
-    }
-    objectsplat_scene::register(&mut reg);
-    reg
-}
 
 fn graph(dir: &Path, edits: &str) -> (std::path::PathBuf, String) {
     let text = format!(

@@ -6,7 +6,6 @@ mod common;
 use objectsplat_core::ComponentKind;
 use objectsplat_core::artifact::SCENE_JSON;
 use objectsplat_raster::{load_model, save_model};
-use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::load_scene;
 use objectsplat_scene::nodes::Compose;
 
@@ -38,9 +37,7 @@ fn members_are_ordered_named_and_keep_their_models() {
     let merged = scene.merged_model().unwrap();
     assert_eq!(merged.model.face_count(), 8);
     assert_eq!(merged.face_owner, [0, 0, 1, 1, 2, 2, 3, 3]);
-    let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(scene_dir.join(SCENE_JSON)).unwrap())
-            .unwrap();
+    let json = common::read_json(&scene_dir.join(SCENE_JSON));
     assert_eq!(json["objects"][1]["label"], "chair");
     assert_eq!(json["objects"][0]["kind"], "background");
 }
@@ -55,14 +52,12 @@ fn metadata_component_overrides_the_item_name() {
         serde_json::json!({"name": "obj_7_desk_lamp", "kind": "object", "object_id": 7, "label": "desk lamp"}),
     );
     save_model(&m, &models.join("component_a")).unwrap();
-    let run = run_node(
+    let run = common::run(
         &Compose,
         &[("models", &models)],
         "()",
         &tmp.path().join("out"),
-        None,
-    )
-    .unwrap();
+    );
     let scene = load_scene(&run.outputs["scene"]).unwrap();
     assert_eq!(scene.objects[0].entry.name, "obj_7_desk_lamp");
     assert_eq!(scene.objects[0].entry.label.as_deref(), Some("desk lamp"));
@@ -72,42 +67,18 @@ fn metadata_component_overrides_the_item_name() {
 #[test]
 fn unrecognised_item_names_and_duplicate_ids_are_errors() {
     let tmp = tempfile::tempdir().unwrap();
-    let models = tmp.path().join("models");
-    save_model(
-        &common::square([0.0; 3], 0.5, [0.5; 3]),
-        &models.join("table"),
-    )
-    .unwrap();
-    let err = run_node(
-        &Compose,
-        &[("models", &models)],
-        "()",
-        &tmp.path().join("a"),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{err:#}").contains("\"table\""), "{err:#}");
-
-    let models = tmp.path().join("models2");
-    save_model(
-        &common::square([0.0; 3], 0.5, [0.5; 3]),
-        &models.join("obj_3_chair"),
-    )
-    .unwrap();
-    save_model(
-        &common::square([1.0, 0.0, 0.0], 0.5, [0.5; 3]),
-        &models.join("obj_3_stool"),
-    )
-    .unwrap();
-    let err = run_node(
-        &Compose,
-        &[("models", &models)],
-        "()",
-        &tmp.path().join("b"),
-        None,
-    )
-    .err()
-    .unwrap();
-    assert!(format!("{err:#}").contains("object id 3"), "{err:#}");
+    // Grey squares, side by side, one per item name; `compose` must refuse the collection.
+    let compose_error = |collection: &str, items: &[&str]| {
+        let models = tmp.path().join(collection);
+        for (i, item) in items.iter().enumerate() {
+            let square = common::square([i as f32, 0.0, 0.0], 0.5, [0.5; 3]);
+            save_model(&square, &models.join(item)).unwrap();
+        }
+        let out = tmp.path().join(collection).with_extension("out");
+        common::run_error(&Compose, &[("models", &models)], "()", &out)
+    };
+    let err = compose_error("models", &["table"]);
+    assert!(err.contains("\"table\""), "{err}");
+    let err = compose_error("models2", &["obj_3_chair", "obj_3_stool"]);
+    assert!(err.contains("object id 3"), "{err}");
 }

@@ -16,15 +16,9 @@ fn world_vertices(scene: &Scene, id: u16) -> Vec<[f32; 3]> {
 
 #[test]
 fn moving_an_object_moves_exactly_its_triangles() {
-    let tmp = tempfile::tempdir().unwrap();
-    let before_dir = common::composed_scene(tmp.path());
     // Integers and floats both read as numbers.
-    let after_dir = common::edited(
-        &before_dir,
-        "[Move(target: Id(3), by: (0.5, 0, -1))]",
-        &tmp.path().join("e"),
-    )
-    .unwrap();
+    let (_tmp, before_dir, after_dir) =
+        common::composed_and_edited("[Move(target: Id(3), by: (0.5, 0, -1))]");
     let before = load_scene(&before_dir).unwrap();
     let after = load_scene(&after_dir).unwrap();
     assert_eq!(before.objects.len(), after.objects.len());
@@ -66,14 +60,8 @@ fn moving_an_object_moves_exactly_its_triangles() {
 
 #[test]
 fn removing_an_object_leaves_the_others_byte_identical() {
-    let tmp = tempfile::tempdir().unwrap();
-    let before_dir = common::composed_scene(tmp.path());
-    let after_dir = common::edited(
-        &before_dir,
-        "[Remove(target: Label(\"cup\"))]",
-        &tmp.path().join("e"),
-    )
-    .unwrap();
+    let (_tmp, before_dir, after_dir) =
+        common::composed_and_edited("[Remove(target: Label(\"cup\"))]");
     let before = common::files(&before_dir.join("objects"));
     let after = common::files(&after_dir.join("objects"));
     let kept: Vec<&String> = before
@@ -90,14 +78,9 @@ fn removing_an_object_leaves_the_others_byte_identical() {
 
 #[test]
 fn rotation_and_scale_act_about_the_centroid() {
-    let tmp = tempfile::tempdir().unwrap();
-    let before_dir = common::composed_scene(tmp.path());
-    let after_dir = common::edited(
-        &before_dir,
+    let (_tmp, before_dir, after_dir) = common::composed_and_edited(
         "[Rotate(target: Name(\"obj_3_chair\"), axis: (0, 0, 1), degrees: 90), Scale(target: Id(5), factor: 2)]",
-        &tmp.path().join("e"),
-    )
-    .unwrap();
+    );
     let before = load_scene(&before_dir).unwrap();
     let after = load_scene(&after_dir).unwrap();
     let chair = |s: &Scene| world_vertices(s, 3);
@@ -119,14 +102,9 @@ fn rotation_and_scale_act_about_the_centroid() {
 
 #[test]
 fn duplicate_gets_the_next_id_and_recolor_sets_the_colour() {
-    let tmp = tempfile::tempdir().unwrap();
-    let before_dir = common::composed_scene(tmp.path());
-    let after_dir = common::edited(
-        &before_dir,
+    let (_tmp, _, after_dir) = common::composed_and_edited(
         "[Duplicate(target: Id(4), offset: (1, 0, 0)), Recolor(target: Id(4), rgb: (1, 0, 0.25))]",
-        &tmp.path().join("e"),
-    )
-    .unwrap();
+    );
     let after = load_scene(&after_dir).unwrap();
     let copy = &after.objects[after
         .find_id(6)
@@ -161,40 +139,29 @@ fn duplicate_gets_the_next_id_and_recolor_sets_the_colour() {
 fn unknown_targets_and_malformed_edits_name_the_edit() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = common::composed_scene(tmp.path());
-    let err = common::edited(
-        &scene,
-        "[Move(target: Id(3), by: (1, 0, 0)), Remove(target: Id(9))]",
-        &tmp.path().join("a"),
-    )
-    .unwrap_err();
-    assert!(
-        err.contains("edit 1") && err.contains("no object has id 9"),
-        "{err}"
-    );
-    let err = common::edited(
-        &scene,
-        "[Recolor(target: Label(\"sofa\"), rgb: (1, 1, 1))]",
-        &tmp.path().join("b"),
-    )
-    .unwrap_err();
-    assert!(
-        err.contains("edit 0") && err.contains("no object has label \"sofa\""),
-        "{err}"
-    );
-    let err = common::edited(&scene, "[Move(target: Id(3))]", &tmp.path().join("c")).unwrap_err();
-    assert!(err.contains("edit 0") && err.contains("by"), "{err}");
-    let err = common::edited(
-        &scene,
-        "[Scale(target: Id(3), factor: 0)]",
-        &tmp.path().join("d"),
-    )
-    .unwrap_err();
-    assert!(err.contains("edit 0") && err.contains("factor"), "{err}");
-    let err = common::edited(
-        &scene,
-        "[Duplicate(target: Name(\"background\"), offset: (0, 0, 0))]",
-        &tmp.path().join("f"),
-    )
-    .unwrap_err();
-    assert!(err.contains("only objects can be duplicated"), "{err}");
+    for (out, edits, parts) in [
+        (
+            "a",
+            "[Move(target: Id(3), by: (1, 0, 0)), Remove(target: Id(9))]",
+            &["edit 1", "no object has id 9"][..],
+        ),
+        (
+            "b",
+            "[Recolor(target: Label(\"sofa\"), rgb: (1, 1, 1))]",
+            &["edit 0", "no object has label \"sofa\""],
+        ),
+        ("c", "[Move(target: Id(3))]", &["edit 0", "by"]),
+        (
+            "d",
+            "[Scale(target: Id(3), factor: 0)]",
+            &["edit 0", "factor"],
+        ),
+        (
+            "f",
+            "[Duplicate(target: Name(\"background\"), offset: (0, 0, 0))]",
+            &["only objects can be duplicated"],
+        ),
+    ] {
+        common::assert_edit_refused(&scene, edits, &tmp.path().join(out), parts);
+    }
 }

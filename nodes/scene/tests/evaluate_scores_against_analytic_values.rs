@@ -9,9 +9,8 @@ mod common;
 use objectsplat_core::artifact::{METRICS_CSV, METRICS_JSON};
 use objectsplat_core::masks::{IdMap, write_objects};
 use objectsplat_core::{Mesh, ObjectLabels, Split, write_mesh_artifact};
-use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::load_scene;
-use objectsplat_scene::nodes::{Evaluate, Render};
+use objectsplat_scene::nodes::Evaluate;
 use objectsplat_scene::surface::visible_mesh;
 
 const W: u32 = 48;
@@ -24,24 +23,12 @@ fn psnr_and_fscore_match_their_analytic_values() {
     let tmp = tempfile::tempdir().unwrap();
     let scene_dir = common::composed_scene(tmp.path());
     let cam = common::front_camera(W, H);
-    let frames = tmp.path().join("frames");
-    common::write_frames(
-        &frames,
-        &[
-            ("t0".into(), cam, Split::Test),
-            ("t1".into(), cam, Split::Train),
-        ],
+    let frames = common::write_frames_from(
+        tmp.path(),
+        cam,
+        &[("t0", Split::Test), ("t1", Split::Train)],
     );
-    let renders = run_node(
-        &Render,
-        &[("scene", &scene_dir), ("frames", &frames)],
-        "()",
-        &tmp.path().join("r"),
-        None,
-    )
-    .unwrap()
-    .outputs["images"]
-        .clone();
+    let renders = common::rendered(&scene_dir, &frames, &tmp.path().join("r"));
 
     // Ground truth = the render, plus OFFSET/255 in a rectangle labelled as the chair (id 3);
     // id 5 labels a rectangle where nothing differs.
@@ -105,7 +92,7 @@ fn psnr_and_fscore_match_their_analytic_values() {
     )
     .unwrap();
 
-    let run = run_node(
+    let run = common::run(
         &Evaluate,
         &[
             ("images", &renders),
@@ -116,12 +103,9 @@ fn psnr_and_fscore_match_their_analytic_values() {
         ],
         "(samples: 1000.0, tau: 0.25, object_taus: [0.5, 0.25])",
         &tmp.path().join("eval"),
-        None,
-    )
-    .unwrap();
+    );
     let dir = &run.outputs["metrics"];
-    let m: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.join(METRICS_JSON)).unwrap()).unwrap();
+    let m = common::read_json(&dir.join(METRICS_JSON));
     assert!(dir.join(METRICS_CSV).is_file());
 
     let d = OFFSET as f64 / 255.0;

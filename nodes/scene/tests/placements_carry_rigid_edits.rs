@@ -10,7 +10,6 @@ mod common;
 use objectsplat_core::Mesh;
 use objectsplat_core::artifact::{MODEL_JSON, MODEL_PLY, SCENE_GLB, SCENE_JSON};
 use objectsplat_export::Placement;
-use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::nodes::ExportGltf;
 use objectsplat_scene::{Scene, load_scene};
 use serde_json::Value;
@@ -19,7 +18,7 @@ use std::path::Path;
 const EDITS: &str = "[Move(target: Id(3), by: (0.5, 0, -1)), Rotate(target: Label(\"lamp\"), axis: (0, 0, 2), degrees: 90), Scale(target: Name(\"obj_5_cup\"), factor: 2), Duplicate(target: Id(4), offset: (0, 1, 0))]";
 
 fn scene_json(dir: &Path) -> Value {
-    serde_json::from_str(&std::fs::read_to_string(dir.join(SCENE_JSON)).unwrap()).unwrap()
+    common::read_json(&dir.join(SCENE_JSON))
 }
 
 fn placement(json: &Value, name: &str) -> Option<Placement> {
@@ -36,9 +35,7 @@ fn placement(json: &Value, name: &str) -> Option<Placement> {
 
 #[test]
 fn rigid_edits_change_placements_not_models() {
-    let tmp = tempfile::tempdir().unwrap();
-    let before = common::composed_scene(tmp.path());
-    let after = common::edited(&before, EDITS, &tmp.path().join("e")).unwrap();
+    let (_tmp, before, after) = common::composed_and_edited(EDITS);
     let old = common::files(&before.join("objects"));
     let new = common::files(&after.join("objects"));
     for (path, bytes) in &old {
@@ -138,18 +135,14 @@ fn the_edit_record_replays_to_the_same_scene() {
 
 #[test]
 fn export_writes_placements_as_node_transforms() {
-    let tmp = tempfile::tempdir().unwrap();
-    let composed = common::composed_scene(tmp.path());
-    let edited = common::edited(&composed, EDITS, &tmp.path().join("e")).unwrap();
+    let (tmp, _, edited) = common::composed_and_edited(EDITS);
     let scene: Scene = load_scene(&edited).unwrap();
-    let run = run_node(
+    let run = common::run(
         &ExportGltf,
         &[("scene", &edited)],
         "()",
         &tmp.path().join("x"),
-        None,
-    )
-    .unwrap();
+    );
     let dir = &run.outputs["file"];
     let doc = gltf::Gltf::from_slice(&std::fs::read(dir.join(SCENE_GLB)).unwrap()).unwrap();
     let blob = doc.blob.as_deref().unwrap();

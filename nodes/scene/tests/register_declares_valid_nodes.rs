@@ -1,18 +1,12 @@
 //! `register` adds the seven scene nodes, and the registry accepts their specs
 //! (known types, unique ports, defaults that parse and fit their types).
 
-use objectsplat_runtime::Registry;
+mod common;
 
 #[test]
 fn all_scene_nodes_register_with_checked_specs() {
-    let mut reg = Registry::new();
-    for t in [
-        "Model", "Scene", "Images", "Frames", "Mesh", "Masks", "Metrics", "File",
-    ] {
-        reg.add_type(t, "test type");
-    }
-    objectsplat_scene::register(&mut reg);
-    for kind in [
+    let reg = common::registry();
+    let missing: Vec<&str> = [
         "compose",
         "load_scene",
         "edit_scene",
@@ -20,7 +14,9 @@ fn all_scene_nodes_register_with_checked_specs() {
         "evaluate",
         "export_gltf",
         "viewer",
-    ] {
-        assert!(reg.get(kind).is_some(), "{kind} missing");
-    }
+    ]
+    .into_iter()
+    .filter(|kind| reg.get(kind).is_none())
+    .collect();
+    assert!(missing.is_empty(), "{missing:?} missing");
 }

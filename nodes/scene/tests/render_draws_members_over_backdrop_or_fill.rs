@@ -5,7 +5,6 @@
 mod common;
 
 use objectsplat_core::{Image, Split};
-use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::load_scene;
 use objectsplat_scene::nodes::Render;
 use objectsplat_scene::render::orbit_cameras;
@@ -19,13 +18,10 @@ fn a_moved_object_reveals_the_fill_where_it_was() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = common::composed_scene(tmp.path());
     let cam = common::front_camera(64, 64);
-    let frames = tmp.path().join("frames");
-    common::write_frames(
-        &frames,
-        &[
-            ("f0".into(), cam, Split::Test),
-            ("f1".into(), cam, Split::Train),
-        ],
+    let frames = common::write_frames_from(
+        tmp.path(),
+        cam,
+        &[("f0", Split::Test), ("f1", Split::Train)],
     );
     let moved = common::edited(
         &scene,
@@ -40,14 +36,12 @@ fn a_moved_object_reveals_the_fill_where_it_was() {
         .save_png8(&fills.join("f0.png"))
         .unwrap();
 
-    let run = run_node(
+    let run = common::run(
         &Render,
         &[("scene", &moved), ("frames", &frames), ("fills", &fills)],
         "(background: [1.0, 1.0, 1.0])",
         &tmp.path().join("render"),
-        None,
-    )
-    .unwrap();
+    );
     let out = &run.outputs["images"];
     assert!(
         out.join("f0.png").is_file() && !out.join("f1.png").exists(),
@@ -75,14 +69,12 @@ fn a_moved_object_reveals_the_fill_where_it_was() {
     assert!(near(&px(cup), [0.1, 0.9, 0.1], 0.02), "{:?}", px(cup));
 
     // Without a fill, the uncovered corner shows the backdrop colour.
-    let run = run_node(
+    let run = common::run(
         &Render,
         &[("scene", &moved), ("frames", &frames)],
         "(views: \"all\")",
         &tmp.path().join("r2"),
-        None,
-    )
-    .unwrap();
+    );
     let img = Image::load(&run.outputs["images"].join("f1.png")).unwrap();
     assert!(near(&img.data[..3], [0.0, 0.0, 0.0], 0.01));
 }
@@ -93,6 +85,7 @@ fn orbit_cameras_circle_the_objects_at_the_frames_distance() {
     let scene_dir = common::composed_scene(tmp.path());
     let scene = load_scene(&scene_dir).unwrap();
     let cam = common::front_camera(48, 32);
+    let frames = common::write_frames_from(tmp.path(), cam, &[("f0", Split::Test)]);
     let frame = objectsplat_core::Frame::new("f0", "images/f0.png", &cam, Split::Test);
     let cams = orbit_cameras(&scene, &[frame], 8).unwrap();
     assert_eq!(cams.len(), 8);
@@ -114,16 +107,12 @@ fn orbit_cameras_circle_the_objects_at_the_frames_distance() {
         "the orbit starts at the first frame"
     );
 
-    let frames = tmp.path().join("frames");
-    common::write_frames(&frames, &[("f0".into(), cam, Split::Test)]);
-    let run = run_node(
+    let run = common::run(
         &Render,
         &[("scene", &scene_dir), ("frames", &frames)],
         "(views: \"orbit\", orbit_count: 3)",
         &tmp.path().join("r"),
-        None,
-    )
-    .unwrap();
+    );
     let names: Vec<String> = std::fs::read_dir(&run.outputs["images"])
         .unwrap()
         .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
@@ -137,23 +126,16 @@ fn orbit_cameras_circle_the_objects_at_the_frames_distance() {
 fn the_wgpu_backend_renders_what_the_cpu_backend_renders() {
     let tmp = tempfile::tempdir().unwrap();
     let scene = common::composed_scene(tmp.path());
-    let frames = tmp.path().join("frames");
     // Off-centre, so that no pixel centre lies exactly on a triangle edge: there the
     // window is exactly 0 in the CPU's arithmetic and a rounding error away from it on
     // the GPU (fused multiply-adds), and with σ = 1e-3 that is the difference between
     // transparent and opaque.
-    let camera = objectsplat_core::Camera::look_at(
-        16,
-        16,
-        16.0,
-        16.0,
-        glam::DVec3::new(0.0123, -4.0, 0.0071),
-        glam::DVec3::new(0.0123, 0.0, 0.0071),
-        glam::DVec3::Z,
-    );
-    common::write_frames(&frames, &[("f0".into(), camera, Split::Test)]);
+    let target = glam::DVec3::new(0.0123, 0.0, 0.0071);
+    let eye = target - 4.0 * glam::DVec3::Y;
+    let camera = objectsplat_core::Camera::look_at(16, 16, 16.0, 16.0, eye, target, glam::DVec3::Z);
+    let frames = common::write_frames_from(tmp.path(), camera, &[("f0", Split::Test)]);
     let render = |backend: &str| {
-        run_node(
+        objectsplat_runtime::testing::run_node(
             &Render,
             &[("scene", &scene), ("frames", &frames)],
             &format!("(backend: \"{backend}\")"),

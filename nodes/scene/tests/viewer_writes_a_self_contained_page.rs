@@ -8,31 +8,22 @@ mod common;
 use objectsplat_core::Split;
 use objectsplat_core::artifact::{PAGE_HTML, SCENE_GLB};
 use objectsplat_export::viewer::{ViewerScene, read_viewer};
-use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::load_scene;
 use objectsplat_scene::nodes::{ExportGltf, Viewer};
 
 #[test]
 fn viewer_folder_holds_page_glb_and_scene_description() {
-    let tmp = tempfile::tempdir().unwrap();
-    let composed = common::composed_scene(tmp.path());
-    let edited = common::edited(
-        &composed,
+    let (tmp, _, edited) = common::composed_and_edited(
         "[Move(target: Id(3), by: (0.25, 0, 0)), Duplicate(target: Label(\"cup\"), offset: (0, 0, 0.5))]",
-        &tmp.path().join("e"),
-    )
-    .unwrap();
+    );
     let camera = common::front_camera(64, 48);
-    let frames = tmp.path().join("frames");
-    common::write_frames(&frames, &[("f0".into(), camera, Split::Train)]);
-    let run = run_node(
+    let frames = common::write_frames_from(tmp.path(), camera, &[("f0", Split::Train)]);
+    let run = common::run(
         &Viewer,
         &[("scene", &edited), ("frames", &frames)],
         "(title: \"a <test> scene\")",
         &tmp.path().join("v"),
-        None,
-    )
-    .unwrap();
+    );
     let dir = &run.outputs["file"];
     let page = std::fs::read_to_string(dir.join(PAGE_HTML)).unwrap();
     for external in ["http:", "https:", "src=", "href=\"http", "@import", "url("] {
@@ -43,14 +34,12 @@ fn viewer_folder_holds_page_glb_and_scene_description() {
     assert_eq!(page.matches("<script>").count(), 1);
     assert_eq!(page.matches("</script>").count(), 3);
 
-    let exported = run_node(
+    let exported = common::run(
         &ExportGltf,
         &[("scene", &edited)],
         "()",
         &tmp.path().join("x"),
-        None,
-    )
-    .unwrap();
+    );
     let (glb, view): (Vec<u8>, ViewerScene) = read_viewer(dir).unwrap();
     assert_eq!(
         glb,

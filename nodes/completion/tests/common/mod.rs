@@ -6,6 +6,8 @@
 
 use objectsplat_core::component::{self, OTHER, OWN};
 use objectsplat_core::{Camera, ComponentInfo, Frame, Frames, Split};
+use objectsplat_runtime::Node;
+use objectsplat_runtime::testing::{NodeRun, run_node};
 use std::path::{Path, PathBuf};
 
 pub const W: u32 = 32;
@@ -152,4 +154,29 @@ pub fn read_rgb(path: &Path) -> Vec<u8> {
         .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
         .to_rgb8()
         .into_raw()
+}
+
+/// A path under tests/fixtures.
+pub fn fixture(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/fixtures")
+        .join(rel)
+}
+
+/// The JSON file at `path`, deserialised.
+pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path) -> T {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// Runs `node` outside a graph, expecting success.
+pub fn run(node: &dyn Node, inputs: &[(&str, &Path)], params: &str, out: &Path) -> NodeRun {
+    run_node(node, inputs, params, out, None).unwrap()
+}
+
+/// Runs `node` outside a graph, expecting failure; returns the error with its causes.
+pub fn run_error(node: &dyn Node, inputs: &[(&str, &Path)], params: &str, out: &Path) -> String {
+    let Err(e) = run_node(node, inputs, params, out, None) else {
+        panic!("{params} should have been refused");
+    };
+    format!("{e:#}")
 }

@@ -6,13 +6,13 @@
 //! training can reconstruct at best: the tabletop has holes under the objects.
 #![allow(dead_code)] // each test file uses a different part
 
-use objectsplat_completion::nodes::SurfaceCompletionNode;
+use objectsplat_completion::nodes::{CompleteSurfacesNode, SurfaceCompletionNode};
 use objectsplat_core::glam::DVec3;
 use objectsplat_core::{Camera, ComponentInfo, Frames, Mesh, ObjectLabels, read_mesh_artifact};
 use objectsplat_raster::Model;
 use objectsplat_raster::sh::SH_DC;
 use objectsplat_runtime::Outcome;
-use objectsplat_runtime::testing::run_node;
+use objectsplat_runtime::testing::{NodeRun, run_node};
 use objectsplat_scene::{Scene, SceneEntry, SceneObject, save_scene};
 use objectsplat_synth::nodes::{GtMasksNode, PartitionNode, SyntheticSceneNode};
 use objectsplat_synth::{RasterOptions, rasterize};
@@ -257,4 +257,42 @@ pub fn trained_scene_with_table(room: &Room, table: Model<f32>) -> Scene {
 pub fn write_scene(scene: &Scene, dir: &Path) -> PathBuf {
     save_scene(scene, dir).unwrap();
     dir.to_path_buf()
+}
+
+/// Runs `complete_surfaces` on the scene folder `scene` with `components` and the room's
+/// frames (and its points when `with_points`), into `out`.
+pub fn complete_surfaces(
+    room: &Room,
+    scene: &Path,
+    components: &Path,
+    with_points: bool,
+    out: &Path,
+) -> NodeRun {
+    let mut inputs: Vec<(&str, &Path)> = vec![
+        ("scene", scene),
+        ("components", components),
+        ("frames", &room.frames),
+    ];
+    if with_points {
+        inputs.push(("points", &room.points));
+    }
+    run_node(&CompleteSurfacesNode, &inputs, "()", out, None).unwrap()
+}
+
+/// Builds the room, writes its trained scene to `trained` and completes it into `out`
+/// (with the points when `with_points`), asserting the node ran: the room, the trained
+/// scene, its folder and the run.
+pub fn complete_trained_room(with_points: bool) -> (Room, Scene, PathBuf, NodeRun) {
+    let room = build();
+    let scene = trained_scene(&room);
+    let scene_dir = write_scene(&scene, &room.root.path().join("trained"));
+    let out = room.root.path().join("out");
+    let run = complete_surfaces(&room, &scene_dir, &room.completed, with_points, &out);
+    assert_eq!(run.outcome, Outcome::Done, "{:?}", run.notes);
+    (room, scene, scene_dir, run)
+}
+
+/// The largest difference between two colours in any one channel.
+pub fn colour_distance(a: [f64; 3], b: [f64; 3]) -> f64 {
+    (0..3).map(|c| (a[c] - b[c]).abs()).fold(0.0, f64::max)
 }

@@ -11,12 +11,15 @@
 #   wrong_size  write FILE (4th argument) as every output
 #   args        print each argument on stderr, then exit 1
 mode="$1"; input="$2"; output="$3"
+# One output per input mask: the file given as $1, or else the mask itself.
+write_outputs() {
+  for mask in "$input"/*_mask.png; do
+    cp "${1:-$mask}" "$output/$(basename "$mask" _mask.png).png"
+  done
+}
 case "$mode" in
   ok)
-    for mask in "$input"/*_mask.png; do
-      stem=$(basename "$mask" _mask.png)
-      cp "$mask" "$output/$stem.png"
-    done ;;
+    write_outputs ;;
   fail)
     echo "model weights not found: /models/inpaint.ckpt" >&2
     exit 3 ;;
@@ -31,10 +34,7 @@ case "$mode" in
   missing)
     exit 0 ;;
   wrong_size)
-    for mask in "$input"/*_mask.png; do
-      stem=$(basename "$mask" _mask.png)
-      cp "$4" "$output/$stem.png"
-    done ;;
+    write_outputs "$4" ;;
   args)
     for a in "$@"; do echo "arg:[$a]" >&2; done
     exit 1 ;;

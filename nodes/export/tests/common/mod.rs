@@ -2,6 +2,47 @@
 #![allow(dead_code)]
 
 use objectsplat_export::{ExportObject, SrgbColors};
+use objectsplat_runtime::Node;
+use objectsplat_runtime::testing::run_node;
+use std::path::Path;
+
+/// Runs `node` outside a graph into `out`: the run, or the error with its causes.
+pub fn node_result(
+    node: &dyn Node,
+    inputs: &[(&str, &Path)],
+    params: &str,
+    out: &Path,
+) -> Result<objectsplat_runtime::testing::NodeRun, String> {
+    run_node(node, inputs, params, out, None).map_err(|e| format!("{e:#}"))
+}
+
+/// Runs the `report` node into `out`; returns the run and the page it wrote.
+pub fn run_report(
+    inputs: &[(&str, &Path)],
+    params: &str,
+    out: &Path,
+) -> (objectsplat_runtime::testing::NodeRun, String) {
+    let run = node_result(&objectsplat_export::nodes::ReportNode, inputs, params, out).unwrap();
+    let page = run.outputs["file"].join(objectsplat_core::artifact::PAGE_HTML);
+    let html = std::fs::read_to_string(page).unwrap();
+    (run, html)
+}
+
+/// Runs the `report` node into `out`, expecting it to fail (`why` says why it must);
+/// returns the error with its causes.
+pub fn report_error(inputs: &[(&str, &Path)], out: &Path, why: &str) -> String {
+    match node_result(&objectsplat_export::nodes::ReportNode, inputs, "()", out) {
+        Ok(_) => panic!("{why}"),
+        Err(e) => e,
+    }
+}
+
+/// Asserts `text` contains every one of `parts`, showing `text` when it does not.
+pub fn assert_mentions(text: &str, parts: &[&str]) {
+    for part in parts {
+        assert!(text.contains(part), "{text}");
+    }
+}
 
 /// An axis-aligned box [lo, hi] as 8 vertices and 12 triangles, one sRGB colour per corner.
 pub fn cuboid(
@@ -19,32 +60,22 @@ pub fn cuboid(
             if k & 4 == 0 { lo[2] } else { hi[2] },
         ]);
     }
+    #[rustfmt::skip]
     let faces = vec![
-        [0, 2, 1],
-        [1, 2, 3], // z = lo
-        [4, 5, 6],
-        [5, 7, 6], // z = hi
-        [0, 1, 4],
-        [1, 5, 4], // y = lo
-        [2, 6, 3],
-        [3, 6, 7], // y = hi
-        [0, 4, 2],
-        [2, 4, 6], // x = lo
-        [1, 3, 5],
-        [3, 7, 5], // x = hi
+        [0, 2, 1], [1, 2, 3], // z = lo
+        [4, 5, 6], [5, 7, 6], // z = hi
+        [0, 1, 4], [1, 5, 4], // y = lo
+        [2, 6, 3], [3, 6, 7], // y = hi
+        [0, 4, 2], [2, 4, 6], // x = lo
+        [1, 3, 5], [3, 7, 5], // x = hi
     ];
     ExportObject::object(id, label, positions, faces, SrgbColors::U8(colors.to_vec()))
 }
 
+#[rustfmt::skip]
 pub const CORNER_COLOURS: [[u8; 3]; 8] = [
-    [0, 0, 0],
-    [255, 255, 255],
-    [128, 64, 10],
-    [10, 128, 64],
-    [64, 10, 128],
-    [200, 30, 30],
-    [30, 200, 30],
-    [30, 30, 200],
+    [0, 0, 0], [255, 255, 255], [128, 64, 10], [10, 128, 64],
+    [64, 10, 128], [200, 30, 30], [30, 200, 30], [30, 30, 200],
 ];
 
 /// A floor quad (background) with float sRGB colours.

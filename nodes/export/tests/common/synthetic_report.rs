@@ -49,15 +49,29 @@ pub fn render_image(seed: u32) -> Image {
     })
 }
 
-fn node(id: &str, kind: &str, status: NodeStatus, seconds: f64, reason: Option<&str>) -> NodeRun {
+fn node(id: &str, kind: &str, status: NodeStatus, seconds: f64) -> NodeRun {
     NodeRun {
         id: id.into(),
         kind: kind.into(),
         status,
         seconds,
         queued_seconds: 0.0,
-        reason: reason.map(Into::into),
+        reason: None,
         items: Vec::new(),
+    }
+}
+
+fn skipped(id: &str, kind: &str, seconds: f64, reason: &str) -> NodeRun {
+    NodeRun {
+        reason: Some(reason.into()),
+        ..node(id, kind, NodeStatus::Skipped, seconds)
+    }
+}
+
+fn failed(id: &str, kind: &str, seconds: f64, reason: &str) -> NodeRun {
+    NodeRun {
+        reason: Some(reason.into()),
+        ..node(id, kind, NodeStatus::Failed, seconds)
     }
 }
 
@@ -81,7 +95,7 @@ pub fn report_data(dir: &Path) -> ReportData {
             render,
         });
     }
-    let mut train = node("train", "train", NodeStatus::Ran, 120.5, None);
+    let mut train = node("train", "train", NodeStatus::Ran, 120.5);
     train.items = vec![
         ItemRun {
             name: "obj_3_chair".into(),
@@ -98,27 +112,20 @@ pub fn report_data(dir: &Path) -> ReportData {
         title: "Synthetic run <0a5c013435>".into(),
         run: RunSummary {
             nodes: vec![
-                node("scene", "scannetpp", NodeStatus::Cached, 0.0, None),
-                node("masks", "masks_from_mesh", NodeStatus::Cached, 0.0, None),
-                node("decompose", "decompose", NodeStatus::Ran, 2.25, None),
-                node(
+                node("scene", "scannetpp", NodeStatus::Cached, 0.0),
+                node("masks", "masks_from_mesh", NodeStatus::Cached, 0.0),
+                node("decompose", "decompose", NodeStatus::Ran, 2.25),
+                skipped(
                     "complete",
                     "complete_surfaces",
-                    NodeStatus::Skipped,
                     0.01,
-                    Some("no planar support surface"),
+                    "no planar support surface",
                 ),
                 train,
-                node("compose", "compose", NodeStatus::Ran, 0.5, None),
-                node("export", "export_gltf", NodeStatus::Ran, 0.2, None),
-                node(
-                    "evaluate",
-                    "evaluate",
-                    NodeStatus::Failed,
-                    3.0,
-                    Some("LPIPS weights missing"),
-                ),
-                node("report", "report", NodeStatus::Ran, 0.1, None),
+                node("compose", "compose", NodeStatus::Ran, 0.5),
+                node("export", "export_gltf", NodeStatus::Ran, 0.2),
+                failed("evaluate", "evaluate", 3.0, "LPIPS weights missing"),
+                node("report", "report", NodeStatus::Ran, 0.1),
             ],
             graph: Some("graphs/synthetic.ron".into()),
             seconds: Some(100.25),

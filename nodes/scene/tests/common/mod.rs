@@ -5,7 +5,9 @@ use glam::DVec3;
 use objectsplat_core::{Camera, Frame, Frames, Split};
 use objectsplat_raster::sh::SH_DC;
 use objectsplat_raster::{Model, SH_COEFFS, save_model};
-use std::path::Path;
+use objectsplat_runtime::testing::{NodeRun, run_node};
+use objectsplat_runtime::{Node, Registry};
+use std::path::{Path, PathBuf};
 
 /// Logit of an almost opaque vertex (sigmoid(8) ≈ 0.9997).
 pub const OPAQUE: f32 = 8.0;
@@ -110,24 +112,74 @@ pub fn pixel_of(camera: &Camera, p: [f64; 3]) -> (u32, u32) {
     (u.floor() as u32, v.floor() as u32)
 }
 
+/// Writes `tmp/frames`, a Frames folder whose views all share `camera`; returns its path.
+pub fn write_frames_from(tmp: &Path, camera: Camera, views: &[(&str, Split)]) -> PathBuf {
+    let dir = tmp.join("frames");
+    let cameras: Vec<(String, Camera, Split)> = views
+        .iter()
+        .map(|&(name, split)| (name.to_string(), camera, split))
+        .collect();
+    write_frames(&dir, &cameras);
+    dir
+}
+
+/// Runs `node` outside a graph, expecting success.
+pub fn run(node: &dyn Node, inputs: &[(&str, &Path)], params: &str, out: &Path) -> NodeRun {
+    run_node(node, inputs, params, out, None).unwrap()
+}
+
+/// Runs `node` outside a graph, expecting failure; returns the error with its causes.
+pub fn run_error(node: &dyn Node, inputs: &[(&str, &Path)], params: &str, out: &Path) -> String {
+    match run_node(node, inputs, params, out, None) {
+        Ok(_) => panic!("{params} should have been refused"),
+        Err(e) => format!("{e:#}"),
+    }
+}
+
+/// Runs `render` with its defaults (the test views), returning the images folder.
+pub fn rendered(scene: &Path, frames: &Path, out: &Path) -> PathBuf {
+    let run = run(
+        &objectsplat_scene::nodes::Render,
+        &[("scene", scene), ("frames", frames)],
+        "()",
+        out,
+    );
+    run.outputs["images"].clone()
+}
+
+/// The parsed JSON file at `path`.
+pub fn read_json(path: &Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+/// A registry with the artifact types the scene nodes use and the scene nodes.
+pub fn registry() -> Registry {
+    let mut reg = Registry::new();
+    for t in [
+        "Model", "Scene", "Images", "Frames", "Mesh", "Masks", "Metrics", "File",
+    ] {
+        reg.add_type(t, "test type");
+    }
+    objectsplat_scene::register(&mut reg);
+    reg
+}
+
 /// Runs `compose` on the test collection, returning the scene folder.
-pub fn composed_scene(tmp: &Path) -> std::path::PathBuf {
+pub fn composed_scene(tmp: &Path) -> PathBuf {
     let models = tmp.join("models");
     write_models(&models);
-    let run = objectsplat_runtime::testing::run_node(
+    let run = run(
         &objectsplat_scene::nodes::Compose,
         &[("models", &models)],
         "()",
         &tmp.join("compose"),
-        None,
-    )
-    .unwrap();
+    );
     run.outputs["scene"].clone()
 }
 
 /// Runs `edit_scene` with `edits` (RON list) on `scene`, returning the result or the error text.
-pub fn edited(scene: &Path, edits: &str, out: &Path) -> Result<std::path::PathBuf, String> {
-    objectsplat_runtime::testing::run_node(
+pub fn edited(scene: &Path, edits: &str, out: &Path) -> Result<PathBuf, String> {
+    run_node(
         &objectsplat_scene::nodes::EditScene,
         &[("scene", scene)],
         &format!("(edits: {edits})"),
@@ -136,4 +188,21 @@ pub fn edited(scene: &Path, edits: &str, out: &Path) -> Result<std::path::PathBu
     )
     .map(|run| run.outputs["scene"].clone())
     .map_err(|e| format!("{e:#}"))
+}
+
+/// Composes the test collection in a fresh folder and applies `edits` to it (into `e`),
+/// returning the folder and the scene folders before and after.
+pub fn composed_and_edited(edits: &str) -> (tempfile::TempDir, PathBuf, PathBuf) {
+    let tmp = tempfile::tempdir().unwrap();
+    let before = composed_scene(tmp.path());
+    let after = edited(&before, edits, &tmp.path().join("e")).unwrap();
+    (tmp, before, after)
+}
+
+/// Asserts `edits` on `scene` are refused with an error containing every one of `parts`.
+pub fn assert_edit_refused(scene: &Path, edits: &str, out: &Path, parts: &[&str]) {
+    let err = edited(scene, edits, out).unwrap_err();
+    for part in parts {
+        assert!(err.contains(part), "{err}");
+    }
 }
