@@ -12,6 +12,7 @@ pub fn builtin_registry() -> Registry {
     imaging::register(&mut reg);
     objectsplat_inputs::register(&mut reg);
     objectsplat_synth::register(&mut reg);
+    objectsplat_masks::register(&mut reg);
     objectsplat_completion::register(&mut reg);
     objectsplat_command::register(&mut reg);
     objectsplat_export::register(&mut reg);

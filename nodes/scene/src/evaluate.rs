@@ -57,7 +57,7 @@ impl GtSurface {
 /// Depth maps of the ground-truth mesh in every frame, to tell which surface points a camera sees.
 struct ObservedSurface {
     cameras: Vec<objectsplat_core::Camera>,
-    depth: Vec<objectsplat_synth::raster::Raster>,
+    depth: Vec<objectsplat_masks::raster::Raster>,
     /// Depth agreement that counts as "this point is the surface seen there": the
     /// larger of `absolute` and `relative`·depth (a pixel spans a range of depths
     /// on a slanted surface).
@@ -67,12 +67,12 @@ struct ObservedSurface {
 
 impl ObservedSurface {
     fn new(mesh: &Mesh, frames: &Frames, absolute: f64) -> Result<Self> {
-        let options = objectsplat_synth::raster::RasterOptions::default();
+        let options = objectsplat_masks::raster::RasterOptions::default();
         let cameras: Vec<_> = frames.frames.iter().map(|f| f.camera()).collect();
         let depth = cameras
             .iter()
             .map(|c| {
-                objectsplat_synth::raster::rasterize(&mesh.positions, &mesh.faces, c, &options)
+                objectsplat_masks::raster::rasterize(&mesh.positions, &mesh.faces, c, &options)
                     .map_err(|e| anyhow::anyhow!("rasterizing the ground-truth mesh: {e}"))
             })
             .collect::<Result<Vec<_>>>()?;

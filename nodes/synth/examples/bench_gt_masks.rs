@@ -12,8 +12,9 @@ mod common;
 
 use anyhow::Result;
 use objectsplat_core::{Frame, Frames, Mesh, Split};
-use objectsplat_synth::gt_masks::{face_mask_values, frame_mask};
-use objectsplat_synth::{GtMaskParams, SyntheticParams, scene};
+use objectsplat_masks::GtMaskParams;
+use objectsplat_masks::gt_masks::{face_mask_values, frame_mask};
+use objectsplat_synth::{SyntheticParams, scene};
 use std::time::Instant;
 
 /// Splits every triangle into k² by a barycentric grid (object ids carried over).

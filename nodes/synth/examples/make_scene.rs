@@ -2,7 +2,8 @@
 //! Usage: cargo run --release -p objectsplat-synth --example make_scene -- OUT [WIDTH HEIGHT VIEWS]
 
 use anyhow::{Context, Result};
-use objectsplat_synth::{GtMaskParams, SyntheticParams, gt_masks, scene};
+use objectsplat_masks::{GtMaskParams, gt_masks};
+use objectsplat_synth::{SyntheticParams, scene};
 use std::path::PathBuf;
 
 fn main() -> Result<()> {

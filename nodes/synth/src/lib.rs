@@ -1,21 +1,12 @@
-//! Ground truth and the demo scene for ObjectSplat.
+//! The procedural demo room for ObjectSplat: a geometry-complete scene with ground truth
+//! (the `synthetic_scene` node). It renders with the face-id rasterizer of
+//! `objectsplat_masks`, the one ground-truth masks are made with.
 //!
-//! - [`raster`]: the multi-threaded z-buffer rasterizer everything here is built on;
-//! - [`gpu_raster`]: the same face ids on wgpu (bit-identical), sharing its triangle setup;
-//! - [`gt_masks`](mod@gt_masks): per-frame object-id masks from an annotated mesh (`gt_masks` node);
-//! - [`partition`]: every pixel to exactly one component (`partition` node);
-//! - [`scene`]: the procedural, geometry-complete demo room (`synthetic_scene` node);
-//! - [`nodes`]: the three node wrappers and [`register`].
+//! - [`scene`]: the room, its cameras, renders and sparse points;
+//! - [`nodes`]: the node wrapper and [`register`].
 
-pub mod gpu_raster;
-pub mod gt_masks;
 pub mod nodes;
-pub mod partition;
-pub mod raster;
 pub mod scene;
 
-pub use gt_masks::{GtMaskParams, GtMasks, gt_masks};
 pub use nodes::register;
-pub use partition::{Partition, PartitionParams, plan_partition};
-pub use raster::{NO_FACE, Raster, RasterOptions, rasterize};
 pub use scene::{SyntheticParams, SyntheticScene};

@@ -1,33 +1,19 @@
-//! Node wrappers: `synthetic_scene`, `gt_masks`, `partition`.
+//! The `synthetic_scene` node.
 //!
-//! The artifact types they speak (Frames, Mesh, Points, Masks, Component) are
-//! registered by the catalogue crate; [`register`] adds only the node kinds.
+//! The artifact types it writes (Frames, Mesh, Points) are registered by the catalogue
+//! crate; [`register`] adds only the node kind.
 
-use crate::gpu_raster::IdRasterizer;
-use crate::gt_masks::{GtMaskParams, drop_small_objects, face_mask_values, frame_mask};
-use crate::partition::{PartitionParams, partition_folders};
-use crate::raster::RasterOptions;
 use crate::scene::{SyntheticParams, generate};
-use anyhow::{Result, anyhow, bail};
-use objectsplat_core::artifact::{FRAMES_JSON, MESH_PLY, OBJECTS_JSON};
-use objectsplat_core::frames::frame_stem;
-use objectsplat_core::masks::{NO_OBJECT, UNOWNED};
-use objectsplat_core::{Frames, SplitPolicy, read_mesh_artifact};
+use anyhow::{Result, bail};
+use objectsplat_core::SplitPolicy;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
-use objectsplat_wgpu::device::{AdapterChoice, GpuContext};
-use std::collections::BTreeSet;
 use std::sync::Arc;
 
-/// Adds the three node kinds to `reg` (its types must be registered already).
+/// Adds `synthetic_scene` to `reg` (its types must be registered already).
 pub fn register(reg: &mut Registry) {
-    for node in [
-        Arc::new(SyntheticSceneNode) as Arc<dyn Node>,
-        Arc::new(GtMasksNode),
-        Arc::new(PartitionNode),
-    ] {
-        // The kinds are distinct constants; a clash is a programming error the registry tests catch.
-        reg.add_node(node).expect("synth node kinds are unique");
-    }
+    // A clash means another crate registered the kind first, which the catalogue's tests catch.
+    reg.add_node(Arc::new(SyntheticSceneNode) as Arc<dyn Node>)
+        .expect("synthetic_scene is registered once");
 }
 
 objectsplat_runtime::node_params! {
@@ -117,220 +103,6 @@ impl Node for SyntheticSceneNode {
             ),
         );
         ctx.note("points", scene.points.positions.len());
-        Ok(Outcome::Done)
-    }
-}
-
-objectsplat_runtime::node_params! {
-    /// The parameters of `gt_masks`.
-    pub struct GtMasksParams {
-        /// labels to keep (empty = all objects)
-        keep_labels: Vec<String> = "[]" as ParamType::list(ParamType::Str),
-        /// labels that belong to the background (id 0)
-        background_labels: Vec<String> = "[\"wall\", \"floor\", \"ceiling\"]" as ParamType::list(ParamType::Str),
-        /// per-frame pixel count below which an object is dropped from that frame; None =
-        /// min_fraction × frame area
-        min_pixels: Option<u64> = "None" as ParamType::optional(ParamType::Int { min: Some(0), max: None }),
-        /// used when min_pixels is None
-        min_fraction: f64 = "0.0005" as ParamType::float_range(0.0, 1.0),
-        // Both give bit-identical masks; cpu is the default because lavapipe (the wgpu
-        // adapter of GPU-less machines) is slower than it (docs/benchmarks).
-        /// rasterizer: cpu; wgpu (a GPU, else Mesa lavapipe; bit-identical masks); auto = wgpu
-        /// when an adapter is found, else cpu
-        backend: String = "\"cpu\"" as ParamType::enumeration(&["auto", "cpu", "wgpu"]),
-    }
-}
-
-pub struct GtMasksNode;
-
-impl Node for GtMasksNode {
-    fn spec(&self) -> NodeSpec {
-        NodeSpec::new("gt_masks", "2")
-            .doc(
-                "Rasterizes the annotated mesh into every frame (z-buffer: the nearest surface owns the pixel, so \
-                 occlusion is resolved by depth and masks are mutually exclusive). Pixel = object id; 0 = a surface \
-                 that is no kept object (background label, label not kept, or object below min_pixels in that \
-                 frame); 65535 = no surface.",
-            )
-            .input("frames", "Frames", "cameras to rasterize into")
-            .input("mesh", "Mesh", "annotated mesh (per-vertex object_id + objects.json)")
-            .output("masks", "Masks", "one 16-bit id map per frame + objects.json")
-            .params::<GtMasksParams>()
-    }
-
-    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let p: GtMasksParams = ctx.params_as()?;
-        let frames_dir = ctx.input("frames")?.to_path_buf();
-        let mesh_dir = ctx.input("mesh")?.to_path_buf();
-        let frames = Frames::read(&frames_dir)?;
-        let (mesh, labels) = read_mesh_artifact(&mesh_dir)?;
-        let params = GtMaskParams {
-            keep_labels: p.keep_labels,
-            background_labels: p.background_labels,
-            min_pixels: p.min_pixels,
-            min_fraction: p.min_fraction,
-            raster: RasterOptions {
-                near: 0.01,
-                threads: ctx.threads().max(1),
-            },
-        };
-        let backend = p.backend;
-        let gpu = gpu_for_backend(ctx, &backend)?;
-        let rasterizer = match &gpu {
-            None => None,
-            Some((device, why)) => match IdRasterizer::new(device) {
-                Ok(r) => {
-                    ctx.note("backend", format!("{why} (backend {backend:?})"));
-                    Some(r)
-                }
-                Err(e) if backend == "auto" => {
-                    ctx.note(
-                        "backend",
-                        format!("cpu (auto: the wgpu rasterizer does not build: {e:#})"),
-                    );
-                    None
-                }
-                Err(e) => return Err(e),
-            },
-        };
-        let objects_json = mesh_dir.join(OBJECTS_JSON);
-        let face_values = face_mask_values(&mesh, &labels, &params).map_err(|e| {
-            anyhow!(
-                "{} (with {}): {e}",
-                mesh_dir.join(MESH_PLY).display(),
-                objects_json.display()
-            )
-        })?;
-        let out = ctx.output("masks")?;
-        let mut stems = BTreeSet::new();
-        let mut present = BTreeSet::new();
-        let total = frames.frames.len() as u64;
-        for (i, frame) in frames.frames.iter().enumerate() {
-            if ctx.cancelled() {
-                bail!("interrupted");
-            }
-            let stem = frame_stem(&frame.name);
-            if !stems.insert(stem.to_string()) {
-                bail!(
-                    "{}: two frames share the mask name {stem}.png",
-                    frames_dir.join(FRAMES_JSON).display()
-                );
-            }
-            let camera = frame.camera();
-            let mask = match &rasterizer {
-                None => frame_mask(&mesh, &face_values, &camera, &params).map_err(|e| anyhow!(e)),
-                Some(r) => r
-                    .rasterize_ids(
-                        &mesh.positions,
-                        &mesh.faces,
-                        &face_values,
-                        &camera,
-                        params.raster.near,
-                    )
-                    .map(|ids| drop_small_objects(camera.width, camera.height, ids, &params)),
-            }
-            .map_err(|e| {
-                anyhow!(
-                    "{}: frame {:?}: {e:#}",
-                    frames_dir.join(FRAMES_JSON).display(),
-                    frame.name
-                )
-            })?;
-            present.extend(
-                mask.data
-                    .iter()
-                    .copied()
-                    .filter(|&v| v != NO_OBJECT && v != UNOWNED),
-            );
-            mask.save(&out.join(format!("{stem}.png")))?;
-            ctx.progress(i as u64 + 1, total, "rasterizing frames");
-        }
-        let kept: objectsplat_core::ObjectLabels = present
-            .into_iter()
-            .map(|id| (id, labels[&id].clone()))
-            .collect();
-        objectsplat_core::masks::write_objects(&out, &kept)?;
-        ctx.note(
-            "objects",
-            kept.values().cloned().collect::<Vec<_>>().join(", "),
-        );
-        Ok(Outcome::Done)
-    }
-}
-
-/// The wgpu device for the `backend` param and why it was chosen, or `None` for the
-/// CPU rasterizer (noted here, with the reason).
-fn gpu_for_backend(ctx: &mut Context, backend: &str) -> Result<Option<(Arc<GpuContext>, String)>> {
-    let found = match backend {
-        "cpu" => {
-            ctx.note("backend", "cpu (requested)");
-            return Ok(None);
-        }
-        "wgpu" | "auto" => GpuContext::shared(AdapterChoice::Auto),
-        other => bail!("backend {other:?} is not one of \"auto\", \"cpu\", \"wgpu\""),
-    };
-    match found {
-        Ok(gpu) => Ok(Some(gpu)),
-        Err(e) if backend == "auto" => {
-            ctx.note("backend", format!("cpu (auto: no wgpu adapter: {e:#})"));
-            Ok(None)
-        }
-        Err(e) => Err(e.context("backend \"wgpu\" was requested but no wgpu adapter is usable")),
-    }
-}
-
-objectsplat_runtime::node_params! {
-    /// The parameters of `partition`.
-    pub struct PartitionNodeParams {
-        /// whole-capture pixel budget for an object to become a component; None = 1% of the
-        /// mean frame area
-        min_pixels: Option<u64> = "None" as ParamType::optional(ParamType::Int { min: Some(0), max: None }),
-        /// one component for the whole frame (the baseline)
-        holistic: bool = "false" as ParamType::Bool,
-    }
-}
-
-pub struct PartitionNode;
-
-impl Node for PartitionNode {
-    fn spec(&self) -> NodeSpec {
-        NodeSpec::new("partition", "1")
-            .doc(
-                "Every pixel of every frame to exactly one component: one per retained object (obj_<id>_<label>, the \
-                 frames where it owns a pixel) plus `background` (all frames; object-less and unowned pixels, and \
-                 objects below the budget, listed with a reason in background/dropped.json). holistic: true is the \
-                 baseline — a single component `scene` (kind background) owning every pixel of every frame.",
-            )
-            .input("frames", "Frames", "the capture")
-            .input("masks", "Masks", "mutually exclusive object masks")
-            .output("components", "[Component]", "one item per object + the background")
-            .params::<PartitionNodeParams>()
-    }
-
-    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let p: PartitionNodeParams = ctx.params_as()?;
-        let params = PartitionParams {
-            min_pixels: p.min_pixels,
-            holistic: p.holistic,
-        };
-        let plan = partition_folders(
-            ctx.input("frames")?,
-            ctx.input("masks")?,
-            &ctx.output("components")?,
-            &params,
-        )?;
-        let names: Vec<&str> = plan
-            .components
-            .iter()
-            .map(|c| c.info.name.as_str())
-            .collect();
-        ctx.note("components", names.join(", "));
-        for d in &plan.dropped {
-            ctx.warn(format!(
-                "object {} ({}) dropped: {}",
-                d.object_id, d.label, d.reason
-            ));
-        }
         Ok(Outcome::Done)
     }
 }

@@ -1,16 +1,16 @@
 //! Bad input never panics: errors name the file (or parameter) and the problem.
 
+#[path = "../../masks/tests/common/mod.rs"]
 mod common;
 
 use common::{Aabb, boxes_mesh, camera, labels};
 use glam::DVec3;
 use objectsplat_core::artifact::OBJECTS_JSON;
 use objectsplat_core::{Frame, Frames, IdMap, Image, Split, masks::write_objects};
-use objectsplat_synth::partition::partition_folders;
-use objectsplat_synth::raster::RasterOptions;
-use objectsplat_synth::{
-    GtMaskParams, PartitionParams, SyntheticParams, gt_masks, rasterize, scene,
-};
+use objectsplat_masks::partition::partition_folders;
+use objectsplat_masks::raster::RasterOptions;
+use objectsplat_masks::{GtMaskParams, PartitionParams, gt_masks, rasterize};
+use objectsplat_synth::{SyntheticParams, scene};
 use std::path::{Path, PathBuf};
 
 fn one_box() -> (

@@ -3,7 +3,8 @@
 //! pixel centre lies on a triangle edge to within float rounding: a handful of pixels.
 
 use objectsplat_core::IdMap;
-use objectsplat_synth::{GtMaskParams, SyntheticParams, gt_masks, scene};
+use objectsplat_masks::{GtMaskParams, gt_masks};
+use objectsplat_synth::{SyntheticParams, scene};
 use std::path::Path;
 
 #[test]

@@ -4,8 +4,9 @@
 
 use glam::DVec3;
 use objectsplat_core::masks::NO_OBJECT;
-use objectsplat_synth::raster::ray_triangle_plane;
-use objectsplat_synth::{GtMaskParams, SyntheticParams, gt_masks, scene};
+use objectsplat_masks::raster::ray_triangle_plane;
+use objectsplat_masks::{GtMaskParams, gt_masks};
+use objectsplat_synth::{SyntheticParams, scene};
 
 #[test]
 fn visible_surface_samples_reproject_onto_their_object() {

@@ -1,4 +1,4 @@
-//! The wgpu id rasterizer (`objectsplat_synth::gpu_raster`) gives exactly the CPU
+//! The wgpu id rasterizer (`objectsplat_masks::gpu_raster`) gives exactly the CPU
 //! rasterizer's nearest face at every pixel, and the `gt_masks` node gives the same masks
 //! on both backends: on the synthetic scene and on meshes built to stress the fill rule,
 //! near-plane and guard-band clipping, and depth ties. The oracle is the CPU path; the
@@ -10,10 +10,12 @@
 use glam::DVec3;
 use objectsplat_core::masks::read_objects;
 use objectsplat_core::{Camera, IdMap};
+use objectsplat_masks::gpu_raster::IdRasterizer;
+use objectsplat_masks::nodes::GtMasksNode;
+use objectsplat_masks::{RasterOptions, rasterize};
 use objectsplat_runtime::testing::run_node;
-use objectsplat_synth::gpu_raster::IdRasterizer;
-use objectsplat_synth::nodes::{GtMasksNode, SyntheticSceneNode};
-use objectsplat_synth::{RasterOptions, SyntheticParams, rasterize, scene};
+use objectsplat_synth::nodes::SyntheticSceneNode;
+use objectsplat_synth::{SyntheticParams, scene};
 use objectsplat_wgpu::device::{AdapterChoice, GpuContext};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;

@@ -5,9 +5,10 @@ use objectsplat_core::artifact::{COMPONENT_JSON, OBJECTS_JSON, POINTS_PLY};
 use objectsplat_core::component::{OTHER, OWN};
 use objectsplat_core::masks::read_objects;
 use objectsplat_core::{ComponentInfo, ComponentKind, Frames, IdMap, Image, read_mesh_artifact};
+use objectsplat_masks::nodes::{GtMasksNode, PartitionNode};
 use objectsplat_runtime::testing::{NodeRun, run_node};
 use objectsplat_runtime::{Node, Registry};
-use objectsplat_synth::nodes::{GtMasksNode, PartitionNode, SyntheticSceneNode};
+use objectsplat_synth::nodes::SyntheticSceneNode;
 use std::path::Path;
 
 /// A temporary folder that takes the outputs of each node run.
@@ -40,6 +41,7 @@ fn register_adds_the_three_kinds() {
         reg.add_type(t, "test");
     }
     objectsplat_synth::register(&mut reg);
+    objectsplat_masks::register(&mut reg);
     for kind in ["synthetic_scene", "gt_masks", "partition"] {
         assert!(reg.get(kind).is_some(), "{kind}");
     }

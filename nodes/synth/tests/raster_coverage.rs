@@ -6,8 +6,8 @@
 
 use glam::DVec3;
 use objectsplat_core::Camera;
-use objectsplat_synth::raster::{RasterOptions, pixel_ray, ray_triangle_plane};
-use objectsplat_synth::{NO_FACE, rasterize};
+use objectsplat_masks::raster::{RasterOptions, pixel_ray, ray_triangle_plane};
+use objectsplat_masks::{NO_FACE, rasterize};
 use proptest::prelude::*;
 
 fn cam(width: u32, height: u32) -> Camera {

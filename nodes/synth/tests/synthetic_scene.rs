@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 use objectsplat_core::{Split, SplitPolicy};
-use objectsplat_synth::raster::ray_triangle_plane;
+use objectsplat_masks::raster::ray_triangle_plane;
 use objectsplat_synth::{SyntheticParams, scene};
 
 fn small(seed: u64) -> SyntheticParams {

@@ -9,13 +9,14 @@
 use objectsplat_completion::nodes::{CompleteSurfacesNode, SurfaceCompletionNode};
 use objectsplat_core::glam::DVec3;
 use objectsplat_core::{Camera, ComponentInfo, Frames, Mesh, ObjectLabels, read_mesh_artifact};
+use objectsplat_masks::nodes::{GtMasksNode, PartitionNode};
+use objectsplat_masks::{RasterOptions, rasterize};
 use objectsplat_raster::Model;
 use objectsplat_raster::sh::SH_DC;
 use objectsplat_runtime::Outcome;
 use objectsplat_runtime::testing::{NodeRun, run_node};
 use objectsplat_scene::{Scene, SceneEntry, SceneObject, save_scene};
-use objectsplat_synth::nodes::{GtMasksNode, PartitionNode, SyntheticSceneNode};
-use objectsplat_synth::{RasterOptions, rasterize};
+use objectsplat_synth::nodes::SyntheticSceneNode;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 

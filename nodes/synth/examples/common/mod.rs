@@ -1,7 +1,7 @@
 //! What the gt_masks benchmarks share: their command line and their mask settings.
 
 use anyhow::{Context, Result};
-use objectsplat_synth::{GtMaskParams, RasterOptions};
+use objectsplat_masks::{GtMaskParams, RasterOptions};
 use std::str::FromStr;
 
 /// The positional argument at `index` (after the program name), or `default` when

@@ -56,7 +56,7 @@ impl Default for SyntheticParams {
             points_noise: 0.01,
             supersample: 2,
             fov_degrees: 60.0,
-            threads: crate::raster::default_threads(),
+            threads: objectsplat_masks::raster::default_threads(),
         }
     }
 }

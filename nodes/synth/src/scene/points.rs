@@ -3,10 +3,10 @@
 
 use super::SyntheticParams;
 use super::layout::{Room, to_u8};
-use crate::raster::Raster;
 use anyhow::{Result, bail};
 use glam::DVec3;
 use objectsplat_core::{Camera, Points};
+use objectsplat_masks::raster::Raster;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64;

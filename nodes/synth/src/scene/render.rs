@@ -4,10 +4,10 @@
 
 use super::SyntheticParams;
 use super::layout::Room;
-use crate::raster::{Raster, RasterOptions, pixel_ray, rasterize, ray_triangle_plane};
 use anyhow::{Result, anyhow};
 use glam::DVec3;
 use objectsplat_core::{Camera, Image};
+use objectsplat_masks::raster::{Raster, RasterOptions, pixel_ray, rasterize, ray_triangle_plane};
 
 pub struct Views {
     pub images: Vec<Image>,

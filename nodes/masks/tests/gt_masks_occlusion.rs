@@ -6,8 +6,8 @@ mod common;
 use common::{Aabb, boxes_mesh, camera, cast, labels};
 use glam::DVec3;
 use objectsplat_core::masks::{NO_OBJECT, UNOWNED};
-use objectsplat_synth::raster::pixel_ray;
-use objectsplat_synth::{GtMaskParams, gt_masks};
+use objectsplat_masks::raster::pixel_ray;
+use objectsplat_masks::{GtMaskParams, gt_masks};
 
 const FLOOR: i32 = 1;
 const SMALL: i32 = 2;

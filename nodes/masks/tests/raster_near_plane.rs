@@ -3,8 +3,8 @@
 
 use glam::DVec3;
 use objectsplat_core::Camera;
-use objectsplat_synth::raster::{RasterOptions, pixel_ray};
-use objectsplat_synth::{NO_FACE, rasterize};
+use objectsplat_masks::raster::{RasterOptions, pixel_ray};
+use objectsplat_masks::{NO_FACE, rasterize};
 
 #[test]
 fn floor_reaching_behind_the_camera_matches_ray_plane_intersection() {

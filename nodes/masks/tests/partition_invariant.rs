@@ -4,8 +4,8 @@
 use objectsplat_core::component::{OTHER, OWN};
 use objectsplat_core::masks::UNOWNED;
 use objectsplat_core::{IdMap, ObjectLabels};
-use objectsplat_synth::partition::Owner;
-use objectsplat_synth::{PartitionParams, plan_partition};
+use objectsplat_masks::partition::Owner;
+use objectsplat_masks::{PartitionParams, plan_partition};
 use proptest::prelude::*;
 
 /// Random id maps over a few object ids (some unlabelled-free: every id used has a

@@ -5,7 +5,7 @@ mod common;
 use common::{Aabb, boxes_mesh, camera, labels};
 use glam::DVec3;
 use objectsplat_core::masks::{NO_OBJECT, UNOWNED};
-use objectsplat_synth::{GtMaskParams, GtMasks, gt_masks};
+use objectsplat_masks::{GtMaskParams, GtMasks, gt_masks};
 
 /// A floor, a chair, a table and a tiny cup seen by one camera.
 struct Scene {

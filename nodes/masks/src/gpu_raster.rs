@@ -288,7 +288,7 @@ impl<'a> IdRasterizer<'a> {
     }
 
     /// Index of the nearest face at every pixel (row-major), [`NO_FACE`] where none:
-    /// equal to `objectsplat_synth::rasterize(...).face` with the same near plane.
+    /// equal to `objectsplat_masks::rasterize(...).face` with the same near plane.
     ///
     /// Errors (never panics) on a bad camera, a non-finite vertex, a face index out of
     /// range, a near plane below [`MIN_NEAR`], or an image too large for the device.
