@@ -134,7 +134,7 @@ fn main() -> ExitCode {
     // plugins loaded below run in children started from this executable.
     objectsplat_runtime::plugin::child::serve_if_requested();
     // SAFETY: no other thread exists yet (serving a plugin child never returns here).
-    unsafe { objectsplat_wgpu::device::quiet_headless_vulkan() };
+    unsafe { objectsplat_gpu::quiet_headless_vulkan() };
     let cli = Cli::parse();
     match dispatch(cli) {
         Ok(code) => code,

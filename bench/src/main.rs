@@ -148,7 +148,7 @@ impl Row {
 
 fn main() -> std::process::ExitCode {
     // SAFETY: the first statement of main; no other thread exists yet.
-    unsafe { objectsplat_wgpu::device::quiet_headless_vulkan() };
+    unsafe { objectsplat_gpu::quiet_headless_vulkan() };
     let cli = Cli::parse();
     let result = match cli.command {
         Command::Paper(args) => paper(&args),

@@ -25,8 +25,8 @@ use crate::raster::{
 use anyhow::{Result, anyhow, bail};
 use bytemuck::{Pod, Zeroable};
 use objectsplat_core::Camera;
-use objectsplat_wgpu::device::{GpuContext, map_and_copy};
-use objectsplat_wgpu::wgpu;
+use objectsplat_gpu::wgpu;
+use objectsplat_gpu::{GpuContext, map_and_copy};
 use std::sync::Mutex;
 use wgpu::util::DeviceExt;
 
@@ -529,7 +529,7 @@ mod tests {
 
     #[test]
     fn shader_passes_naga_validation() {
-        objectsplat_wgpu::device::validate_wgsl("id_raster.wgsl", SHADER_SOURCE).unwrap();
+        objectsplat_gpu::validate_wgsl("id_raster.wgsl", SHADER_SOURCE).unwrap();
     }
 
     #[test]
@@ -541,15 +541,9 @@ mod tests {
             ("tiles_x", offset_of!(Params, tiles_x)),
             ("unused", offset_of!(Params, unused)),
         ];
-        objectsplat_wgpu::device::check_mirrors_wgsl(
-            SHADER_SOURCE,
-            "Params",
-            size_of::<Params>(),
-            &rust,
-        )
-        .unwrap();
-        let (size, _) =
-            objectsplat_wgpu::device::wgsl_struct_layout(SHADER_SOURCE, "Triangle").unwrap();
+        objectsplat_gpu::check_mirrors_wgsl(SHADER_SOURCE, "Params", size_of::<Params>(), &rust)
+            .unwrap();
+        let (size, _) = objectsplat_gpu::wgsl_struct_layout(SHADER_SOURCE, "Triangle").unwrap();
         assert_eq!(size as usize, size_of::<GpuTriangle>());
     }
 
@@ -558,7 +552,7 @@ mod tests {
     /// shaped like the depth computation's, and u64 conversions near ties.
     #[test]
     fn soft_float_rounds_like_ieee_f32() {
-        let ctx = match GpuContext::shared(objectsplat_wgpu::AdapterChoice::Auto) {
+        let ctx = match GpuContext::shared(objectsplat_gpu::AdapterChoice::Auto) {
             Ok((ctx, _)) => ctx,
             Err(e) => {
                 if std::env::var("OBJECTSPLAT_REQUIRE_ADAPTER").as_deref() == Ok("1") {

@@ -12,8 +12,8 @@ use objectsplat_core::artifact::{FRAMES_JSON, MESH_PLY, OBJECTS_JSON};
 use objectsplat_core::frames::frame_stem;
 use objectsplat_core::masks::{NO_OBJECT, UNOWNED};
 use objectsplat_core::{Frames, read_mesh_artifact};
+use objectsplat_gpu::{AdapterChoice, GpuContext};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
-use objectsplat_wgpu::device::{AdapterChoice, GpuContext};
 use std::collections::BTreeSet;
 use std::sync::Arc;
 

@@ -7,10 +7,10 @@
 mod common;
 
 use anyhow::{Result, bail};
+use objectsplat_gpu::{AdapterChoice, GpuContext};
 use objectsplat_masks::gpu_raster::IdRasterizer;
 use objectsplat_masks::gt_masks::{drop_small_objects, face_mask_values, frame_mask};
 use objectsplat_synth::{SyntheticParams, scene};
-use objectsplat_wgpu::device::{AdapterChoice, GpuContext};
 use std::time::Instant;
 
 fn main() -> Result<()> {

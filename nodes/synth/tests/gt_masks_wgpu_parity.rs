@@ -10,13 +10,13 @@
 use glam::DVec3;
 use objectsplat_core::masks::read_objects;
 use objectsplat_core::{Camera, IdMap};
+use objectsplat_gpu::{AdapterChoice, GpuContext};
 use objectsplat_masks::gpu_raster::IdRasterizer;
 use objectsplat_masks::nodes::GtMasksNode;
 use objectsplat_masks::{RasterOptions, rasterize};
 use objectsplat_runtime::testing::run_node;
 use objectsplat_synth::nodes::SyntheticSceneNode;
 use objectsplat_synth::{SyntheticParams, scene};
-use objectsplat_wgpu::device::{AdapterChoice, GpuContext};
 use rand::{RngExt, SeedableRng};
 use rand_pcg::Pcg64;
 use std::sync::Arc;

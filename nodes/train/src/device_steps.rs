@@ -439,8 +439,8 @@ mod tests {
     use glam::DVec3;
     use objectsplat_core::component::{IGNORE, OTHER, OWN};
     use objectsplat_core::{Camera, ComponentKind, Split};
+    use objectsplat_gpu::{AdapterChoice, GpuContext};
     use objectsplat_raster::{CpuBackend, SH_COEFFS};
-    use objectsplat_wgpu::{AdapterChoice, GpuContext};
 
     fn gpu() -> Option<WgpuBackend> {
         match GpuContext::shared(AdapterChoice::Auto) {

@@ -16,15 +16,16 @@
 
 use objectsplat_core::Camera;
 use objectsplat_core::glam::DVec3;
+use objectsplat_gpu::{AdapterChoice, GpuContext};
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::{CROP_MARGIN, DEFAULT_LAMBDA_DSSIM, Dims, photometric};
 use objectsplat_raster::{
     CpuBackend, Model, OutputGrads, RenderBackend, RenderSettings, SH_COEFFS,
 };
+use objectsplat_wgpu::WgpuBackend;
 use objectsplat_wgpu::training::{
     AdamSettings, DeviceTrainer, LearningRates, OptimizerState, Step, TrainingView,
 };
-use objectsplat_wgpu::{AdapterChoice, GpuContext, WgpuBackend};
 use std::time::{Duration, Instant};
 
 /// A xorshift64 generator of uniform numbers in [0, 1): scenes without files.

@@ -2,7 +2,7 @@
 //! storage buffers and their grow-only pools, uniform blocks staged in an
 //! arena, bind groups and 2D dispatches.
 
-use crate::device::GpuContext;
+use objectsplat_gpu::GpuContext;
 use wgpu::util::DeviceExt;
 
 /// Most workgroups one dispatch axis may have.

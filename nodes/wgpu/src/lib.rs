@@ -1,7 +1,6 @@
 //! The wgpu compute backend of the ObjectSplat rasterizer.
 //!
-//! - [`device`]: adapter choice (hardware GPU, then Mesa lavapipe), the shared
-//!   device, WGSL validation and readback.
+//! Devices come from `objectsplat-gpu` (adapter choice, readback, WGSL validation).
 //! - [`scan`], [`sort`]: GPU exclusive prefix sum and stable LSD radix sort of
 //!   (u32 key, u32 value) pairs.
 //! - [`raster`]: [`WgpuBackend`], `RenderBackend<f32>` with the CPU backend's
@@ -11,7 +10,6 @@
 //! - [`backend_for`]: picks a backend by name for the train/render nodes.
 
 pub mod atomics;
-pub mod device;
 pub mod kernels;
 pub mod raster;
 pub mod scan;
@@ -19,13 +17,11 @@ pub mod sort;
 pub mod training;
 
 pub use atomics::FloatAtomics;
-pub use device::{AdapterChoice, GpuContext, validate_wgsl};
 pub use raster::{KernelConfig, WgpuBackend};
 pub use training::DeviceTrainer;
-/// The wgpu this crate is built on, for crates that write kernels on its devices.
-pub use wgpu;
 
 use anyhow::{Result, bail};
+use objectsplat_gpu::{AdapterChoice, GpuContext};
 use objectsplat_raster::{CpuBackend, RenderBackend};
 
 /// A rendering backend by name, and one line for the run report saying which

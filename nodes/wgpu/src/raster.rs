@@ -23,7 +23,6 @@
 //! largest model and image seen; the training loop keeps its own across steps.
 
 use crate::atomics::{FloatAtomics, accumulator_wgsl};
-use crate::device::{GpuContext, map_and_copy, read_buffers};
 use crate::kernels::{
     Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage, storage_from,
 };
@@ -31,6 +30,7 @@ use crate::scan::{GpuScan, ScanScratch};
 use crate::sort::{GpuSort, SortBuffers, SortScratch, key_bits};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::Camera;
+use objectsplat_gpu::{GpuContext, map_and_copy, read_buffers};
 use objectsplat_raster::backend::{PixelRect, Region, check_buffer};
 use objectsplat_raster::cpu::preprocess::CameraParams;
 use objectsplat_raster::{
@@ -1218,7 +1218,7 @@ impl RenderBackend<f32> for WgpuBackend {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::{check_mirrors_wgsl, wgsl_struct_layout};
+    use objectsplat_gpu::{check_mirrors_wgsl, wgsl_struct_layout};
     use std::mem::{offset_of, size_of};
 
     /// The common declarations as compiled (raster_common.wgsl alone refers to

@@ -2,9 +2,9 @@
 //! WGSL `+`): blocks of 1024 scanned in workgroup memory, block totals scanned
 //! recursively, offsets added back.
 
-use crate::device::{GpuContext, read_values};
 use crate::kernels::{Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage_from};
 use anyhow::Result;
+use objectsplat_gpu::{GpuContext, read_values};
 
 pub const SCAN_WGSL: &str = include_str!("scan.wgsl");
 const BLOCK: usize = 1024;

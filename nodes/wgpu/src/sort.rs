@@ -1,12 +1,12 @@
 //! GPU stable LSD radix sort of (u32 key, u32 value) pairs, 4 bits per pass,
 //! only over the key bits the caller says are in use.
 
-use crate::device::{GpuContext, read_values};
 use crate::kernels::{
     Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage, storage_from,
 };
 use crate::scan::{GpuScan, ScanScratch};
 use anyhow::{Result, bail};
+use objectsplat_gpu::{GpuContext, read_values};
 
 pub const SORT_WGSL: &str = include_str!("sort.wgsl");
 const BLOCK: usize = 2048;

@@ -22,11 +22,11 @@
 //! readback, and the running per-face weight maxima
 //! ([`DeviceTrainer::face_weights`]) come back only when asked for.
 
-use crate::device::{Readback, read_values};
 use crate::kernels::{Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage};
 use crate::raster::{BackgroundSource, GradPool, ModelBuffers, RasterPool, WgpuBackend};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::Camera;
+use objectsplat_gpu::{Readback, read_values};
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::{CROP_MARGIN, SSIM_SIGMA, SSIM_WINDOW};
 use objectsplat_raster::{Model, RenderSettings, SH_COEFFS};
@@ -1174,7 +1174,7 @@ impl DeviceTrainer {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::device::check_mirrors_wgsl;
+    use objectsplat_gpu::check_mirrors_wgsl;
     use std::mem::{offset_of, size_of};
 
     macro_rules! same_names {

@@ -1,7 +1,8 @@
 //! With OBJECTSPLAT_NO_GPU=1 no adapter is acquired, nothing panics, the
 //! reason is clear, and "auto" falls back to the CPU backend while "wgpu"
 //! is an error. Runs in a child process so the variable affects nothing else.
-use objectsplat_wgpu::{AdapterChoice, GpuContext, backend_for};
+use objectsplat_gpu::{AdapterChoice, GpuContext};
+use objectsplat_wgpu::backend_for;
 
 const CHILD_ENV: &str = "OBJECTSPLAT_WGPU_FALLBACK_CHILD";
 

@@ -1,8 +1,8 @@
 //! Every WGSL program of the crate parses and validates with naga (no adapter needed),
 //! in both float-accumulation variants.
+use objectsplat_gpu::validate_wgsl;
 use objectsplat_wgpu::FloatAtomics;
 use objectsplat_wgpu::raster::raster_sources;
-use objectsplat_wgpu::validate_wgsl;
 
 #[test]
 fn every_shader_validates() {

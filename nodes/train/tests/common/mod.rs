@@ -214,7 +214,8 @@ pub fn parameter_bits(m: &objectsplat_raster::Model<f32>) -> Vec<u32> {
 /// The wgpu backend on the shared adapter, or `None` after printing why the test
 /// is skipped; with `OBJECTSPLAT_REQUIRE_ADAPTER=1` a missing adapter fails instead.
 pub fn wgpu_backend() -> Option<objectsplat_wgpu::WgpuBackend> {
-    use objectsplat_wgpu::{AdapterChoice, GpuContext, WgpuBackend};
+    use objectsplat_gpu::{AdapterChoice, GpuContext};
+    use objectsplat_wgpu::WgpuBackend;
     let err = match GpuContext::shared(AdapterChoice::Auto) {
         Ok((ctx, _)) => return Some(WgpuBackend::new(ctx).unwrap()),
         Err(err) => err,

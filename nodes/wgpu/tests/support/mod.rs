@@ -1,7 +1,7 @@
 //! Shared by the adapter-needing tests: the shared context, or a loud skip.
 #![allow(dead_code)]
 
-use objectsplat_wgpu::{AdapterChoice, GpuContext};
+use objectsplat_gpu::{AdapterChoice, GpuContext};
 use std::sync::Arc;
 
 /// The shared context, or `None` after printing why the test is skipped.

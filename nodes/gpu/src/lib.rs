@@ -1,11 +1,16 @@
-//! Adapter selection (hardware GPU, then Mesa lavapipe), the shared device,
-//! WGSL validation and buffer readback.
+//! The GPU platform ObjectSplat's kernels run on, with no 3D knowledge: adapter selection
+//! (hardware GPU, then Mesa lavapipe), the shared device, WGSL validation and buffer
+//! readback. The rasterizer backend (`objectsplat-wgpu`) and the face-id rasterizer of
+//! ground-truth masks (`objectsplat-masks`) both use it.
 //!
 //! Nothing here panics when no adapter exists: every failure is an `Err`
 //! whose message says why, so callers can fall back to the CPU backend.
 
 use anyhow::{Context, Result, anyhow, bail};
 use std::sync::{Arc, Mutex, OnceLock};
+
+/// The wgpu this crate is built on, for crates that write kernels on its devices.
+pub use wgpu;
 
 /// Which adapter to ask for.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
