@@ -1,15 +1,14 @@
 //! Scenes of ObjectSplat: composing trained components into one separable scene,
-//! editing it, rendering it, evaluating it and exporting it.
+//! editing it, rendering it and exporting it (scoring it is `objectsplat-evaluate`).
 //!
 //! - [`scene`]: the Scene artifact (`scene.json` + one Model folder per member),
 //!   [`load_scene`], [`save_scene`], [`Scene::merged_model`];
 //! - [`edit`]: the RON edit list and [`apply_edits`];
 //! - [`render`]: rendering the merged model from a camera, orbit cameras;
-//! - [`evaluate`]: image metrics and mesh F-score of a run;
-//! - [`nodes`]: `compose`, `edit_scene`, `render`, `evaluate`, `export_gltf` ([`register`]).
+//! - [`nodes`]: `compose`, `load_scene`, `edit_scene`, `render`, `export_gltf`, `viewer`
+//!   ([`register`]).
 
 pub mod edit;
-pub mod evaluate;
 pub mod nodes;
 pub mod render;
 pub mod scene;

@@ -1,20 +1,18 @@
-//! Dataflow nodes: `compose`, `load_scene`, `edit_scene`, `render`, `evaluate`,
-//! `export_gltf` and `viewer`.
+//! Dataflow nodes: `compose`, `load_scene`, `edit_scene`, `render`, `export_gltf` and
+//! `viewer`.
 //!
-//! (`report` is registered by `objectsplat-export`, which owns the report library.)
+//! (`evaluate` is registered by `objectsplat-evaluate`, `report` by `objectsplat-export`.)
 
 use crate::edit::{apply_edits, edit_item_problem, parse_edits};
-use crate::evaluate::{EvaluateSettings, GroundTruth, GtSurface, evaluate_scene};
 use crate::render::{Backdrop, focus_bounds, orbit_cameras, render_view};
 use crate::scene::{Scene, SceneEntry, SceneObject, component_of_item, load_scene, save_scene};
 use crate::surface::{display_colors, visible_faces};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::artifact::{SCENE_FILLS_DIR, SCENE_GLB};
 use objectsplat_core::frames::frame_stem;
-use objectsplat_core::{Frames, Image, Split, read_mesh_artifact};
+use objectsplat_core::{Frames, Image, Split};
 use objectsplat_export::viewer::{ViewerCamera, ViewerMember, ViewerScene, write_viewer};
 use objectsplat_export::{ExportObject, ExportedComponent, SrgbColors, build_glb};
-use objectsplat_metrics::{Lpips, MeshEvalParams, SampleCount, SsimMode};
 use objectsplat_raster::load_model;
 use objectsplat_runtime::{
     CheckedInput, Context, Node, NodeSpec, Outcome, ParamError, ParamType, Params, Registry, Value,
@@ -360,138 +358,6 @@ impl Node for Render {
     }
 }
 
-objectsplat_runtime::node_params! {
-    /// The parameters of `evaluate`.
-    pub struct EvaluateParams {
-        /// F-score distance threshold (m)
-        tau: f64 = "0.05" as ParamType::float_range(1e-6, 10.0),
-        /// more thresholds (m) at which every object's precision, recall and F-score are
-        /// reported (metrics.json objects[].thresholds)
-        object_taus: Vec<f64> = "[0.05, 0.02]" as ParamType::list(ParamType::float_range(1e-6, 10.0)),
-        /// voxel size for down-sampling both point sets (m)
-        voxel: f64 = "0.02" as ParamType::float_range(1e-6, 10.0),
-        /// surface samples per square metre
-        samples: f64 = "10000.0" as ParamType::float_range(1.0, 1e8),
-        /// seed of the surface sampling
-        seed: i64 = "0" as ParamType::int_range(0, i64::MAX),
-        /// cap on the samples drawn on one surface (ground truth, scene, each object); a
-        /// surface that needs more (area × samples) fails the node naming its area, as a
-        /// diverged model's does, instead of exhausting memory
-        max_samples: i64 = "10000000" as ParamType::int_range(1, i64::MAX),
-        /// SSIM border convention: 3DGS zero padding, or scikit-image's 5-pixel crop
-        ssim: String = "\"gs3d\"" as ParamType::enumeration(&["gs3d", "cropped"]),
-        /// AlexNet LPIPS weights (safetensors); LPIPS is skipped without it
-        lpips_weights: Option<String> = "None" as ParamType::optional(ParamType::Path),
-        /// ground truth of the F-scores: the mesh surface at least one frame sees
-        /// (depth-tested), or the whole mesh
-        gt_surface: String = "\"observed\"" as ParamType::enumeration(&["observed", "all"]),
-    }
-}
-
-/// `evaluate`: image metrics of the test renders and mesh F-score, scene and per object.
-pub struct Evaluate;
-
-impl Node for Evaluate {
-    fn spec(&self) -> NodeSpec {
-        NodeSpec::new("evaluate", "4")
-            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id (per object also at each of object_taus). Writes metrics.json and metrics.csv.")
-            .input("images", "Images", "renders of the test frames (<frame stem>.png)")
-            .input("frames", "Frames", "the capture; its test split is the ground truth")
-            .input("scene", "Scene", "the scene whose surface is scored")
-            .optional_input("mesh", "Mesh", "ground-truth mesh; per-object F-score needs its object ids")
-            .optional_input("masks", "Masks", "ground-truth object-id maps of the test frames, for per-object image metrics")
-            .output("metrics", "Metrics", "metrics.json + metrics.csv")
-            .params::<EvaluateParams>()
-    }
-
-    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let p: EvaluateParams = ctx.params_as()?;
-        let tau: f64 = p.tau;
-        let voxel: f64 = p.voxel;
-        let samples: f64 = p.samples;
-        let seed: i64 = p.seed;
-        let max_samples: i64 = p.max_samples;
-        let ssim: String = p.ssim;
-        let lpips_path: Option<String> = p.lpips_weights;
-        let ssim = if ssim == "cropped" {
-            SsimMode::Cropped
-        } else {
-            SsimMode::Gs3d
-        };
-        let lpips = match &lpips_path {
-            Some(p) => Some(
-                Lpips::load(Path::new(p))
-                    .with_context(|| format!("{p}: cannot load LPIPS weights"))?,
-            ),
-            None => None,
-        };
-        let frames = Frames::read(ctx.input("frames")?)?;
-        let scene = load_scene(ctx.input("scene")?)?;
-        let gt_mesh = match ctx.input_opt("mesh") {
-            Some(dir) => Some(read_mesh_artifact(dir)?),
-            None => None,
-        };
-        let truth = GroundTruth {
-            mesh: gt_mesh.as_ref().map(|(m, l)| (m, l)),
-            masks: ctx.input_opt("masks"),
-        };
-        let settings = EvaluateSettings {
-            mesh: MeshEvalParams {
-                tau,
-                voxel,
-                samples: SampleCount::PerArea(samples),
-                // Non-negative: the param range starts at 0.
-                seed: seed as u64,
-                // The param range is 1..; a cap beyond usize (32-bit) saturates.
-                max_samples: usize::try_from(max_samples).unwrap_or(usize::MAX),
-            },
-            object_taus: p.object_taus,
-            ssim,
-            lpips: lpips.as_ref(),
-            gt_surface: match p.gt_surface.as_str() {
-                "all" => GtSurface::All,
-                _ => GtSurface::Observed,
-            },
-        };
-        ctx.progress(0, 1, "evaluating");
-        let (report, summary) =
-            evaluate_scene(ctx.input("images")?, &frames, &scene, &truth, &settings)?;
-        report.write(&ctx.output("metrics")?)?;
-        ctx.progress(1, 1, "evaluated");
-        ctx.note("test images", summary.test_images);
-        ctx.note("images with object masks", summary.images_with_masks);
-        ctx.note("objects", summary.objects);
-        ctx.note(
-            "lpips",
-            if lpips.is_some() {
-                "computed"
-            } else {
-                "skipped: no weights"
-            },
-        );
-        if gt_mesh.is_none() {
-            ctx.note("mesh F-score", "skipped: no ground-truth mesh wired");
-        }
-        for o in report.objects.iter().filter(|o| !o.thresholds.is_empty()) {
-            let scores: Vec<String> = o
-                .thresholds
-                .iter()
-                .map(|t| {
-                    let show = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.3}"));
-                    format!(
-                        "τ {} cm: P {} R {}",
-                        t.tau * 100.0,
-                        show(t.precision),
-                        show(t.recall)
-                    )
-                })
-                .collect();
-            ctx.note(&format!("object {} {}", o.id, o.label), scores.join(", "));
-        }
-        Ok(Outcome::Done)
-    }
-}
-
 /// The scene as `.glb` bytes (what `export_gltf` writes) and what each node holds.
 pub fn scene_glb(scene: &Scene) -> Result<(Vec<u8>, Vec<ExportedComponent>)> {
     let extras = serde_json::json!({
@@ -649,8 +515,6 @@ pub fn register(reg: &mut Registry) {
         .expect("node kind `edit_scene` is registered once");
     reg.add_node(Arc::new(Render))
         .expect("node kind `render` is registered once");
-    reg.add_node(Arc::new(Evaluate))
-        .expect("node kind `evaluate` is registered once");
     reg.add_node(Arc::new(ExportGltf))
         .expect("node kind `export_gltf` is registered once");
     reg.add_node(Arc::new(LoadScene))

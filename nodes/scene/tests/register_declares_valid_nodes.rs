@@ -1,4 +1,4 @@
-//! `register` adds the seven scene nodes, and the registry accepts their specs
+//! `register` adds the six scene nodes, and the registry accepts their specs
 //! (known types, unique ports, defaults that parse and fit their types).
 
 mod common;
@@ -11,7 +11,6 @@ fn all_scene_nodes_register_with_checked_specs() {
         "load_scene",
         "edit_scene",
         "render",
-        "evaluate",
         "export_gltf",
         "viewer",
     ]

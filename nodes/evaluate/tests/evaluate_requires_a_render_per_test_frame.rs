@@ -1,11 +1,12 @@
 //! `evaluate` refuses to score a run with a test frame that has no render, naming it,
 //! and reports the mesh F-score as null when no ground-truth mesh is wired.
 
+#[path = "../../scene/tests/common/mod.rs"]
 mod common;
 
 use objectsplat_core::Split;
 use objectsplat_core::artifact::METRICS_JSON;
-use objectsplat_scene::nodes::Evaluate;
+use objectsplat_evaluate::Evaluate;
 
 #[test]
 fn a_missing_render_is_an_error_and_no_mesh_means_no_fscore() {

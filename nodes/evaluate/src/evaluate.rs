@@ -1,8 +1,6 @@
 //! Evaluating a run: renders of the test frames against their photos, and the
 //! scene's visible surface against a ground-truth mesh, for the scene and per object.
 
-use crate::scene::Scene;
-use crate::surface::visible_mesh;
 use anyhow::{Context, Result, bail};
 use objectsplat_core::artifact::OBJECTS_JSON;
 use objectsplat_core::frames::frame_stem;
@@ -13,6 +11,8 @@ use objectsplat_metrics::{
     Lpips, MeshEvalParams, MetricsReport, SsimMode, TestImage, assemble_report, evaluate_image,
     evaluate_mesh,
 };
+use objectsplat_scene::Scene;
+use objectsplat_scene::surface::visible_mesh;
 use std::path::Path;
 
 /// Ground truth beyond the photos.

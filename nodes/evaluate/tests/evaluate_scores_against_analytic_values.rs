@@ -4,13 +4,14 @@
 //! τ scores F = 0 while the others stay at 1 (also at the extra per-object thresholds);
 //! LPIPS is reported as skipped.
 
+#[path = "../../scene/tests/common/mod.rs"]
 mod common;
 
 use objectsplat_core::artifact::{METRICS_CSV, METRICS_JSON};
 use objectsplat_core::masks::{IdMap, write_objects};
 use objectsplat_core::{Mesh, ObjectLabels, Split, write_mesh_artifact};
+use objectsplat_evaluate::Evaluate;
 use objectsplat_scene::load_scene;
-use objectsplat_scene::nodes::Evaluate;
 use objectsplat_scene::surface::visible_mesh;
 
 const W: u32 = 48;
