@@ -10,7 +10,7 @@ mod display;
 
 use anyhow::{Context as _, Result, anyhow};
 use clap::{Parser, Subcommand};
-use objectsplat_export::report::{
+use objectsplat_report::{
     GraphEdge, RunSummary, read_run_summary, write_run_files, write_with_run_summary,
 };
 use objectsplat_runtime::check;

@@ -14,9 +14,9 @@ mod train_speed;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
-use objectsplat_export::report::plot::{PlotSpec, Series, line_plot_svg};
 use objectsplat_metrics::report::MetricsReport;
 use objectsplat_raster::TrainingLog;
+use objectsplat_report::plot::{PlotSpec, Series, line_plot_svg};
 use objectsplat_runtime::exec::{self, RunOptions, Silent};
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::{Override, build_plan};

@@ -15,7 +15,7 @@ pub fn builtin_registry() -> Registry {
     objectsplat_masks::register(&mut reg);
     objectsplat_completion::register(&mut reg);
     objectsplat_command::register(&mut reg);
-    objectsplat_export::register(&mut reg);
+    objectsplat_report::register(&mut reg);
     objectsplat_scene::register(&mut reg);
     objectsplat_evaluate::register(&mut reg);
     objectsplat_train::register(&mut reg);

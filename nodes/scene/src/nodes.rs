@@ -1,7 +1,7 @@
 //! Dataflow nodes: `compose`, `load_scene`, `edit_scene`, `render`, `export_gltf` and
 //! `viewer`.
 //!
-//! (`evaluate` is registered by `objectsplat-evaluate`, `report` by `objectsplat-export`.)
+//! (`evaluate` is registered by `objectsplat-evaluate`, `report` by `objectsplat-report`.)
 
 use crate::edit::{apply_edits, edit_item_problem, parse_edits};
 use crate::render::{Backdrop, focus_bounds, orbit_cameras, render_view};

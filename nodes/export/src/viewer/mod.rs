@@ -111,7 +111,7 @@ pub fn viewer_style() -> &'static str {
 
 /// A whole page with the viewer filling the window.
 pub fn viewer_page(glb: &[u8], scene: &ViewerScene) -> Result<String> {
-    let title = crate::report::escape::escape(&scene.title);
+    let title = crate::escape::escape(&scene.title);
     let fragment = viewer_fragment(glb, scene)?;
     Ok(format!(
         "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\"><meta name=\"viewport\" content=\"width=device-width\"><title>{title}</title><link rel=\"icon\" href=\"data:,\"><style>html,body{{margin:0;height:100%;overflow:hidden}}body>.osv{{height:100vh;border:0}}{STYLE}</style></head><body>{fragment}</body></html>\n"

@@ -2,7 +2,7 @@
 //! views written as PNGs, the training logs of tests/fixtures/models and run-time points.
 
 use objectsplat_core::Image;
-use objectsplat_export::report::*;
+use objectsplat_report::*;
 use std::path::{Path, PathBuf};
 
 /// Model folders with hand-written `training.json` files (obj_3_chair stops early at 400 of

@@ -9,10 +9,10 @@
 //! `objectsplat report --run RUN.json --html PAGE` fills a page in place instead
 //! ([`write_with_run_summary`]), for pages moved away from their run.
 
-use super::dag::{dag_svg, status_colour};
-use super::data::{NodeStatus, RunSummary};
-use super::escape::escape;
+use crate::dag::{dag_svg, status_colour};
+use crate::data::{NodeStatus, RunSummary};
 use anyhow::{Context, Result, bail};
+use objectsplat_export::escape::escape;
 use std::fmt::Write;
 use std::io::Write as _;
 use std::path::Path;

@@ -24,7 +24,7 @@ pub struct ReportData {
     pub training: Vec<ModelTraining>,
     #[serde(default)]
     pub runtime_vs_error: Vec<RuntimePoint>,
-    /// A folder written by [`crate::viewer::write_viewer`] (a `viewer` node's output):
+    /// A folder written by [`objectsplat_export::viewer::write_viewer`] (a `viewer` node's output):
     /// its interactive 3D view is embedded in the page.
     #[serde(default)]
     pub viewer: Option<PathBuf>,

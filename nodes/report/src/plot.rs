@@ -2,7 +2,7 @@
 //! one of its points (a ring, e.g. the best checkpoint) and an x position (a dashed vertical
 //! line, e.g. where training stopped early).
 
-use super::escape::escape;
+use objectsplat_export::escape::escape;
 use std::fmt::Write;
 
 /// Categorical palette (colour-blind friendly, Okabe–Ito order), cycled per series.

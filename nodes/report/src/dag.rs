@@ -3,9 +3,9 @@
 //! their inputs (one barycentre pass, which removes most crossings in pipeline-shaped
 //! graphs), and boxes are coloured by run status.
 
-use super::data::{GraphEdge, NodeRun, NodeStatus};
-use super::escape::escape;
+use crate::data::{GraphEdge, NodeRun, NodeStatus};
 use anyhow::{Result, bail};
+use objectsplat_export::escape::escape;
 use std::collections::HashMap;
 use std::fmt::Write;
 

@@ -7,7 +7,7 @@ mod common;
 use common::svg::{best_ring, polylines, section, stop_line, svg_blocks};
 use common::synthetic_report::{fixture_models, fixture_training};
 use objectsplat_core::artifact::{MODEL_JSON, TRAINING_JSON};
-use objectsplat_export::report::*;
+use objectsplat_report::*;
 
 // Pixel coordinates are written with 2 decimals (±0.005 each); the maps are fitted on the
 // extreme points, so an interpolated position is off by at most about three roundings.

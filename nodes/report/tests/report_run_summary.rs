@@ -5,7 +5,7 @@
 mod common;
 
 use common::svg::{section, svg_blocks};
-use objectsplat_export::report::*;
+use objectsplat_report::*;
 use std::path::Path;
 
 fn node_page(dir: &Path) -> std::path::PathBuf {

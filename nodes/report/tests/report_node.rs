@@ -7,7 +7,7 @@ use common::synthetic_report::{ground_truth_image, render_image};
 use objectsplat_core::artifact::{METRICS_JSON, PAGE_HTML};
 use objectsplat_core::frames::Split;
 use objectsplat_core::{Camera, Frame, Frames};
-use objectsplat_export::nodes::ReportNode;
+use objectsplat_report::node::ReportNode;
 use std::path::{Path, PathBuf};
 
 /// Writes the metrics, frames and renders folders under `root`; returns them in that order.
@@ -122,6 +122,6 @@ fn registers_the_report_kind() {
     ] {
         reg.add_type(name, doc);
     }
-    objectsplat_export::register(&mut reg);
+    objectsplat_report::register(&mut reg);
     assert!(reg.get("report").is_some());
 }

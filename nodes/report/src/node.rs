@@ -1,15 +1,13 @@
-//! Dataflow node wrappers.
-//!
-//! `report`: metrics, test views and trained models' training logs (all optional) → an HTML
+//! The `report` node: metrics, test views and trained models' training logs (all optional) → an HTML
 //! report folder. Inside a graph the node cannot see the run's own node table (nodes
 //! downstream or beside it have not finished), so its "Run" section is a marked placeholder
 //! that the page fills in when opened, from the `run.js` that `objectsplat run` writes beside
-//! the outputs ([`crate::report::write_run_files`]).
+//! the outputs ([`crate::write_run_files`]).
 //!
 //! `export_gltf` is not wrapped yet: it needs the Model encoding inside a Scene
 //! (`objects/<name>/model.ply`), which is not documented yet.
 
-use crate::report::{MetricsTable, ModelTraining, ReportData, ViewTriplet, render_report};
+use crate::{MetricsTable, ModelTraining, ReportData, ViewTriplet, render_report};
 use anyhow::{Context as _, Result};
 use objectsplat_core::Frames;
 use objectsplat_core::artifact::METRICS_JSON;

@@ -3,9 +3,9 @@
 //! each component's best held-out evaluation ringed and its early stop drawn as a dashed line, and a
 //! table of the runs.
 
-use super::data::ModelTraining;
-use super::escape::escape;
-use super::plot::{PlotSpec, Series, line_plot_svg};
+use crate::data::ModelTraining;
+use crate::plot::{PlotSpec, Series, line_plot_svg};
+use objectsplat_export::escape::escape;
 use objectsplat_raster::TrainingLog;
 use std::fmt::Write;
 

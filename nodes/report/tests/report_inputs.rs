@@ -3,7 +3,7 @@
 
 mod common;
 
-use objectsplat_export::report::*;
+use objectsplat_report::*;
 
 #[test]
 fn run_report_and_metrics_json_deserialise() {

@@ -6,8 +6,8 @@
 
 mod common;
 
-use objectsplat_export::report::dag::status_colour;
-use objectsplat_export::report::{NodeStatus, render_report};
+use objectsplat_report::dag::status_colour;
+use objectsplat_report::{NodeStatus, render_report};
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};

@@ -2,15 +2,15 @@
 //! no external fetches) so it can be mailed or archived as a single file. The only script
 //! is the embedded 3D viewer's, when the report has one.
 
-use super::data::{MetricValues, ReportData};
-use super::escape::escape;
-use super::images::render_triplet;
-use super::plot::{PlotSpec, Series, line_plot_svg};
-use super::run_summary::{run_loader, run_section};
-use super::training::{finite_points, section_training};
-use crate::viewer::{read_viewer, viewer_fragment, viewer_style};
+use crate::data::{MetricValues, ReportData};
+use crate::images::render_triplet;
+use crate::plot::{PlotSpec, Series, line_plot_svg};
+use crate::run_summary::{run_loader, run_section};
+use crate::training::{finite_points, section_training};
 use anyhow::{Context, Result, ensure};
 use objectsplat_core::artifact::PAGE_HTML;
+use objectsplat_export::escape::escape;
+use objectsplat_export::viewer::{read_viewer, viewer_fragment, viewer_style};
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 

@@ -7,8 +7,8 @@ mod common;
 use base64::Engine;
 use common::svg::{polylines, svg_blocks};
 use common::synthetic_report::{VIEW_H, VIEW_W, ground_truth_image, report_data};
-use objectsplat_export::report::images::heat_colour;
-use objectsplat_export::report::*;
+use objectsplat_report::images::heat_colour;
+use objectsplat_report::*;
 use std::collections::HashMap;
 
 fn written_report() -> (tempfile::TempDir, String) {
@@ -39,7 +39,7 @@ fn page_is_self_contained() {
     let (_dir, html) = written_report();
     assert!(html.starts_with("<!DOCTYPE html>"));
     // The one script is the loader of the run summary written beside the outputs.
-    let loader = objectsplat_export::report::run_loader();
+    let loader = objectsplat_report::run_loader();
     assert_eq!(html.matches(&loader).count(), 1);
     let html = html.replace(&loader, "");
     for forbidden in ["http:", "https:", "<script", "<link", "@import", "<iframe"] {

@@ -1,11 +1,12 @@
-//! The self-contained HTML run report: graph with node status and time (filled in after the
-//! run, see [`run_summary`]), metrics table, test-view triplets (ground truth / render / error
-//! heatmap), and SVG plots of the training curves and run time against error.
+//! The self-contained HTML run report and its `report` node: graph with node status and time
+//! (from the run's `run.js`, see [`run_summary`]), metrics table, test-view triplets (ground
+//! truth / render / error heatmap), SVG plots of the training curves and run time against
+//! error, and the scene's interactive view when a `viewer` folder is wired.
 
 pub mod dag;
 pub mod data;
-pub mod escape;
 pub mod images;
+pub mod node;
 pub mod page;
 pub mod plot;
 pub mod run_summary;
@@ -15,6 +16,7 @@ pub use data::{
     GraphEdge, ItemRun, MetricValues, MetricsTable, ModelTraining, NodeRun, NodeStatus,
     ObjectMetrics, ReportData, RunSummary, RuntimePoint, ViewTriplet,
 };
+pub use node::register;
 pub use objectsplat_raster::{EvalRecord, StepRecord, TrainingLog};
 pub use page::{REPORT_FILE, render_report, report_html};
 pub use run_summary::{

@@ -1,15 +1,15 @@
 //! Export throughput: a scene of `OBJECTS` grid meshes (2·(N−1)² triangles each) written as
 //! one `.glb` and as per-component PLYs, plus a report with test views. Prints the median of
 //! `RUNS` runs per stage. Usage:
-//!   cargo run --release -p objectsplat-export --example bench_export -- OUT_DIR [N] [OBJECTS]
+//!   cargo run --release -p objectsplat-report --example bench_export -- OUT_DIR [N] [OBJECTS]
 //! OUT_DIR keeps the last files so a peer (e.g. trimesh) can be timed on the same data.
 
 use anyhow::{Context, Result};
 use objectsplat_core::Image;
 use objectsplat_core::artifact::SCENE_GLB;
 use objectsplat_export::ply::write_component_plys;
-use objectsplat_export::report::{ReportData, ViewTriplet, render_report};
 use objectsplat_export::{ExportObject, SrgbColors, write_glb};
+use objectsplat_report::{ReportData, ViewTriplet, render_report};
 use std::path::PathBuf;
 use std::time::Instant;
 
