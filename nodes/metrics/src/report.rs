@@ -93,8 +93,12 @@ pub struct ThresholdMetrics {
     pub recall: Option<f64>,
 }
 
+/// Reading is lenient (missing fields take their defaults, `object_id` is read as `id`), so
+/// metrics a plugin or an older version wrote still load.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct ObjectMetrics {
+    #[serde(alias = "object_id")]
     pub id: u16,
     pub label: String,
     #[serde(flatten)]
@@ -106,7 +110,9 @@ pub struct ObjectMetrics {
     pub thresholds: Vec<ThresholdMetrics>,
 }
 
+/// The Metrics artifact's `metrics.json`. Reading is lenient like [`ObjectMetrics`]'s.
 #[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
 pub struct MetricsReport {
     #[serde(flatten)]
     pub scene: ScopeMetrics,
@@ -183,7 +189,7 @@ impl MetricsReport {
         let text = std::fs::read_to_string(&path)
             .with_context(|| format!("{}: cannot read", path.display()))?;
         serde_json::from_str(&text)
-            .with_context(|| format!("{}: not a metrics report", path.display()))
+            .with_context(|| format!("{}: not a valid metrics file", path.display()))
     }
 
     pub fn to_csv(&self) -> Result<String> {

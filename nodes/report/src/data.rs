@@ -2,6 +2,7 @@
 //! the `--json` run report (nodes), `metrics.json` (scene + per-object metrics),
 //! the graph's edges, test views as image paths, and the trained models' `training.json`.
 
+use objectsplat_metrics::report::MetricsReport;
 use objectsplat_raster::TrainingLog;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
@@ -13,7 +14,7 @@ pub struct ReportData {
     pub run: RunSummary,
     /// `metrics.json` as written by `evaluate`; absent when the run did not evaluate.
     #[serde(default)]
-    pub metrics: Option<MetricsTable>,
+    pub metrics: Option<MetricsReport>,
     #[serde(default)]
     pub views: Vec<ViewTriplet>,
     /// Mean absolute RGB error (values in [0, 1]) shown as the hottest heatmap colour; 0 means the default.
@@ -94,74 +95,6 @@ pub struct ItemRun {
 pub struct GraphEdge {
     pub from: String,
     pub to: String,
-}
-
-/// The metric columns shared by the scene row and each object row; null = not computed.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct MetricValues {
-    #[serde(default)]
-    pub psnr: Option<f64>,
-    #[serde(default)]
-    pub ssim: Option<f64>,
-    #[serde(default)]
-    pub lpips: Option<f64>,
-    #[serde(default)]
-    pub fscore: Option<f64>,
-    #[serde(default)]
-    pub precision: Option<f64>,
-    #[serde(default)]
-    pub recall: Option<f64>,
-    #[serde(default)]
-    pub tau: Option<f64>,
-}
-
-impl MetricValues {
-    /// Column headers and values in display order.
-    pub fn columns(&self) -> [(&'static str, Option<f64>); 7] {
-        [
-            ("PSNR", self.psnr),
-            ("SSIM", self.ssim),
-            ("LPIPS", self.lpips),
-            ("F-score", self.fscore),
-            ("precision", self.precision),
-            ("recall", self.recall),
-            ("τ (m)", self.tau),
-        ]
-    }
-}
-
-/// `metrics.json`: scene averages at the top level and an `objects` list.
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct MetricsTable {
-    #[serde(flatten)]
-    pub scene: MetricValues,
-    #[serde(default)]
-    pub objects: Vec<ObjectMetrics>,
-}
-
-#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
-pub struct ObjectMetrics {
-    #[serde(default)]
-    pub name: Option<String>,
-    #[serde(default, alias = "id")]
-    pub object_id: Option<u16>,
-    #[serde(default)]
-    pub label: Option<String>,
-    #[serde(flatten)]
-    pub values: MetricValues,
-}
-
-impl ObjectMetrics {
-    pub fn display_name(&self) -> String {
-        match (&self.name, self.object_id, &self.label) {
-            (Some(name), _, _) => name.clone(),
-            (None, Some(id), label) => {
-                objectsplat_core::component::object_item_name(id, label.as_deref().unwrap_or(""))
-            }
-            (None, None, Some(label)) => label.clone(),
-            (None, None, None) => "(unnamed)".into(),
-        }
-    }
 }
 
 /// A test view: ground truth and render as PNG/JPEG files of equal size.

@@ -13,10 +13,11 @@ pub mod run_summary;
 pub mod training;
 
 pub use data::{
-    GraphEdge, ItemRun, MetricValues, MetricsTable, ModelTraining, NodeRun, NodeStatus,
-    ObjectMetrics, ReportData, RunSummary, RuntimePoint, ViewTriplet,
+    GraphEdge, ItemRun, ModelTraining, NodeRun, NodeStatus, ReportData, RunSummary, RuntimePoint,
+    ViewTriplet,
 };
 pub use node::register;
+pub use objectsplat_metrics::report::{MetricsReport, ObjectMetrics, ScopeMetrics};
 pub use objectsplat_raster::{EvalRecord, StepRecord, TrainingLog};
 pub use page::{REPORT_FILE, render_report, report_html};
 pub use run_summary::{

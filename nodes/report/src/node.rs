@@ -7,10 +7,9 @@
 //! `export_gltf` is not wrapped yet: it needs the Model encoding inside a Scene
 //! (`objects/<name>/model.ply`), which is not documented yet.
 
-use crate::{MetricsTable, ModelTraining, ReportData, ViewTriplet, render_report};
+use crate::{MetricsReport, ModelTraining, ReportData, ViewTriplet, render_report};
 use anyhow::{Context as _, Result};
 use objectsplat_core::Frames;
-use objectsplat_core::artifact::METRICS_JSON;
 use objectsplat_core::frames::{Split, frame_stem};
 use objectsplat_raster::TrainingLog;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
@@ -19,14 +18,6 @@ use std::sync::Arc;
 
 /// Writes `index.html` from a Metrics artifact and, when wired, test views.
 pub struct ReportNode;
-
-fn read_metrics(dir: &Path) -> Result<MetricsTable> {
-    let path = dir.join(METRICS_JSON);
-    let text = std::fs::read_to_string(&path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
-    serde_json::from_str(&text)
-        .with_context(|| format!("{}: not a valid metrics file", path.display()))
-}
 
 /// Up to `max_views` test frames that have a render, spread evenly over the test split.
 fn test_views(frames_dir: &Path, renders_dir: &Path, max_views: usize) -> Result<Vec<ViewTriplet>> {
@@ -79,7 +70,7 @@ objectsplat_runtime::node_params! {
 impl Node for ReportNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("report", "3")
-            .doc("A self-contained HTML report (index.html): the run's graph with each node's status and time (filled in by `objectsplat run` on the materialized copy), the interactive 3D view of the scene (when a `viewer` folder is wired), metrics table, test-view triplets (ground truth / render / error heatmap), training curves of the models; no external resources.")
+            .doc("A self-contained HTML report (index.html): the run's graph with each node's status and time (read from the run.js `objectsplat run` writes beside the outputs), the interactive 3D view of the scene (when a `viewer` folder is wired), metrics table, test-view triplets (ground truth / render / error heatmap), training curves of the models; no external resources.")
             .optional_input("metrics", "Metrics", "the evaluation (metrics.json)")
             .optional_input("frames", "Frames", "the capture; its test-split frames are the ground truth of the views")
             .optional_input("renders", "Images", "renders of the test frames, named <frame stem>.png")
@@ -95,7 +86,7 @@ impl Node for ReportNode {
         let max_views: i64 = p.max_views;
         let error_scale: f64 = p.error_scale;
         let metrics = match ctx.input_opt("metrics") {
-            Some(dir) => Some(read_metrics(dir)?),
+            Some(dir) => Some(MetricsReport::read(dir)?),
             None => None,
         };
         let views = match (ctx.input_opt("frames"), ctx.input_opt("renders")) {

@@ -2,15 +2,17 @@
 //! no external fetches) so it can be mailed or archived as a single file. The only script
 //! is the embedded 3D viewer's, when the report has one.
 
-use crate::data::{MetricValues, ReportData};
+use crate::data::ReportData;
 use crate::images::render_triplet;
 use crate::plot::{PlotSpec, Series, line_plot_svg};
 use crate::run_summary::{run_loader, run_section};
 use crate::training::{finite_points, section_training};
 use anyhow::{Context, Result, ensure};
 use objectsplat_core::artifact::PAGE_HTML;
+use objectsplat_core::component::object_item_name;
 use objectsplat_export::escape::escape;
 use objectsplat_export::viewer::{read_viewer, viewer_fragment, viewer_style};
+use objectsplat_metrics::report::ScopeMetrics;
 use std::fmt::Write;
 use std::path::{Path, PathBuf};
 
@@ -37,9 +39,21 @@ fn metric_cell(value: Option<f64>) -> String {
     }
 }
 
-fn metrics_row(name: &str, values: &MetricValues) -> String {
-    let cells: String = values
-        .columns()
+/// Column headers and values of a metrics row, in display order; null = not computed.
+fn columns(m: &ScopeMetrics) -> [(&'static str, Option<f64>); 7] {
+    [
+        ("PSNR", m.psnr),
+        ("SSIM", m.ssim),
+        ("LPIPS", m.lpips),
+        ("F-score", m.fscore),
+        ("precision", m.precision),
+        ("recall", m.recall),
+        ("τ (m)", m.tau),
+    ]
+}
+
+fn metrics_row(name: &str, values: &ScopeMetrics) -> String {
+    let cells: String = columns(values)
         .iter()
         .map(|(_, v)| metric_cell(*v))
         .collect();
@@ -53,13 +67,16 @@ fn section_metrics(data: &ReportData, html: &mut String) {
         return;
     };
     html.push_str("<table id=\"metrics-table\"><tr><th></th>");
-    for (header, _) in metrics.scene.columns() {
+    for (header, _) in columns(&metrics.scene) {
         let _ = write!(html, "<th>{}</th>", escape(header));
     }
     html.push_str("</tr>");
     html.push_str(&metrics_row("scene", &metrics.scene));
     for object in &metrics.objects {
-        html.push_str(&metrics_row(&object.display_name(), &object.values));
+        html.push_str(&metrics_row(
+            &object_item_name(object.id, &object.label),
+            &object.metrics,
+        ));
     }
     html.push_str("</table></section>");
 }

@@ -20,7 +20,7 @@ fn run_report_and_metrics_json_deserialise() {
     assert_eq!(run.nodes[2].status, NodeStatus::Skipped);
     assert_eq!(run.nodes[2].reason.as_deref(), Some("no holes"));
 
-    let metrics: MetricsTable = serde_json::from_str(
+    let metrics: MetricsReport = serde_json::from_str(
         r#"{"psnr": 24.1, "ssim": 0.8, "lpips": null, "fscore": 0.6, "precision": 0.7, "recall": 0.5, "tau": 0.05,
             "objects": [{"object_id": 3, "label": "desk lamp", "psnr": 26.0, "ssim": 0.9, "lpips": null,
                          "fscore": 0.7, "precision": 0.8, "recall": 0.6, "tau": 0.05, "extra": 1}]}"#,
@@ -28,8 +28,11 @@ fn run_report_and_metrics_json_deserialise() {
     .unwrap();
     assert_eq!(metrics.scene.psnr, Some(24.1));
     assert_eq!(metrics.scene.lpips, None);
-    assert_eq!(metrics.objects[0].display_name(), "obj_3_desk_lamp");
-    assert_eq!(metrics.objects[0].values.recall, Some(0.6));
+    assert_eq!(
+        (metrics.objects[0].id, &*metrics.objects[0].label),
+        (3, "desk lamp")
+    );
+    assert_eq!(metrics.objects[0].metrics.recall, Some(0.6));
 }
 
 #[test]

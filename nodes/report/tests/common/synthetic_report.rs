@@ -142,8 +142,8 @@ pub fn report_data(dir: &Path) -> ReportData {
                 edge("evaluate", "report"),
             ],
         },
-        metrics: Some(MetricsTable {
-            scene: MetricValues {
+        metrics: Some(MetricsReport {
+            scene: ScopeMetrics {
                 psnr: Some(24.3125),
                 ssim: Some(0.8123),
                 lpips: None,
@@ -151,17 +151,19 @@ pub fn report_data(dir: &Path) -> ReportData {
                 precision: Some(0.7),
                 recall: Some(0.61),
                 tau: Some(0.05),
+                ..Default::default()
             },
             objects: vec![ObjectMetrics {
-                name: None,
-                object_id: Some(3),
-                label: Some("chair".into()),
-                values: MetricValues {
+                id: 3,
+                label: "chair".into(),
+                metrics: ScopeMetrics {
                     psnr: Some(27.5),
                     fscore: Some(0.81),
                     ..Default::default()
                 },
+                ..Default::default()
             }],
+            ..Default::default()
         }),
         views,
         error_scale: 0.0,
