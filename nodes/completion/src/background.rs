@@ -12,7 +12,7 @@ use crate::inpaint::{Method, Options, Raster, inpaint};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::component::OTHER;
 use objectsplat_core::frames::frame_stem;
-use objectsplat_core::image::{read_rgb8, write_rgb8};
+use objectsplat_core::image::{read_rgb8_sized, write_rgb8};
 use objectsplat_core::{ComponentKind, Frames};
 use std::path::{Path, PathBuf};
 
@@ -74,19 +74,11 @@ pub fn inpaint_background(
             .map(|&v| u8::from(v == OTHER))
             .collect();
         let path = frames.image_path(frame);
-        let (w, h, rgb) = read_rgb8(&path)?;
-        if (w, h) != (frame.width, frame.height) {
-            bail!(
-                "{}: image is {w}×{h} but frames.json says {}×{}",
-                path.display(),
-                frame.width,
-                frame.height
-            );
-        }
+        let rgb = read_rgb8_sized(&path, frame.width, frame.height)?;
         requests.push(FillRequest {
             stem: frame_stem(&frame.name).to_string(),
-            width: w,
-            height: h,
+            width: frame.width,
+            height: frame.height,
             rgb,
             mask,
         });
@@ -130,15 +122,7 @@ pub fn inpaint_background(
                         r.stem
                     );
                 }
-                let (w, h, rgb) = read_rgb8(&path)?;
-                if (w, h) != (r.width, r.height) {
-                    bail!(
-                        "{}: fill is {w}×{h} but the frame is {}×{}",
-                        path.display(),
-                        r.width,
-                        r.height
-                    );
-                }
+                let rgb = read_rgb8_sized(&path, r.width, r.height)?;
                 Ok(composite(&r.rgb, &rgb, &r.mask))
             })
             .collect::<Result<_>>()?,

@@ -33,6 +33,13 @@ pub fn register(reg: &mut Registry) {
     }
 }
 
+/// The scene points, when the optional `points` input is wired.
+fn optional_points(ctx: &Context) -> Result<Option<Points>> {
+    ctx.input_opt("points")
+        .map(|dir| Points::read_ply(&dir.join(objectsplat_core::artifact::POINTS_PLY)))
+        .transpose()
+}
+
 fn connectivity(n: i64) -> Result<Connectivity> {
     Connectivity::from_number(n).map_err(anyhow::Error::msg)
 }
@@ -231,12 +238,7 @@ impl Node for SurfaceCompletionNode {
         };
         // Validates the capture even though the components carry their own frames.
         Frames::read(ctx.input("frames")?)?;
-        let points = match ctx.input_opt("points") {
-            Some(dir) => Some(Points::read_ply(
-                &dir.join(objectsplat_core::artifact::POINTS_PLY),
-            )?),
-            None => None,
-        };
+        let points = optional_points(ctx)?;
         let items = ctx.input_items("components")?.to_vec();
         ctx.progress(0, 1, "completing support surfaces");
         let report =
@@ -265,28 +267,6 @@ impl Node for SurfaceCompletionNode {
     }
 }
 
-objectsplat_runtime::node_params! {
-    /// The parameters of `complete_surfaces`.
-    pub struct CompleteSurfacesParams {
-        /// plane tolerance relative to the surface model's bounding-box diagonal
-        planarity_tolerance: f64 = "0.02" as ParamType::float_range(1e-6, 1.0),
-        /// fraction of the surface's visible face area that must lie on its plane
-        min_plane_fraction: f64 = "0.5" as ParamType::float_range(1e-6, 1.0),
-        /// how far an object's base may be from the plane to rest on it, relative to the
-        /// surface's diagonal
-        contact_tolerance: f64 = "0.03" as ParamType::float_range(1e-6, 1.0),
-        /// grid cell side relative to the median edge of the surface's in-plane faces (patch
-        /// triangles come out about as large as the trained ones)
-        cell_scale: f64 = "0.5" as ParamType::float_range(1e-3, 100.0),
-        /// most grid cells along the surface's longer side
-        max_resolution: i64 = "512" as ParamType::int_range(8, 4096),
-        /// interior vertices of a patch every this many cells
-        vertex_step: i64 = "2" as ParamType::int_range(1, 256),
-        /// skip a surface whose hole would take more than this fraction of its outline
-        max_hole_fraction: f64 = "0.5" as ParamType::float_range(1e-6, 1.0),
-    }
-}
-
 pub struct CompleteSurfacesNode;
 
 impl Node for CompleteSurfacesNode {
@@ -298,29 +278,14 @@ impl Node for CompleteSurfacesNode {
             .input("frames", "Frames", "the capture")
             .optional_input("points", "Points", "scene points; those on a surface's pixels join its plane fit")
             .output("scene", "Scene", "the scene with completed surfaces (model.json metadata surface_completion_3d records each patch)")
-            .params::<CompleteSurfacesParams>()
+            .params::<SurfaceMeshParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let p: CompleteSurfacesParams = ctx.params_as()?;
-        let params = SurfaceMeshParams {
-            planarity_tolerance: p.planarity_tolerance,
-            min_plane_fraction: p.min_plane_fraction,
-            contact_tolerance: p.contact_tolerance,
-            // Both are range-checked by the param types above.
-            cell_scale: p.cell_scale,
-            max_resolution: p.max_resolution as usize,
-            vertex_step: p.vertex_step as usize,
-            max_hole_fraction: p.max_hole_fraction,
-        };
+        let params: SurfaceMeshParams = ctx.params_as()?;
         // Validates the capture; the components carry their own frames.
         Frames::read(ctx.input("frames")?)?;
-        let points = match ctx.input_opt("points") {
-            Some(dir) => Some(Points::read_ply(
-                &dir.join(objectsplat_core::artifact::POINTS_PLY),
-            )?),
-            None => None,
-        };
+        let points = optional_points(ctx)?;
         let mut scene = objectsplat_scene::load_scene(ctx.input("scene")?)?;
         let items = ctx.input_items("components")?.to_vec();
         ctx.progress(0, 1, "completing support surfaces in 3D");

@@ -22,10 +22,10 @@ use crate::component_io::{self, ComponentDir};
 use crate::fill_holes::{Connectivity, fill_holes};
 use crate::inpaint::{Method, Options, Raster, inpaint};
 use crate::plane::fit_plane;
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use glam::DVec3;
 use objectsplat_core::component::{self, OTHER, OWN};
-use objectsplat_core::image::read_rgb8;
+use objectsplat_core::image::read_rgb8_sized;
 use objectsplat_core::{ComponentKind, Frame, Points};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -395,15 +395,7 @@ fn complete_one(
         }
     }
     let image_path = surface.frames.image_path(frame);
-    let (iw, ih, rgb) = read_rgb8(&image_path)?;
-    if (iw, ih) != (frame.width, frame.height) {
-        bail!(
-            "{}: image is {iw}×{ih} but frames.json says {}×{}",
-            image_path.display(),
-            frame.width,
-            frame.height
-        );
-    }
+    let rgb = read_rgb8_sized(&image_path, frame.width, frame.height)?;
     complete_frame(&support, &occluded, &rgb, w, h, params).with_context(|| {
         format!(
             "{}: completing frame {:?}",

@@ -57,6 +57,18 @@ pub fn read_gray8(path: &Path, width: u32, height: u32) -> Result<Vec<u8>> {
     Ok(buf.into_raw())
 }
 
+/// An image as 8-bit RGB that must be `width`×`height` (the frame it belongs to).
+pub fn read_rgb8_sized(path: &Path, width: u32, height: u32) -> Result<Vec<u8>> {
+    let (w, h, rgb) = read_rgb8(path)?;
+    if (w, h) != (width, height) {
+        bail!(
+            "{}: image is {w}×{h} but its frame is {width}×{height}",
+            path.display()
+        );
+    }
+    Ok(rgb)
+}
+
 /// An image as 8-bit RGB (grey is replicated, alpha dropped, 16-bit reduced).
 pub fn read_rgb8(path: &Path) -> Result<(u32, u32, Vec<u8>)> {
     let img =
@@ -179,14 +191,7 @@ impl Image {
     /// Saves as an 8-bit PNG (values clamped to [0, 1] and rounded).
     pub fn save_png8(&self, path: &Path) -> Result<()> {
         let raw = self.quantize(255.0, |v| v as u8);
-        let color = match self.channels {
-            1 => image::ExtendedColorType::L8,
-            2 => image::ExtendedColorType::La8,
-            3 => image::ExtendedColorType::Rgb8,
-            4 => image::ExtendedColorType::Rgba8,
-            c => bail!("cannot save a {c}-channel image as PNG"),
-        };
-        write_png(path, &raw, self.width, self.height, color)
+        write_png(path, &raw, self.width, self.height, self.png_color(false)?)
     }
 
     /// Saves as a 16-bit PNG.
@@ -196,14 +201,21 @@ impl Image {
             .iter()
             .flat_map(|v| v.to_ne_bytes())
             .collect();
-        let color = match self.channels {
-            1 => image::ExtendedColorType::L16,
-            2 => image::ExtendedColorType::La16,
-            3 => image::ExtendedColorType::Rgb16,
-            4 => image::ExtendedColorType::Rgba16,
-            c => bail!("cannot save a {c}-channel image as PNG"),
+        write_png(path, &raw, self.width, self.height, self.png_color(true)?)
+    }
+
+    /// The PNG colour type of this image's channels at 8 or 16 bits.
+    fn png_color(&self, sixteen_bit: bool) -> Result<image::ExtendedColorType> {
+        use image::ExtendedColorType::*;
+        let types = if sixteen_bit {
+            [L16, La16, Rgb16, Rgba16]
+        } else {
+            [L8, La8, Rgb8, Rgba8]
         };
-        write_png(path, &raw, self.width, self.height, color)
+        match self.channels {
+            c @ 1..=4 => Ok(types[c as usize - 1]),
+            c => bail!("cannot save a {c}-channel image as PNG"),
+        }
     }
 
     /// Box-filter (area) downscale to `width`×`height`; exact for integer factors.

@@ -54,11 +54,12 @@ use anyhow::{Context, Result, bail};
 use glam::{DMat3, DVec2, DVec3};
 use grid::{Grid, PlaneFrame};
 use objectsplat_core::component::{self, OWN};
-use objectsplat_core::image::read_rgb8;
+use objectsplat_core::image::read_rgb8_sized;
 use objectsplat_core::{ComponentKind, Points};
 use objectsplat_raster::Model;
 use objectsplat_raster::model::inverse_sigmoid;
 use objectsplat_raster::sh::SH_DC;
+use objectsplat_runtime::ParamType;
 use objectsplat_scene::Scene;
 use objectsplat_scene::surface::visible_faces;
 use serde::Serialize;
@@ -79,36 +80,25 @@ pub const FOOTPRINT_MARGIN_CELLS: usize = 2;
 /// (floaters under a trained object must not decide whether it rests on the surface).
 const LOW_PERCENTILE: f64 = 0.02;
 
-#[derive(Debug, Clone, PartialEq)]
-pub struct SurfaceMeshParams {
-    /// Plane tolerance relative to the surface model's bounding-box diagonal.
-    pub planarity_tolerance: f64,
-    /// Fraction of the visible face area that must lie on the plane.
-    pub min_plane_fraction: f64,
-    /// How far (relative to the outline's diagonal) an object's base may be from the
-    /// plane for it to rest on the surface.
-    pub contact_tolerance: f64,
-    /// Grid cell side relative to the median edge of the surface's in-plane faces.
-    pub cell_scale: f64,
-    /// Most grid cells along the longer side of the surface.
-    pub max_resolution: usize,
-    /// Interior vertices every this many cells.
-    pub vertex_step: usize,
-    /// Largest fraction of the outline the hole may take.
-    pub max_hole_fraction: f64,
-}
-
-impl Default for SurfaceMeshParams {
-    fn default() -> Self {
-        SurfaceMeshParams {
-            planarity_tolerance: 0.02,
-            min_plane_fraction: 0.5,
-            contact_tolerance: 0.03,
-            cell_scale: 0.5,
-            max_resolution: 512,
-            vertex_step: 2,
-            max_hole_fraction: 0.5,
-        }
+objectsplat_runtime::node_params! {
+    /// The parameters of `complete_surfaces`.
+    pub struct SurfaceMeshParams {
+        /// plane tolerance relative to the surface model's bounding-box diagonal
+        planarity_tolerance: f64 = "0.02" as ParamType::float_range(1e-6, 1.0),
+        /// fraction of the surface's visible face area that must lie on its plane
+        min_plane_fraction: f64 = "0.5" as ParamType::float_range(1e-6, 1.0),
+        /// how far an object's base may be from the plane to rest on it, relative to the
+        /// surface's diagonal
+        contact_tolerance: f64 = "0.03" as ParamType::float_range(1e-6, 1.0),
+        /// grid cell side relative to the median edge of the surface's in-plane faces (patch
+        /// triangles come out about as large as the trained ones)
+        cell_scale: f64 = "0.5" as ParamType::float_range(1e-3, 100.0),
+        /// most grid cells along the surface's longer side
+        max_resolution: usize = "512" as ParamType::int_range(8, 4096),
+        /// interior vertices of a patch every this many cells
+        vertex_step: usize = "2" as ParamType::int_range(1, 256),
+        /// skip a surface whose hole would take more than this fraction of its outline
+        max_hole_fraction: f64 = "0.5" as ParamType::float_range(1e-6, 1.0),
     }
 }
 
@@ -671,15 +661,7 @@ fn vertex_colours(
         } else {
             surface.frames.image_path(frame)
         };
-        let (iw, ih, rgb) = read_rgb8(&source)?;
-        if (iw, ih) != (frame.width, frame.height) {
-            bail!(
-                "{}: image is {iw}×{ih} but its frame is {}×{}",
-                source.display(),
-                frame.width,
-                frame.height
-            );
-        }
+        let rgb = read_rgb8_sized(&source, frame.width, frame.height)?;
         let mut used = false;
         for (k, pixel) in pixels.iter().enumerate() {
             if let Some(p) = *pixel
