@@ -17,6 +17,7 @@
 mod support;
 
 use objectsplat_core::artifact::{MODEL_PLY, TRAINING_JSON};
+use objectsplat_report::{RUN_DATA_FILE, RUN_SCRIPT_FILE};
 use objectsplat_runtime::graph::{GraphSource, parse_graph};
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
@@ -25,7 +26,7 @@ use support::plugin_build::workspace;
 use support::slurm::*;
 
 /// The run's own summary beside its outputs: times and executors differ by design.
-const RUN_FILES: [&str; 2] = ["run.json", "run.js"];
+const RUN_FILES: [&str; 2] = [RUN_DATA_FILE, RUN_SCRIPT_FILE];
 
 /// `v` without the wall-clock fields (`wall_seconds`) anywhere in it.
 fn without_times(v: serde_json::Value) -> serde_json::Value {

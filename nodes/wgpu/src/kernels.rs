@@ -93,6 +93,17 @@ pub fn shader(ctx: &GpuContext, name: &str, source: &str) -> wgpu::ShaderModule 
         })
 }
 
+/// Compiles `source` and one [`Kernel`] per entry point in `entries`, in that order.
+pub fn compile_kernels<const N: usize>(
+    ctx: &GpuContext,
+    name: &str,
+    source: &str,
+    entries: [&'static str; N],
+) -> [Kernel; N] {
+    let module = shader(ctx, name, source);
+    entries.map(|entry| Kernel::new(ctx, &module, entry))
+}
+
 pub const STORAGE: wgpu::BufferUsages = wgpu::BufferUsages::STORAGE
     .union(wgpu::BufferUsages::COPY_SRC)
     .union(wgpu::BufferUsages::COPY_DST);

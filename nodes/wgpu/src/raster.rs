@@ -39,8 +39,13 @@ use objectsplat_raster::{
 };
 use std::sync::Arc;
 
-pub const RASTER_COMMON_WGSL: &str = include_str!("raster_common.wgsl");
+pub const RASTER_COMMON_WGSL: &str = concat!(
+    include_str!("frame_record.wgsl"),
+    include_str!("thread_index.wgsl"),
+    include_str!("raster_common.wgsl")
+);
 pub const RASTER_PRE_WGSL: &str = include_str!("raster_pre.wgsl");
+const RASTER_TILES_WGSL: &str = include_str!("raster_tiles.wgsl");
 pub const RASTER_FORWARD_WGSL: &str = include_str!("raster_forward.wgsl");
 pub const RASTER_BACKWARD_WGSL: &str = include_str!("raster_backward.wgsl");
 pub const RASTER_GRADS_WGSL: &str = include_str!("raster_grads.wgsl");
@@ -126,13 +131,15 @@ pub fn raster_sources(
         ),
         (
             "raster_forward.wgsl",
-            with_common(RASTER_FORWARD_WGSL, forward_constants),
+            with_common(RASTER_FORWARD_WGSL, forward_constants + RASTER_TILES_WGSL),
         ),
         (
             "raster_backward.wgsl",
             with_common(
                 RASTER_BACKWARD_WGSL,
-                backward_constants + &accumulator_wgsl(mode, "face_grad", "face_grads", 8),
+                backward_constants
+                    + RASTER_TILES_WGSL
+                    + &accumulator_wgsl(mode, "face_grad", "face_grads", 8),
             ),
         ),
         (

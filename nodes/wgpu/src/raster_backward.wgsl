@@ -30,20 +30,11 @@ var<workgroup> max_processed_snapshot: u32;
 @compute @workgroup_size(THREADS)
 fn backward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
             @builtin(local_invocation_index) lid: u32) {
-    let r = wid.y * groups.x + wid.x;
-    let rx0 = frame[FRAME_X0];
-    let ry0 = frame[FRAME_Y0];
-    let rx1 = frame[FRAME_X1];
-    let ry1 = frame[FRAME_Y1];
-    let region_tiles_x = (rx1 - rx0 + TILE - 1u) / TILE;
-    let region_tiles_y = (ry1 - ry0 + TILE - 1u) / TILE;
-    if (r >= region_tiles_x * region_tiles_y) {
+    let rt = region_tile(wid, groups);
+    if (!rt.exists) {
         return;
     }
-    let tx = rx0 / TILE + r % region_tiles_x;
-    let ty = ry0 / TILE + r / region_tiles_x;
-    let tile = ty * params.tiles_x + tx;
-    let start = tile_ranges[2u * tile];
+    let start = tile_ranges[2u * rt.index];
     var xs: array<u32, PIXELS_PER_THREAD>;
     var ys: array<u32, PIXELS_PER_THREAD>;
     var inside: array<bool, PIXELS_PER_THREAD>;
@@ -60,14 +51,15 @@ fn backward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) grou
     workgroupBarrier();
     for (var h = 0u; h < PIXELS_PER_THREAD; h++) {
         let local = lid + h * THREADS;
-        xs[h] = tx * TILE + local % TILE;
-        ys[h] = ty * TILE + local / TILE;
-        inside[h] = xs[h] < rx1 && ys[h] < ry1;
+        let pixel = tile_pixel(rt, local);
+        xs[h] = pixel.x;
+        ys[h] = pixel.y;
+        inside[h] = in_region(rt, xs[h], ys[h]);
         processed[h] = 0u;
         if (!inside[h]) {
             continue;
         }
-        let pix = (ys[h] - ry0) * (rx1 - rx0) + xs[h] - rx0;
+        let pix = region_pixel(rt, xs[h], ys[h]);
         let s = STATE_STRIDE * pix;
         t[h] = bitcast<f32>(pixel_state[s]);
         processed[h] = pixel_state[s + 1u];
@@ -77,10 +69,7 @@ fn backward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) grou
         let ga = upstream[u + 3u];
         gd[h] = upstream[u + 4u];
         gm[h] = upstream[u + 5u];
-        var bg = params.background_color.xyz;
-        if (params.uniform_background == 0u) {
-            bg = vec3<f32>(background[3u * pix], background[3u * pix + 1u], background[3u * pix + 2u]);
-        }
+        let bg = background_at(pix);
         background_grad[3u * pix] = gc[h].x * t[h];
         background_grad[3u * pix + 1u] = gc[h].y * t[h];
         background_grad[3u * pix + 2u] = gc[h].z * t[h];

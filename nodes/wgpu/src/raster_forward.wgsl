@@ -29,21 +29,12 @@ var<workgroup> alive_snapshot: u32;
 @compute @workgroup_size(FWD_THREADS)
 fn forward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>,
            @builtin(local_invocation_index) lid: u32) {
-    let r = wid.y * groups.x + wid.x;
-    let rx0 = frame[FRAME_X0];
-    let ry0 = frame[FRAME_Y0];
-    let rx1 = frame[FRAME_X1];
-    let ry1 = frame[FRAME_Y1];
-    let region_tiles_x = (rx1 - rx0 + TILE - 1u) / TILE;
-    let region_tiles_y = (ry1 - ry0 + TILE - 1u) / TILE;
-    if (r >= region_tiles_x * region_tiles_y) {
+    let rt = region_tile(wid, groups);
+    if (!rt.exists) {
         return;
     }
-    let tx = rx0 / TILE + r % region_tiles_x;
-    let ty = ry0 / TILE + r / region_tiles_x;
-    let tile = ty * params.tiles_x + tx;
-    let start = tile_ranges[2u * tile];
-    let end = tile_ranges[2u * tile + 1u];
+    let start = tile_ranges[2u * rt.index];
+    let end = tile_ranges[2u * rt.index + 1u];
     var xs: array<u32, FWD_PIXELS>;
     var ys: array<u32, FWD_PIXELS>;
     var inside: array<bool, FWD_PIXELS>;
@@ -60,9 +51,10 @@ fn forward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) group
     workgroupBarrier();
     for (var h = 0u; h < FWD_PIXELS; h++) {
         let local = lid + h * FWD_THREADS;
-        xs[h] = tx * TILE + local % TILE;
-        ys[h] = ty * TILE + local / TILE;
-        inside[h] = xs[h] < rx1 && ys[h] < ry1;
+        let pixel = tile_pixel(rt, local);
+        xs[h] = pixel.x;
+        ys[h] = pixel.y;
+        inside[h] = in_region(rt, xs[h], ys[h]);
         t[h] = 1.0;
         color[h] = vec3<f32>(0.0);
         depth[h] = 0.0;
@@ -135,7 +127,7 @@ fn forward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) group
         if (!inside[h]) {
             continue;
         }
-        let pix = (ys[h] - ry0) * (rx1 - rx0) + xs[h] - rx0;
+        let pix = region_pixel(rt, xs[h], ys[h]);
         let c = color[h] + t[h] * background_at(pix);
         let o = IMAGE_STRIDE * pix;
         image[o] = c.x;
@@ -149,11 +141,4 @@ fn forward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) group
         pixel_state[s + 1u] = processed[h];
         pixel_state[s + 2u] = median_entry[h];
     }
-}
-
-fn background_at(pix: u32) -> vec3<f32> {
-    if (params.uniform_background != 0u) {
-        return params.background_color.xyz;
-    }
-    return vec3<f32>(background[3u * pix], background[3u * pix + 1u], background[3u * pix + 2u]);
 }

@@ -15,10 +15,6 @@
 @group(0) @binding(7) var<storage, read_write> sh_grad: array<f32>;
 @group(0) @binding(8) var<storage, read_write> logit_grad: array<f32>;
 
-fn thread_index(wid: vec3<u32>, groups: vec3<u32>, lid: u32) -> u32 {
-    return (wid.y * groups.x + wid.x) * 256u + lid;
-}
-
 fn add_vertex_nonzero(i: u32, v: f32) {
     if (v != 0.0) {
         add_vertex_grad(i, v);

@@ -27,10 +27,6 @@
 @group(0) @binding(16) var<storage, read_write> tile_ranges_out: array<u32>;
 @group(0) @binding(17) var<storage, read_write> frame: array<atomic<u32>>;
 
-fn thread_index(wid: vec3<u32>, groups: vec3<u32>, lid: u32) -> u32 {
-    return (wid.y * groups.x + wid.x) * 256u + lid;
-}
-
 fn sigmoid(x: f32) -> f32 {
     // Written so that neither branch overflows exp.
     if (x >= 0.0) {

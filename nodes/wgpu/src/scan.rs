@@ -2,11 +2,16 @@
 //! WGSL `+`): blocks of 1024 scanned in workgroup memory, block totals scanned
 //! recursively, offsets added back.
 
-use crate::kernels::{Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage_from};
+use crate::kernels::{
+    Kernel, Pooled, Recorder, UniformArena, compile_kernels, groups_for, storage_from,
+};
 use anyhow::Result;
 use objectsplat_gpu::{GpuContext, read_values};
 
-pub const SCAN_WGSL: &str = include_str!("scan.wgsl");
+pub const SCAN_WGSL: &str = concat!(
+    include_str!("workgroup_scan.wgsl"),
+    include_str!("scan.wgsl")
+);
 const BLOCK: usize = 1024;
 
 #[repr(C)]
@@ -24,10 +29,15 @@ pub struct GpuScan {
 
 impl GpuScan {
     pub fn new(ctx: &GpuContext) -> Self {
-        let module = shader(ctx, "scan.wgsl", SCAN_WGSL);
+        let [scan_blocks, add_block_offsets] = compile_kernels(
+            ctx,
+            "scan.wgsl",
+            SCAN_WGSL,
+            ["scan_blocks", "add_block_offsets"],
+        );
         GpuScan {
-            scan_blocks: Kernel::new(ctx, &module, "scan_blocks"),
-            add_block_offsets: Kernel::new(ctx, &module, "add_block_offsets"),
+            scan_blocks,
+            add_block_offsets,
         }
     }
 

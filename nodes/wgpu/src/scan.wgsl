@@ -11,15 +11,13 @@ struct ScanParams {
     _pad2: u32,
 }
 
-const SCAN_THREADS: u32 = 256u;
+const GROUP_THREADS: u32 = 256u;
 const SCAN_ITEMS: u32 = 4u;
 const SCAN_BLOCK: u32 = 1024u;
 
 @group(0) @binding(0) var<uniform> params: ScanParams;
 @group(0) @binding(1) var<storage, read_write> data: array<u32>;
 @group(0) @binding(2) var<storage, read_write> block_sums: array<u32>;
-
-var<workgroup> thread_totals: array<u32, SCAN_THREADS>;
 
 @compute @workgroup_size(256)
 fn scan_blocks(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
@@ -39,26 +37,14 @@ fn scan_blocks(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) g
         items[k] = running;
         running += v;
     }
-    thread_totals[lid] = running;
-    workgroupBarrier();
-    // Hillis–Steele inclusive scan of the 256 thread totals.
-    for (var offset = 1u; offset < SCAN_THREADS; offset <<= 1u) {
-        var add = 0u;
-        if (lid >= offset) {
-            add = thread_totals[lid - offset];
-        }
-        workgroupBarrier();
-        thread_totals[lid] += add;
-        workgroupBarrier();
-    }
-    let before = thread_totals[lid] - running;
+    let before = workgroup_exclusive_scan(lid, running);
     for (var k = 0u; k < SCAN_ITEMS; k++) {
         let i = base + k;
         if (i < params.n) {
             data[i] = before + items[k];
         }
     }
-    if (lid == SCAN_THREADS - 1u) {
+    if (lid == GROUP_THREADS - 1u) {
         block_sums[block] = thread_totals[lid];
     }
 }

@@ -2,13 +2,16 @@
 //! only over the key bits the caller says are in use.
 
 use crate::kernels::{
-    Kernel, Pooled, Recorder, UniformArena, groups_for, shader, storage, storage_from,
+    Kernel, Pooled, Recorder, UniformArena, compile_kernels, groups_for, storage, storage_from,
 };
 use crate::scan::{GpuScan, ScanScratch};
 use anyhow::{Result, bail};
 use objectsplat_gpu::{GpuContext, read_values};
 
-pub const SORT_WGSL: &str = include_str!("sort.wgsl");
+pub const SORT_WGSL: &str = concat!(
+    include_str!("workgroup_scan.wgsl"),
+    include_str!("sort.wgsl")
+);
 const BLOCK: usize = 2048;
 const RADIX: usize = 16;
 const BITS_PER_PASS: u32 = 4;
@@ -44,10 +47,11 @@ pub struct SortBuffers<'a> {
 
 impl GpuSort {
     pub fn new(ctx: &GpuContext) -> Self {
-        let module = shader(ctx, "sort.wgsl", SORT_WGSL);
+        let [count_digits, scatter] =
+            compile_kernels(ctx, "sort.wgsl", SORT_WGSL, ["count_digits", "scatter"]);
         GpuSort {
-            count_digits: Kernel::new(ctx, &module, "count_digits"),
-            scatter: Kernel::new(ctx, &module, "scatter"),
+            count_digits,
+            scatter,
         }
     }
 

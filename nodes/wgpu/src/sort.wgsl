@@ -13,7 +13,7 @@ struct SortParams {
     _pad: u32,
 }
 
-const SORT_THREADS: u32 = 128u;
+const GROUP_THREADS: u32 = 128u;
 const SORT_ITEMS: u32 = 16u;
 const SORT_BLOCK: u32 = 2048u;
 const RADIX: u32 = 16u;
@@ -28,7 +28,6 @@ const RADIX: u32 = 16u;
 var<workgroup> block_counts: array<atomic<u32>, RADIX>;
 // Per-thread digit counts, digit-major: [digit · 128 + thread].
 var<workgroup> thread_counts: array<u32, 2048>;
-var<workgroup> thread_totals: array<u32, SORT_THREADS>;
 
 fn digit_of(key: u32) -> u32 {
     return (key >> params.shift) & (RADIX - 1u);
@@ -72,7 +71,7 @@ fn scatter(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) group
         }
     }
     for (var d = 0u; d < RADIX; d++) {
-        thread_counts[d * SORT_THREADS + lid] = counts[d];
+        thread_counts[d * GROUP_THREADS + lid] = counts[d];
     }
     workgroupBarrier();
     // Exclusive scan of the 2048 digit-major counts: each thread owns 16 in a row.
@@ -82,18 +81,7 @@ fn scatter(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) group
         own[k] = sum;
         sum += thread_counts[lid * 16u + k];
     }
-    thread_totals[lid] = sum;
-    workgroupBarrier();
-    for (var offset = 1u; offset < SORT_THREADS; offset <<= 1u) {
-        var add = 0u;
-        if (lid >= offset) {
-            add = thread_totals[lid - offset];
-        }
-        workgroupBarrier();
-        thread_totals[lid] += add;
-        workgroupBarrier();
-    }
-    let before = thread_totals[lid] - sum;
+    let before = workgroup_exclusive_scan(lid, sum);
     for (var k = 0u; k < 16u; k++) {
         thread_counts[lid * 16u + k] = before + own[k];
     }
@@ -101,8 +89,8 @@ fn scatter(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) group
     // Position = global start of (digit, block) + pairs of that digit in earlier threads + earlier items here.
     var next: array<u32, 16>;
     for (var d = 0u; d < RADIX; d++) {
-        next[d] = histogram[d * params.blocks + block] + thread_counts[d * SORT_THREADS + lid]
-            - thread_counts[d * SORT_THREADS];
+        next[d] = histogram[d * params.blocks + block] + thread_counts[d * GROUP_THREADS + lid]
+            - thread_counts[d * GROUP_THREADS];
     }
     for (var k = 0u; k < SORT_ITEMS; k++) {
         let i = base + k;

@@ -46,12 +46,6 @@ const C1: f32 = 0.0001;
 const C2: f32 = 0.0009;
 const STATUS_RENDER: u32 = 1u;
 const STATUS_LOSS: u32 = 2u;
-// Words of the frame record (raster_common.wgsl).
-const FRAME_ENTRIES: u32 = 0u;
-const FRAME_X0: u32 = 1u;
-const FRAME_Y0: u32 = 2u;
-const FRAME_X1: u32 = 3u;
-const FRAME_Y1: u32 = 4u;
 
 @group(0) @binding(0) var<uniform> params: LossParams;
 // The region's render, stride 6.
@@ -72,18 +66,9 @@ const FRAME_Y1: u32 = 4u;
 
 var<workgroup> sums: array<vec4<f32>, 256>;
 
-fn thread_index(wid: vec3<u32>, groups: vec3<u32>, lid: u32) -> u32 {
-    return (wid.y * groups.x + wid.x) * 256u + lid;
-}
-
 fn tap(i: i32) -> f32 {
     let k = u32(i);
     return params.taps[k / 4u][k % 4u];
-}
-
-// Not NaN and not ±∞, by the exponent bits (WGSL may assume finite floats in arithmetic).
-fn is_finite(x: f32) -> bool {
-    return (bitcast<u32>(x) & 0x7f800000u) != 0x7f800000u;
 }
 
 // The frame record's region, read once per invocation.
@@ -127,6 +112,46 @@ fn rendered(p: u32, c: u32) -> f32 {
     return image[p * IMAGE_STRIDE + c];
 }
 
+// The blur window around region pixel p along its row or column: positions
+// `lo` to `hi` (clipped to the region: zero padding) around `centre`; the
+// pixel at position k is base + k·stride.
+struct Window {
+    centre: i32,
+    lo: i32,
+    hi: i32,
+    base: u32,
+    stride: u32,
+}
+
+fn window(centre: i32, extent: u32, base: u32, stride: u32) -> Window {
+    return Window(centre, max(centre - HALF, 0), min(centre + HALF, i32(extent) - 1), base, stride);
+}
+
+fn row_window(r: Region, p: u32) -> Window {
+    let x = p % r.width;
+    return window(i32(x), r.width, p - x, 1u);
+}
+
+fn column_window(r: Region, p: u32) -> Window {
+    return window(i32(p / r.width), r.height, p % r.width, r.width);
+}
+
+fn window_pixel(win: Window, k: i32) -> u32 {
+    return win.base + u32(k) * win.stride;
+}
+
+// Adds `value` over the workgroup into `sums[0]` (a fixed tree order).
+fn workgroup_sum(lid: u32, value: vec4<f32>) {
+    sums[lid] = value;
+    workgroupBarrier();
+    for (var stride = 128u; stride > 0u; stride >>= 1u) {
+        if (lid < stride) {
+            sums[lid] += sums[lid + stride];
+        }
+        workgroupBarrier();
+    }
+}
+
 // Horizontal blur of x, y, x², y², xy per channel.
 @compute @workgroup_size(256)
 fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
@@ -135,17 +160,13 @@ fn ssim_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
     if (p >= r.pixels) {
         return;
     }
-    let w = i32(r.width);
-    let x = i32(p % r.width);
-    let row = p - u32(x);
+    let win = row_window(r, p);
     let view_row = view_pixel(r, 0u, p / r.width);
-    let lo = max(x - HALF, 0);
-    let hi = min(x + HALF, w - 1);
     for (var c = 0u; c < 3u; c++) {
         var acc = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
-        for (var xx = lo; xx <= hi; xx++) {
-            let t = tap(xx + HALF - x);
-            let q = row + u32(xx);
+        for (var xx = win.lo; xx <= win.hi; xx++) {
+            let t = tap(xx + HALF - win.centre);
+            let q = window_pixel(win, xx);
             let vy = target_color(view_row + u32(xx))[c];
             // An unsupervised pixel enters the windows with its target (as objectsplat_raster::loss).
             var vx = vy;
@@ -172,12 +193,7 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
     let r = region();
     var contribution = vec4<f32>(0.0);
     if (p < r.pixels) {
-        let h = i32(r.height);
-        let rw = r.width;
-        let x = p % rw;
-        let y = i32(p / rw);
-        let lo = max(y - HALF, 0);
-        let hi = min(y + HALF, h - 1);
+        let win = column_window(r, p);
         var finite = true;
         for (var k = 0u; k < IMAGE_STRIDE; k++) {
             finite = finite && is_finite(image[p * IMAGE_STRIDE + k]);
@@ -185,15 +201,15 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
         if (!finite) {
             atomicOr(&status[params.slot], STATUS_RENDER);
         }
-        let q = view_pixel(r, x, u32(y));
+        let q = view_pixel(r, win.base, u32(win.centre));
         let weight = targets[q].w;
         let u = weight * params.norm;
         let goal = target_color(q);
         for (var c = 0u; c < 3u; c++) {
             var m = array<f32, 5>(0.0, 0.0, 0.0, 0.0, 0.0);
-            for (var yy = lo; yy <= hi; yy++) {
-                let t = tap(yy + HALF - y);
-                let above = u32(yy) * rw + x;
+            for (var yy = win.lo; yy <= win.hi; yy++) {
+                let t = tap(yy + HALF - win.centre);
+                let above = window_pixel(win, yy);
                 for (var k = 0u; k < 5u; k++) {
                     m[k] += t * rows[plane(5u * c + k, above, r.pixels)];
                 }
@@ -225,14 +241,7 @@ fn ssim_maps(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
             contribution += vec4<f32>(u * abs(d), u * (1.0 - s), squared, 0.0);
         }
     }
-    sums[lid] = contribution;
-    workgroupBarrier();
-    for (var stride = 128u; stride > 0u; stride >>= 1u) {
-        if (lid < stride) {
-            sums[lid] += sums[lid + stride];
-        }
-        workgroupBarrier();
-    }
+    workgroup_sum(lid, contribution);
     if (lid == 0u) {
         partials[wid.y * groups.x + wid.x] = sums[0];
     }
@@ -246,15 +255,11 @@ fn ssim_grad_rows(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups
     if (p >= r.pixels) {
         return;
     }
-    let w = i32(r.width);
-    let x = i32(p % r.width);
-    let row = p - u32(x);
-    let lo = max(x - HALF, 0);
-    let hi = min(x + HALF, w - 1);
+    let win = row_window(r, p);
     var acc = array<f32, 9>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    for (var xx = lo; xx <= hi; xx++) {
-        let t = tap(xx + HALF - x);
-        let q = row + u32(xx);
+    for (var xx = win.lo; xx <= win.hi; xx++) {
+        let t = tap(xx + HALF - win.centre);
+        let q = window_pixel(win, xx);
         for (var k = 0u; k < MAP_COUNT; k++) {
             acc[k] += t * maps[plane(k, q, r.pixels)];
         }
@@ -272,21 +277,16 @@ fn loss_grad(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
     if (p >= r.pixels) {
         return;
     }
-    let h = i32(r.height);
-    let rw = r.width;
-    let x = p % rw;
-    let y = i32(p / rw);
-    let lo = max(y - HALF, 0);
-    let hi = min(y + HALF, h - 1);
+    let win = column_window(r, p);
     var b = array<f32, 9>(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
-    for (var yy = lo; yy <= hi; yy++) {
-        let t = tap(yy + HALF - y);
-        let above = u32(yy) * rw + x;
+    for (var yy = win.lo; yy <= win.hi; yy++) {
+        let t = tap(yy + HALF - win.centre);
+        let above = window_pixel(win, yy);
         for (var k = 0u; k < MAP_COUNT; k++) {
             b[k] += t * rows[plane(k, above, r.pixels)];
         }
     }
-    let q = view_pixel(r, x, u32(y));
+    let q = view_pixel(r, win.base, u32(win.centre));
     let u = targets[q].w * params.norm;
     let goal = target_color(q);
     for (var c = 0u; c < 3u; c++) {
@@ -318,14 +318,7 @@ fn loss_total(@builtin(local_invocation_index) lid: u32) {
     for (var g = lid; g < params.partial_count; g += 256u) {
         acc += partials[g];
     }
-    sums[lid] = acc;
-    workgroupBarrier();
-    for (var stride = 128u; stride > 0u; stride >>= 1u) {
-        if (lid < stride) {
-            sums[lid] += sums[lid + stride];
-        }
-        workgroupBarrier();
-    }
+    workgroup_sum(lid, acc);
     if (lid == 0u) {
         var value = 0.0;
         if (params.supervised != 0u) {

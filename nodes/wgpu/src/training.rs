@@ -31,8 +31,16 @@ use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::{CROP_MARGIN, SSIM_SIGMA, SSIM_WINDOW};
 use objectsplat_raster::{Model, RenderSettings, SH_COEFFS};
 
-pub const TRAIN_LOSS_WGSL: &str = include_str!("train_loss.wgsl");
-pub const TRAIN_ADAM_WGSL: &str = include_str!("train_adam.wgsl");
+pub const TRAIN_LOSS_WGSL: &str = concat!(
+    include_str!("frame_record.wgsl"),
+    include_str!("thread_index.wgsl"),
+    include_str!("is_finite.wgsl"),
+    include_str!("train_loss.wgsl")
+);
+pub const TRAIN_ADAM_WGSL: &str = concat!(
+    include_str!("is_finite.wgsl"),
+    include_str!("train_adam.wgsl")
+);
 pub const TRAIN_FACES_WGSL: &str = include_str!("train_faces.wgsl");
 
 const THREADS_1D: usize = 256;
