@@ -9,7 +9,7 @@
 //! an `OUT/<node>` that is a link is refused, and a link at `OUT/<node>/<port>` is
 //! replaced (the link, not what it points to).
 
-use crate::store::{Corrupt, Store};
+use crate::store::{self, Corrupt, Store};
 use anyhow::{Context as _, Result, anyhow, bail};
 use std::fs;
 use std::path::Path;
@@ -25,15 +25,7 @@ pub struct OutLock {
 /// Creates `out` if needed and waits for its lock (another run may be writing it).
 pub fn lock(out: &Path) -> Result<OutLock> {
     fs::create_dir_all(out).with_context(|| format!("{}: cannot create", out.display()))?;
-    let path = out.join(LOCK_FILE);
-    let file = fs::OpenOptions::new()
-        .create(true)
-        .truncate(false)
-        .write(true)
-        .open(&path)
-        .with_context(|| format!("{}: cannot open the output lock", path.display()))?;
-    file.lock()
-        .with_context(|| format!("{}: cannot lock", path.display()))?;
+    let file = store::lock_file(&out.join(LOCK_FILE), "the output lock")?;
     Ok(OutLock { _file: file })
 }
 

@@ -214,35 +214,26 @@ fn parse_range<T: std::str::FromStr>(r: &str) -> Result<(Option<T>, Option<T>), 
     Ok((p(a)?, p(b)?))
 }
 
+/// `name`, or `name(min..max)` with either bound left empty when open.
+fn write_range<T: fmt::Display>(
+    f: &mut fmt::Formatter<'_>,
+    name: &str,
+    min: Option<T>,
+    max: Option<T>,
+) -> fmt::Result {
+    if min.is_none() && max.is_none() {
+        return write!(f, "{name}");
+    }
+    let bound = |v: Option<T>| v.map(|v| v.to_string()).unwrap_or_default();
+    write!(f, "{name}({}..{})", bound(min), bound(max))
+}
+
 impl fmt::Display for ParamType {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        let bound = |v: Option<String>| v.unwrap_or_default();
         match self {
             ParamType::Bool => write!(f, "bool"),
-            ParamType::Int {
-                min: None,
-                max: None,
-            } => write!(f, "int"),
-            ParamType::Int { min, max } => {
-                write!(
-                    f,
-                    "int({}..{})",
-                    bound(min.map(|v| v.to_string())),
-                    bound(max.map(|v| v.to_string()))
-                )
-            }
-            ParamType::Float {
-                min: None,
-                max: None,
-            } => write!(f, "float"),
-            ParamType::Float { min, max } => {
-                write!(
-                    f,
-                    "float({}..{})",
-                    bound(min.map(|v| v.to_string())),
-                    bound(max.map(|v| v.to_string()))
-                )
-            }
+            ParamType::Int { min, max } => write_range(f, "int", *min, *max),
+            ParamType::Float { min, max } => write_range(f, "float", *min, *max),
             ParamType::Str => write!(f, "string"),
             ParamType::Enum(o) => write!(f, "enum({})", o.join("|")),
             ParamType::Path => write!(f, "path"),

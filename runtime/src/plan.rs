@@ -260,18 +260,10 @@ fn check(
         }
         for inp in &n.inputs {
             if spec.input_port(&inp.port).is_none() {
-                let names: Vec<&str> = spec.inputs.iter().map(|p| p.name.as_str()).collect();
-                diags.push(src.diag(
-                    inp.port_span,
-                    format!(
-                        "node {:?} ({}) has no input port `{}`{}; its inputs are {}",
-                        n.id,
-                        n.kind,
-                        inp.port,
-                        did_you_mean(&similar(&inp.port, names.iter().copied())),
-                        list_or_none(&names)
-                    ),
-                ));
+                let names = spec.inputs.iter().map(|p| p.name.as_str());
+                let what = ("input port", "inputs");
+                let message = no_such(&n.id, &n.kind, what, &inp.port, names);
+                diags.push(src.diag(inp.port_span, message));
                 continue;
             }
             let Some(&from) = ids.get(inp.source.node.as_str()) else {
@@ -362,18 +354,11 @@ fn check(
                 continue;
             };
             let Some(src_ty) = src_node.outputs.get(&inp_decl.source.port) else {
-                let names: Vec<&str> = src_node.outputs.keys().map(String::as_str).collect();
-                diags.push(src.diag(
-                    inp_decl.source.span,
-                    format!(
-                        "node {:?} ({}) has no output port `{}`{}; its outputs are {}",
-                        src_node.id,
-                        src_node.kind,
-                        inp_decl.source.port,
-                        did_you_mean(&similar(&inp_decl.source.port, names.iter().copied())),
-                        list_or_none(&names)
-                    ),
-                ));
+                let names = src_node.outputs.keys().map(String::as_str);
+                let what = ("output port", "outputs");
+                let port = &inp_decl.source.port;
+                let message = no_such(&src_node.id, &src_node.kind, what, port, names);
+                diags.push(src.diag(inp_decl.source.span, message));
                 continue;
             };
             let ok = match (&port.ty, inp_decl.source.each) {
@@ -467,6 +452,23 @@ fn check(
     })
 }
 
+/// A node of `kind` has no port or param `name` among `names`; `what` names the thing,
+/// singular and plural (`("param", "params")`).
+fn no_such<'a>(
+    node: &str,
+    kind: &str,
+    (what, plural): (&str, &str),
+    name: &str,
+    names: impl Iterator<Item = &'a str>,
+) -> String {
+    let names: Vec<&str> = names.collect();
+    format!(
+        "node {node:?} ({kind}) has no {what} `{name}`{}; its {plural} are {}",
+        did_you_mean(&similar(name, names.iter().copied())),
+        list_or_none(&names)
+    )
+}
+
 fn list_or_none(names: &[&str]) -> String {
     if names.is_empty() {
         "none".into()
@@ -550,18 +552,9 @@ fn check_params(
     let mut input_paths = Vec::new();
     for p in &n.params {
         if spec.param_spec(&p.name).is_none() {
-            let names: Vec<&str> = spec.params.iter().map(|p| p.name.as_str()).collect();
-            diags.push(src.diag(
-                p.name_span,
-                format!(
-                    "node {:?} ({}) has no param `{}`{}; its params are {}",
-                    n.id,
-                    n.kind,
-                    p.name,
-                    did_you_mean(&similar(&p.name, names.iter().copied())),
-                    list_or_none(&names)
-                ),
-            ));
+            let names = spec.params.iter().map(|p| p.name.as_str());
+            let message = no_such(&n.id, &n.kind, ("param", "params"), &p.name, names);
+            diags.push(src.diag(p.name_span, message));
         }
     }
     for ps in &spec.params {

@@ -609,15 +609,7 @@ impl Store {
             .join(hex2(key))
             .join(format!("{key}.lock"));
         self.ensure_parent(&path)?;
-        let f = fs::OpenOptions::new()
-            .create(true)
-            .truncate(false)
-            .write(true)
-            .open(&path)
-            .with_context(|| format!("{}: cannot open lock", path.display()))?;
-        f.lock()
-            .with_context(|| format!("{}: cannot lock", path.display()))?;
-        Ok(f)
+        lock_file(&path, "lock")
     }
 
     /// Content fingerprint of an input file or folder named by a path param.
@@ -809,4 +801,18 @@ fn set_writable(path: &Path, writable: bool) -> Result<()> {
 #[cfg(not(unix))]
 fn set_writable(_path: &Path, _writable: bool) -> Result<()> {
     Ok(())
+}
+
+/// Opens (creating if missing, never truncating) the lock file at `path` and waits for
+/// its exclusive lock, held until the file is dropped. `what` names it in the open error.
+pub(crate) fn lock_file(path: &Path, what: &str) -> Result<fs::File> {
+    let f = fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(path)
+        .with_context(|| format!("{}: cannot open {what}", path.display()))?;
+    f.lock()
+        .with_context(|| format!("{}: cannot lock", path.display()))?;
+    Ok(f)
 }

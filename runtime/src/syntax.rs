@@ -211,41 +211,11 @@ impl<'a> Parser<'a> {
             }
             Some(b'{') => {
                 self.pos += 1;
-                let mut entries = Vec::new();
-                loop {
-                    self.skip_ws()?;
-                    if self.peek() == Some(b'}') {
-                        self.pos += 1;
-                        break;
-                    }
-                    let k = self.value()?;
-                    self.skip_ws()?;
-                    if self.peek() != Some(b':') {
-                        return Err(self.err(format!(
-                            "expected `:` after map key, found {}",
-                            self.describe_here()
-                        )));
-                    }
-                    self.pos += 1;
-                    self.skip_ws()?;
-                    let v = self.value()?;
-                    entries.push((k, v));
-                    self.skip_ws()?;
-                    match self.peek() {
-                        Some(b',') => self.pos += 1,
-                        Some(b'}') => {
-                            self.pos += 1;
-                            break;
-                        }
-                        _ => {
-                            return Err(self.err(format!(
-                                "expected `,` or `}}` in map, found {}",
-                                self.describe_here()
-                            )));
-                        }
-                    }
-                }
-                SKind::Map(entries)
+                SKind::Map(self.items_until(b'}', "in map", |p, _| {
+                    let k = p.value()?;
+                    let v = p.colon_then_value("map key")?;
+                    Ok((k, v))
+                })?)
             }
             Some(b'(') => self.paren_body(None)?,
             Some(c) if c == b'-' || c == b'+' || c == b'.' || c.is_ascii_digit() => {
@@ -285,6 +255,18 @@ impl<'a> Parser<'a> {
 
     /// Comma-separated values up to and including `close` (a trailing comma is allowed).
     fn values_until(&mut self, close: u8, what: &str) -> Result<Vec<Spanned>, SyntaxError> {
+        self.items_until(close, &format!("in {what}"), |p, _| p.value())
+    }
+
+    /// Comma-separated items up to and including `close` (a trailing comma is allowed).
+    /// `item` reads one, given those before it; `place` ends the message for a missing
+    /// separator ("expected `,` or `]` in list").
+    fn items_until<T>(
+        &mut self,
+        close: u8,
+        place: &str,
+        mut item: impl FnMut(&mut Self, &[T]) -> Result<T, SyntaxError>,
+    ) -> Result<Vec<T>, SyntaxError> {
         let mut items = Vec::new();
         loop {
             self.skip_ws()?;
@@ -292,7 +274,8 @@ impl<'a> Parser<'a> {
                 self.pos += 1;
                 return Ok(items);
             }
-            items.push(self.value()?);
+            let next = item(self, &items)?;
+            items.push(next);
             self.skip_ws()?;
             match self.peek() {
                 Some(b',') => self.pos += 1,
@@ -302,13 +285,27 @@ impl<'a> Parser<'a> {
                 }
                 _ => {
                     return Err(self.err(format!(
-                        "expected `,` or `{}` in {what}, found {}",
+                        "expected `,` or `{}` {place}, found {}",
                         close as char,
                         self.describe_here()
                     )));
                 }
             }
         }
+    }
+
+    /// `: value` after a map key or field name (`after` names it for the error).
+    fn colon_then_value(&mut self, after: &str) -> Result<Spanned, SyntaxError> {
+        self.skip_ws()?;
+        if self.peek() != Some(b':') {
+            return Err(self.err(format!(
+                "expected `:` after {after}, found {}",
+                self.describe_here()
+            )));
+        }
+        self.pos += 1;
+        self.skip_ws()?;
+        self.value()
     }
 
     fn ident(&mut self) -> String {
@@ -335,65 +332,42 @@ impl<'a> Parser<'a> {
             });
         }
         if self.looks_like_field() {
-            let mut fields: Vec<(String, Span, Spanned)> = Vec::new();
-            loop {
-                self.skip_ws()?;
-                if self.peek() == Some(b')') {
-                    self.pos += 1;
-                    break;
-                }
-                let kstart = self.pos;
-                if !self
-                    .peek()
-                    .is_some_and(|c| c.is_ascii_alphabetic() || c == b'_')
-                {
-                    return Err(self.err(format!(
-                        "expected a field name, found {}",
-                        self.describe_here()
-                    )));
-                }
-                let key = self.ident();
-                let kspan = Span {
-                    start: kstart,
-                    end: self.pos,
-                };
-                if fields.iter().any(|(k, _, _)| *k == key) {
-                    return Err(SyntaxError {
-                        offset: kstart,
-                        message: format!("field `{key}` appears twice"),
-                    });
-                }
-                self.skip_ws()?;
-                if self.peek() != Some(b':') {
-                    return Err(self.err(format!(
-                        "expected `:` after field `{key}`, found {}",
-                        self.describe_here()
-                    )));
-                }
-                self.pos += 1;
-                self.skip_ws()?;
-                let v = self.value()?;
-                fields.push((key, kspan, v));
-                self.skip_ws()?;
-                match self.peek() {
-                    Some(b',') => self.pos += 1,
-                    Some(b')') => {
-                        self.pos += 1;
-                        break;
-                    }
-                    _ => {
-                        return Err(self.err(format!(
-                            "expected `,` or `)` after a field, found {}",
-                            self.describe_here()
-                        )));
-                    }
-                }
-            }
+            let fields = self.items_until(b')', "after a field", |p, fields| p.field(fields))?;
             Ok(SKind::Struct(name, fields))
         } else {
             let items = self.values_until(b')', "tuple")?;
             Ok(SKind::Tuple(name, items))
         }
+    }
+
+    /// `name: value` in a struct, refused when `before` already has the name.
+    fn field(
+        &mut self,
+        before: &[(String, Span, Spanned)],
+    ) -> Result<(String, Span, Spanned), SyntaxError> {
+        let kstart = self.pos;
+        if !self
+            .peek()
+            .is_some_and(|c| c.is_ascii_alphabetic() || c == b'_')
+        {
+            return Err(self.err(format!(
+                "expected a field name, found {}",
+                self.describe_here()
+            )));
+        }
+        let key = self.ident();
+        let kspan = Span {
+            start: kstart,
+            end: self.pos,
+        };
+        if before.iter().any(|(k, _, _)| *k == key) {
+            return Err(SyntaxError {
+                offset: kstart,
+                message: format!("field `{key}` appears twice"),
+            });
+        }
+        let v = self.colon_then_value(&format!("field `{key}`"))?;
+        Ok((key, kspan, v))
     }
 
     fn looks_like_field(&self) -> bool {

@@ -94,6 +94,21 @@ impl<'a> ByteReader<'a> {
         Ok(n as usize)
     }
 
+    /// A count (checked as by [`count`](Self::count)), then that many items read by `item`.
+    pub fn list<T>(
+        &mut self,
+        what: &str,
+        min_item_bytes: usize,
+        mut item: impl FnMut(&mut Self) -> Result<T>,
+    ) -> Result<Vec<T>> {
+        let n = self.count(what, min_item_bytes)?;
+        let mut items = Vec::with_capacity(n);
+        for _ in 0..n {
+            items.push(item(self)?);
+        }
+        Ok(items)
+    }
+
     /// A NUL-terminated UTF-8 string.
     pub fn c_string(&mut self, what: &str) -> Result<String> {
         let at = self.pos;

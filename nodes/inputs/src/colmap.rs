@@ -259,30 +259,23 @@ pub fn read_binary(dir: &Path) -> Result<ColmapModel> {
     let images = parse_images_bin(&read_file(&path)?, &path)?;
     let path = dir.join("points3D.bin");
     let points = parse_points_bin(&read_file(&path)?, &path)?;
-    let (rigs, frames) = match (dir.join("rigs.bin"), dir.join("frames.bin")) {
-        (r, f) if r.is_file() && f.is_file() => (
-            Some(parse_rigs_bin(&read_file(&r)?, &r)?),
-            Some(parse_frames_bin(&read_file(&f)?, &f)?),
-        ),
-        (r, f) if r.is_file() || f.is_file() => {
-            bail!(
-                "{}: has only one of rigs.bin and frames.bin; the newer layout needs both",
-                dir.display()
-            )
-        }
-        _ => (None, None),
+    let rigs_and_frames = if has_rigs_and_frames(dir, "bin")? {
+        let (r, f) = (dir.join("rigs.bin"), dir.join("frames.bin"));
+        Some((
+            parse_rigs_bin(&read_file(&r)?, &r)?,
+            parse_frames_bin(&read_file(&f)?, &f)?,
+        ))
+    } else {
+        None
     };
-    let model = ColmapModel {
-        dir: dir.to_path_buf(),
-        encoding: Encoding::Binary,
+    ColmapModel::checked(
+        dir,
+        Encoding::Binary,
         cameras,
         images,
         points,
-        rigs,
-        frames,
-    };
-    model.check()?;
-    Ok(model)
+        rigs_and_frames,
+    )
 }
 
 pub fn read_text(dir: &Path) -> Result<ColmapModel> {
@@ -298,38 +291,63 @@ pub fn read_text(dir: &Path) -> Result<ColmapModel> {
     let images = parse_images_txt(&s, &p)?;
     let (p, s) = text("points3D.txt")?;
     let points = parse_points_txt(&s, &p)?;
-    let (rigs, frames) = match (
-        dir.join("rigs.txt").is_file(),
-        dir.join("frames.txt").is_file(),
-    ) {
-        (true, true) => {
-            let (rp, rs) = text("rigs.txt")?;
-            let (fp, fs) = text("frames.txt")?;
-            (
-                Some(parse_rigs_txt(&rs, &rp)?),
-                Some(parse_frames_txt(&fs, &fp)?),
-            )
-        }
-        (false, false) => (None, None),
-        _ => bail!(
-            "{}: has only one of rigs.txt and frames.txt; the newer layout needs both",
-            dir.display()
-        ),
+    let rigs_and_frames = if has_rigs_and_frames(dir, "txt")? {
+        let (rp, rs) = text("rigs.txt")?;
+        let (fp, fs) = text("frames.txt")?;
+        Some((parse_rigs_txt(&rs, &rp)?, parse_frames_txt(&fs, &fp)?))
+    } else {
+        None
     };
-    let model = ColmapModel {
-        dir: dir.to_path_buf(),
-        encoding: Encoding::Text,
+    ColmapModel::checked(
+        dir,
+        Encoding::Text,
         cameras,
         images,
         points,
-        rigs,
-        frames,
-    };
-    model.check()?;
-    Ok(model)
+        rigs_and_frames,
+    )
+}
+
+/// Whether `dir` holds the newer layout's rig and frame files (with the extension `ext`);
+/// only one of them is an error.
+fn has_rigs_and_frames(dir: &Path, ext: &str) -> Result<bool> {
+    match (
+        dir.join(format!("rigs.{ext}")).is_file(),
+        dir.join(format!("frames.{ext}")).is_file(),
+    ) {
+        (true, true) => Ok(true),
+        (false, false) => Ok(false),
+        _ => bail!(
+            "{}: has only one of rigs.{ext} and frames.{ext}; the newer layout needs both",
+            dir.display()
+        ),
+    }
 }
 
 impl ColmapModel {
+    /// The model of the parsed files, refused unless they agree with each other.
+    fn checked(
+        dir: &Path,
+        encoding: Encoding,
+        cameras: BTreeMap<u32, ColmapCamera>,
+        images: BTreeMap<u32, ColmapImage>,
+        points: BTreeMap<u64, ColmapPoint>,
+        rigs_and_frames: Option<(BTreeMap<u32, ColmapRig>, BTreeMap<u32, ColmapFrame>)>,
+    ) -> Result<ColmapModel> {
+        let (rigs, frames) = rigs_and_frames.unzip();
+        let model = ColmapModel {
+            dir: dir.to_path_buf(),
+            encoding,
+            cameras,
+            images,
+            points,
+            rigs,
+            frames,
+        };
+        model.check()?;
+        Ok(model)
+    }
+
     /// Cross-file consistency: referenced cameras exist, rig/frame poses agree with image poses.
     fn check(&self) -> Result<()> {
         for img in self.images.values() {
@@ -401,12 +419,65 @@ impl ColmapModel {
     }
 }
 
-fn parse_cameras_bin(bytes: &[u8], path: &Path) -> Result<BTreeMap<u32, ColmapCamera>> {
+/// An error in the record of a binary file that starts at byte `at`.
+fn byte_error(path: &Path, at: usize, message: impl std::fmt::Display) -> anyhow::Error {
+    anyhow::anyhow!("{}: byte {at}: {message}", path.display())
+}
+
+/// Adds a record under its id: ids are unique within a model file, so a repeat is an
+/// error (the message says which record, for the caller to locate).
+fn insert_new<K: Ord + Copy + std::fmt::Display, V>(
+    records: &mut BTreeMap<K, V>,
+    id: K,
+    record: V,
+    kind: &str,
+) -> Result<(), String> {
+    match records.insert(id, record) {
+        Some(_) => Err(format!("{kind} {id} appears twice")),
+        None => Ok(()),
+    }
+}
+
+/// A binary model file: a record count, then the records (each at least
+/// `min_record_bytes` long), keyed by id. `record` reads one, given the byte it starts at.
+fn parse_records_bin<K: Ord + Copy + std::fmt::Display, V>(
+    bytes: &[u8],
+    path: &Path,
+    count_what: &str,
+    min_record_bytes: usize,
+    kind: &str,
+    mut record: impl FnMut(&mut ByteReader, usize) -> Result<(K, V)>,
+) -> Result<BTreeMap<K, V>> {
     let mut r = ByteReader::new(bytes, path);
-    let n = r.count("number of cameras", 24)?;
+    let n = r.count(count_what, min_record_bytes)?;
     let mut out = BTreeMap::new();
     for _ in 0..n {
         let at = r.position();
+        let (id, value) = record(&mut r, at)?;
+        insert_new(&mut out, id, value, kind).map_err(|e| byte_error(path, at, e))?;
+    }
+    r.finish()?;
+    Ok(out)
+}
+
+/// A text model file of one record a data line, keyed by id.
+fn parse_records_txt<K: Ord + Copy + std::fmt::Display, V>(
+    text: &str,
+    path: &Path,
+    kind: &str,
+    mut record: impl FnMut(&mut Fields) -> Result<(K, V)>,
+) -> Result<BTreeMap<K, V>> {
+    let mut out = BTreeMap::new();
+    for (line, l) in data_lines(text) {
+        let mut f = Fields::new(l, path, line);
+        let (id, value) = record(&mut f)?;
+        insert_new(&mut out, id, value, kind).map_err(|e| f.err(e))?;
+    }
+    Ok(out)
+}
+
+fn parse_cameras_bin(bytes: &[u8], path: &Path) -> Result<BTreeMap<u32, ColmapCamera>> {
+    parse_records_bin(bytes, path, "number of cameras", 24, "camera", |r, at| {
         let id = r.u32("camera_id")?;
         let model_id = r.i32("model_id")?;
         let (model, k) = model_by_id(model_id).with_context(|| {
@@ -420,14 +491,9 @@ fn parse_cameras_bin(bytes: &[u8], path: &Path) -> Result<BTreeMap<u32, ColmapCa
         let params = (0..k)
             .map(|_| r.f64("camera params"))
             .collect::<Result<Vec<_>>>()?;
-        let cam = camera(id, model, width, height, params)
-            .map_err(|e| anyhow::anyhow!("{}: byte {at}: {e}", path.display()))?;
-        if out.insert(id, cam).is_some() {
-            bail!("{}: byte {at}: camera {id} appears twice", path.display());
-        }
-    }
-    r.finish()?;
-    Ok(out)
+        let cam = camera(id, model, width, height, params).map_err(|e| byte_error(path, at, e))?;
+        Ok((id, cam))
+    })
 }
 
 fn camera(
@@ -455,86 +521,78 @@ fn camera(
     })
 }
 
+/// A pose as binary records store it (`what` names its fields in read errors), checked;
+/// `owner` names the record in the error when it is unusable.
+fn pose_bin(
+    r: &mut ByteReader,
+    path: &Path,
+    at: usize,
+    what: &str,
+    owner: impl std::fmt::Display,
+) -> Result<Pose> {
+    let pose = Pose {
+        qvec: r.f64s(&format!("{what} qvec"))?,
+        tvec: r.f64s(&format!("{what} tvec"))?,
+    };
+    pose.check()
+        .map_err(|e| byte_error(path, at, format!("{owner}: {e}")))?;
+    Ok(pose)
+}
+
 fn parse_images_bin(bytes: &[u8], path: &Path) -> Result<BTreeMap<u32, ColmapImage>> {
-    let mut r = ByteReader::new(bytes, path);
-    let n = r.count("number of images", 4 + 56 + 4 + 1 + 8)?;
-    let mut out = BTreeMap::new();
-    for _ in 0..n {
-        let at = r.position();
-        let id = r.u32("image_id")?;
-        let pose = Pose {
-            qvec: r.f64s("image qvec")?,
-            tvec: r.f64s("image tvec")?,
-        };
-        pose.check()
-            .map_err(|e| anyhow::anyhow!("{}: byte {at}: image {id}: {e}", path.display()))?;
-        let camera_id = r.u32("camera_id")?;
-        let name = r.c_string("image name")?;
-        let n2d = r.count("number of 2D points", 24)?;
-        let mut points2d = Vec::with_capacity(n2d);
-        for _ in 0..n2d {
-            let xy = r.f64s::<2>("2D point")?;
-            points2d.push((xy, r.i64("point3D_id")?));
-        }
-        if out
-            .insert(
+    parse_records_bin(
+        bytes,
+        path,
+        "number of images",
+        4 + 56 + 4 + 1 + 8,
+        "image",
+        |r, at| {
+            let id = r.u32("image_id")?;
+            let image = ColmapImage {
                 id,
-                ColmapImage {
-                    id,
-                    pose,
-                    camera_id,
-                    name,
-                    points2d,
-                },
-            )
-            .is_some()
-        {
-            bail!("{}: byte {at}: image {id} appears twice", path.display());
-        }
-    }
-    r.finish()?;
-    Ok(out)
+                pose: pose_bin(r, path, at, "image", format_args!("image {id}"))?,
+                camera_id: r.u32("camera_id")?,
+                name: r.c_string("image name")?,
+                points2d: r.list("number of 2D points", 24, |r| {
+                    Ok((r.f64s::<2>("2D point")?, r.i64("point3D_id")?))
+                })?,
+            };
+            Ok((id, image))
+        },
+    )
 }
 
 fn parse_points_bin(bytes: &[u8], path: &Path) -> Result<BTreeMap<u64, ColmapPoint>> {
-    let mut r = ByteReader::new(bytes, path);
-    let n = r.count("number of 3D points", 8 + 24 + 3 + 8 + 8)?;
-    let mut out = BTreeMap::new();
-    for _ in 0..n {
-        let at = r.position();
-        let id = r.u64("point3D_id")?;
-        let xyz = r.f64s::<3>("point xyz")?;
-        let rgb = [r.u8("red")?, r.u8("green")?, r.u8("blue")?];
-        let error = r.f64("point error")?;
-        if xyz.iter().any(|v| !v.is_finite()) {
-            bail!(
-                "{}: byte {at}: point {id} has a non-finite coordinate {xyz:?}",
-                path.display()
-            );
-        }
-        let len = r.count("track length", 8)?;
-        let mut track = Vec::with_capacity(len);
-        for _ in 0..len {
-            track.push((r.u32("track image_id")?, r.u32("track point2D_idx")?));
-        }
-        if out
-            .insert(
+    parse_records_bin(
+        bytes,
+        path,
+        "number of 3D points",
+        8 + 24 + 3 + 8 + 8,
+        "point",
+        |r, at| {
+            let id = r.u64("point3D_id")?;
+            let xyz = r.f64s::<3>("point xyz")?;
+            let rgb = [r.u8("red")?, r.u8("green")?, r.u8("blue")?];
+            let error = r.f64("point error")?;
+            if xyz.iter().any(|v| !v.is_finite()) {
+                return Err(byte_error(
+                    path,
+                    at,
+                    format!("point {id} has a non-finite coordinate {xyz:?}"),
+                ));
+            }
+            let point = ColmapPoint {
                 id,
-                ColmapPoint {
-                    id,
-                    xyz,
-                    rgb,
-                    error,
-                    track,
-                },
-            )
-            .is_some()
-        {
-            bail!("{}: byte {at}: point {id} appears twice", path.display());
-        }
-    }
-    r.finish()?;
-    Ok(out)
+                xyz,
+                rgb,
+                error,
+                track: r.list("track length", 8, |r| {
+                    Ok((r.u32("track image_id")?, r.u32("track point2D_idx")?))
+                })?,
+            };
+            Ok((id, point))
+        },
+    )
 }
 
 fn sensor_bin(r: &mut ByteReader, path: &Path) -> Result<SensorId> {
@@ -546,11 +604,7 @@ fn sensor_bin(r: &mut ByteReader, path: &Path) -> Result<SensorId> {
 }
 
 fn parse_rigs_bin(bytes: &[u8], path: &Path) -> Result<BTreeMap<u32, ColmapRig>> {
-    let mut r = ByteReader::new(bytes, path);
-    let n = r.count("number of rigs", 8)?;
-    let mut out = BTreeMap::new();
-    for _ in 0..n {
-        let at = r.position();
+    parse_records_bin(bytes, path, "number of rigs", 8, "rig", |r, at| {
         let id = r.u32("rig_id")?;
         let num_sensors = r.u32("number of sensors")? as usize;
         let mut rig = ColmapRig {
@@ -559,77 +613,53 @@ fn parse_rigs_bin(bytes: &[u8], path: &Path) -> Result<BTreeMap<u32, ColmapRig>>
             sensors: Vec::new(),
         };
         if num_sensors > 0 {
-            rig.ref_sensor = Some(sensor_bin(&mut r, path)?);
+            rig.ref_sensor = Some(sensor_bin(r, path)?);
             for _ in 1..num_sensors {
-                let sensor = sensor_bin(&mut r, path)?;
+                let sensor = sensor_bin(r, path)?;
                 let pose = match r.u8("has_pose")? {
                     0 => None,
-                    _ => {
-                        let pose = Pose {
-                            qvec: r.f64s("sensor qvec")?,
-                            tvec: r.f64s("sensor tvec")?,
-                        };
-                        pose.check().map_err(|e| {
-                            anyhow::anyhow!("{}: byte {at}: rig {id}: {e}", path.display())
-                        })?;
-                        Some(pose)
-                    }
+                    _ => Some(pose_bin(r, path, at, "sensor", format_args!("rig {id}"))?),
                 };
                 rig.sensors.push((sensor, pose));
             }
         }
-        if out.insert(id, rig).is_some() {
-            bail!("{}: byte {at}: rig {id} appears twice", path.display());
-        }
-    }
-    r.finish()?;
-    Ok(out)
+        Ok((id, rig))
+    })
 }
 
 fn parse_frames_bin(bytes: &[u8], path: &Path) -> Result<BTreeMap<u32, ColmapFrame>> {
-    let mut r = ByteReader::new(bytes, path);
-    let n = r.count("number of frames", 4 + 4 + 56 + 4)?;
-    let mut out = BTreeMap::new();
-    for _ in 0..n {
-        let at = r.position();
-        let id = r.u32("frame_id")?;
-        let rig_id = r.u32("rig_id")?;
-        let rig_from_world = Pose {
-            qvec: r.f64s("frame qvec")?,
-            tvec: r.f64s("frame tvec")?,
-        };
-        rig_from_world
-            .check()
-            .map_err(|e| anyhow::anyhow!("{}: byte {at}: frame {id}: {e}", path.display()))?;
-        let count = r.u32("number of data ids")? as usize;
-        if count.saturating_mul(16) > r.remaining() {
-            bail!(
-                "{}: byte {at}: frame {id} lists {count} data ids, more than the file holds",
-                path.display()
-            );
-        }
-        let mut data = Vec::with_capacity(count);
-        for _ in 0..count {
-            let sensor = sensor_bin(&mut r, path)?;
-            data.push((sensor, r.u64("data id")?));
-        }
-        if out
-            .insert(
+    parse_records_bin(
+        bytes,
+        path,
+        "number of frames",
+        4 + 4 + 56 + 4,
+        "frame",
+        |r, at| {
+            let id = r.u32("frame_id")?;
+            let rig_id = r.u32("rig_id")?;
+            let rig_from_world = pose_bin(r, path, at, "frame", format_args!("frame {id}"))?;
+            let count = r.u32("number of data ids")? as usize;
+            if count.saturating_mul(16) > r.remaining() {
+                return Err(byte_error(
+                    path,
+                    at,
+                    format!("frame {id} lists {count} data ids, more than the file holds"),
+                ));
+            }
+            let mut data = Vec::with_capacity(count);
+            for _ in 0..count {
+                let sensor = sensor_bin(r, path)?;
+                data.push((sensor, r.u64("data id")?));
+            }
+            let frame = ColmapFrame {
                 id,
-                ColmapFrame {
-                    id,
-                    rig_id,
-                    rig_from_world,
-                    data,
-                },
-            )
-            .is_some()
-        {
-            bail!("{}: byte {at}: frame {id} appears twice", path.display());
-        }
-    }
-    r.finish()?;
-    Ok(out)
+                rig_id,
+                rig_from_world,
+                data,
+            };
+            Ok((id, frame))
+        },
+    )
 }
 
 /// Whitespace tokens of one text line, with errors that name the file and line.
@@ -677,6 +707,18 @@ impl<'a> Fields<'a> {
         Ok(out)
     }
 
+    /// A pose as text records store it (`prefix` starts its field names in read errors),
+    /// checked; `owner` names the record in the error when it is unusable.
+    fn pose(&mut self, prefix: &str, owner: impl std::fmt::Display) -> Result<Pose> {
+        let pose = Pose {
+            qvec: self.f64s(&format!("{prefix}QW QX QY QZ"))?,
+            tvec: self.f64s(&format!("{prefix}TX TY TZ"))?,
+        };
+        pose.check()
+            .map_err(|e| self.err(format!("{owner}: {e}")))?;
+        Ok(pose)
+    }
+
     fn sensor(&mut self) -> Result<SensorId> {
         let kind = self.word("sensor type")?;
         if !matches!(kind, "CAMERA" | "IMU" | "INVALID") {
@@ -687,6 +729,18 @@ impl<'a> Fields<'a> {
             );
         }
         Ok((kind.to_string(), self.parse("sensor id")?))
+    }
+
+    /// Items read by `item` until the line ends.
+    fn until_line_end<T>(
+        &mut self,
+        mut item: impl FnMut(&mut Self) -> Result<T>,
+    ) -> Result<Vec<T>> {
+        let mut items = Vec::new();
+        while !self.is_done() {
+            items.push(item(self)?);
+        }
+        Ok(items)
     }
 
     fn is_done(&mut self) -> bool {
@@ -718,9 +772,7 @@ fn data_lines(text: &str) -> impl Iterator<Item = (usize, &str)> {
 }
 
 fn parse_cameras_txt(text: &str, path: &Path) -> Result<BTreeMap<u32, ColmapCamera>> {
-    let mut out = BTreeMap::new();
-    for (line, l) in data_lines(text) {
-        let mut f = Fields::new(l, path, line);
+    parse_records_txt(text, path, "camera", |f| {
         let id: u32 = f.parse("CAMERA_ID")?;
         let name = f.word("MODEL")?;
         let (model, k) =
@@ -734,11 +786,8 @@ fn parse_cameras_txt(text: &str, path: &Path) -> Result<BTreeMap<u32, ColmapCame
             return Err(f.err(format!("{model} takes {k} parameters; the line has more")));
         }
         let cam = camera(id, model, width, height, params).map_err(|e| f.err(e))?;
-        if out.insert(id, cam).is_some() {
-            return Err(f.err(format!("camera {id} appears twice")));
-        }
-    }
-    Ok(out)
+        Ok((id, cam))
+    })
 }
 
 fn parse_images_txt(text: &str, path: &Path) -> Result<BTreeMap<u32, ColmapImage>> {
@@ -750,12 +799,7 @@ fn parse_images_txt(text: &str, path: &Path) -> Result<BTreeMap<u32, ColmapImage
         }
         let mut f = Fields::new(l, path, line);
         let id: u32 = f.parse("IMAGE_ID")?;
-        let pose = Pose {
-            qvec: f.f64s("QW QX QY QZ")?,
-            tvec: f.f64s("TX TY TZ")?,
-        };
-        pose.check()
-            .map_err(|e| f.err(format!("image {id}: {e}")))?;
+        let pose = f.pose("", format_args!("image {id}"))?;
         let camera_id: u32 = f.parse("CAMERA_ID")?;
         // Names may contain spaces: the name is the rest of the line.
         let name = rest_after_tokens(l, 9)
@@ -763,69 +807,44 @@ fn parse_images_txt(text: &str, path: &Path) -> Result<BTreeMap<u32, ColmapImage
             .to_string();
         // The second line of an image (its keypoints) may be empty, but it is always there.
         let (kp_line, kp) = lines.next().unwrap_or((line + 1, ""));
-        let mut k = Fields::new(kp, path, kp_line);
-        let mut points2d = Vec::new();
-        while !k.is_done() {
+        let points2d = Fields::new(kp, path, kp_line).until_line_end(|k| {
             let xy = k.f64s::<2>("POINTS2D x y")?;
-            points2d.push((xy, k.parse::<i64>("POINT3D_ID")?));
-        }
-        if out
-            .insert(
-                id,
-                ColmapImage {
-                    id,
-                    pose,
-                    camera_id,
-                    name,
-                    points2d,
-                },
-            )
-            .is_some()
-        {
-            return Err(f.err(format!("image {id} appears twice")));
-        }
+            Ok((xy, k.parse::<i64>("POINT3D_ID")?))
+        })?;
+        let image = ColmapImage {
+            id,
+            pose,
+            camera_id,
+            name,
+            points2d,
+        };
+        insert_new(&mut out, id, image, "image").map_err(|e| f.err(e))?;
     }
     Ok(out)
 }
 
 fn parse_points_txt(text: &str, path: &Path) -> Result<BTreeMap<u64, ColmapPoint>> {
-    let mut out = BTreeMap::new();
-    for (line, l) in data_lines(text) {
-        let mut f = Fields::new(l, path, line);
+    parse_records_txt(text, path, "point", |f| {
         let id: u64 = f.parse("POINT3D_ID")?;
         let xyz = f.f64s::<3>("X Y Z")?;
         if xyz.iter().any(|v| !v.is_finite()) {
             return Err(f.err(format!("point {id} has a non-finite coordinate")));
         }
-        let rgb = [f.parse("R")?, f.parse("G")?, f.parse("B")?];
-        let error: f64 = f.parse("ERROR")?;
-        let mut track = Vec::new();
-        while !f.is_done() {
-            track.push((f.parse("track IMAGE_ID")?, f.parse("track POINT2D_IDX")?));
-        }
-        if out
-            .insert(
-                id,
-                ColmapPoint {
-                    id,
-                    xyz,
-                    rgb,
-                    error,
-                    track,
-                },
-            )
-            .is_some()
-        {
-            return Err(f.err(format!("point {id} appears twice")));
-        }
-    }
-    Ok(out)
+        let point = ColmapPoint {
+            id,
+            xyz,
+            rgb: [f.parse("R")?, f.parse("G")?, f.parse("B")?],
+            error: f.parse("ERROR")?,
+            track: f.until_line_end(|f| {
+                Ok((f.parse("track IMAGE_ID")?, f.parse("track POINT2D_IDX")?))
+            })?,
+        };
+        Ok((id, point))
+    })
 }
 
 fn parse_rigs_txt(text: &str, path: &Path) -> Result<BTreeMap<u32, ColmapRig>> {
-    let mut out = BTreeMap::new();
-    for (line, l) in data_lines(text) {
-        let mut f = Fields::new(l, path, line);
+    parse_records_txt(text, path, "rig", |f| {
         let id: u32 = f.parse("RIG_ID")?;
         let num_sensors: usize = f.parse("NUM_SENSORS")?;
         let mut rig = ColmapRig {
@@ -839,60 +858,31 @@ fn parse_rigs_txt(text: &str, path: &Path) -> Result<BTreeMap<u32, ColmapRig>> {
                 let sensor = f.sensor()?;
                 let pose = match f.parse::<u8>("HAS_POSE")? {
                     0 => None,
-                    _ => {
-                        let pose = Pose {
-                            qvec: f.f64s("sensor QW QX QY QZ")?,
-                            tvec: f.f64s("sensor TX TY TZ")?,
-                        };
-                        pose.check().map_err(|e| f.err(format!("rig {id}: {e}")))?;
-                        Some(pose)
-                    }
+                    _ => Some(f.pose("sensor ", format_args!("rig {id}"))?),
                 };
                 rig.sensors.push((sensor, pose));
             }
         }
-        if out.insert(id, rig).is_some() {
-            return Err(f.err(format!("rig {id} appears twice")));
-        }
-    }
-    Ok(out)
+        Ok((id, rig))
+    })
 }
 
 fn parse_frames_txt(text: &str, path: &Path) -> Result<BTreeMap<u32, ColmapFrame>> {
-    let mut out = BTreeMap::new();
-    for (line, l) in data_lines(text) {
-        let mut f = Fields::new(l, path, line);
+    parse_records_txt(text, path, "frame", |f| {
         let id: u32 = f.parse("FRAME_ID")?;
         let rig_id: u32 = f.parse("RIG_ID")?;
-        let rig_from_world = Pose {
-            qvec: f.f64s("QW QX QY QZ")?,
-            tvec: f.f64s("TX TY TZ")?,
-        };
-        rig_from_world
-            .check()
-            .map_err(|e| f.err(format!("frame {id}: {e}")))?;
+        let rig_from_world = f.pose("", format_args!("frame {id}"))?;
         let count: usize = f.parse("NUM_DATA_IDS")?;
-        let mut data = Vec::new();
-        for _ in 0..count {
-            let sensor = f.sensor()?;
-            data.push((sensor, f.parse("DATA_ID")?));
-        }
-        if out
-            .insert(
-                id,
-                ColmapFrame {
-                    id,
-                    rig_id,
-                    rig_from_world,
-                    data,
-                },
-            )
-            .is_some()
-        {
-            return Err(f.err(format!("frame {id} appears twice")));
-        }
-    }
-    Ok(out)
+        let frame = ColmapFrame {
+            id,
+            rig_id,
+            rig_from_world,
+            data: (0..count)
+                .map(|_| Ok((f.sensor()?, f.parse("DATA_ID")?)))
+                .collect::<Result<_>>()?,
+        };
+        Ok((id, frame))
+    })
 }
 
 /// Parses in-memory binary model files (for fuzzing and tests): cameras, images, points3D.

@@ -65,6 +65,15 @@ fn resolution_param(ctx: &Context) -> Result<Resolution> {
     Resolution::new(p.resolution, p.max_width)
 }
 
+/// Writes the `frames` output, scaled by the shared resolution params.
+fn write_frames_output(
+    ctx: &Context,
+    views: Vec<scene::SourceView>,
+    split: &SplitChoice,
+) -> Result<WrittenFrames> {
+    scene::write_frames(&ctx.output("frames")?, views, split, resolution_param(ctx)?)
+}
+
 /// Report lines for the frames a source wrote: how many, how they split, what was undistorted.
 fn note_frames(ctx: &mut Context, written: &WrittenFrames) {
     let test = written
@@ -145,12 +154,7 @@ impl Node for ColmapScene {
         let views = colmap_scene::views(&model, &images)?;
         ctx.progress(0, 2, "writing frames");
         let split = split_param(ctx, || bail!("a COLMAP model has no train/test lists"))?;
-        let written = scene::write_frames(
-            &ctx.output("frames")?,
-            views,
-            &split,
-            resolution_param(ctx)?,
-        )?;
+        let written = write_frames_output(ctx, views, &split)?;
         ctx.progress(1, 2, "writing points");
         scene::write_points(&ctx.output("points")?, &colmap_scene::points(&model))?;
         ctx.progress(2, 2, "done");
@@ -183,12 +187,20 @@ fn default_images_dir(model: &Path) -> Result<PathBuf> {
 /// `nerfstudio_scene`: a transforms.json capture.
 pub struct NerfstudioScene;
 
-/// Where a nerfstudio JSON's `file_path`s and `mask_path`s are relative to.
-fn nerfstudio_roots(p: &NerfstudioSceneParams) -> nerfstudio::Roots {
-    nerfstudio::Roots {
+/// The transforms JSON the params name, its paths resolved against `images` / `masks`
+/// and its masks dropped unless `use_masks`.
+fn read_transforms(p: &NerfstudioSceneParams) -> Result<nerfstudio::Transforms> {
+    let roots = nerfstudio::Roots {
         images: p.images.as_ref().map(PathBuf::from),
         masks: p.masks.as_ref().map(PathBuf::from),
+    };
+    let mut t = nerfstudio::read(Path::new(&p.path), &roots)?;
+    if !p.use_masks {
+        for f in &mut t.frames {
+            f.mask = None;
+        }
     }
+    Ok(t)
 }
 
 objectsplat_runtime::node_params! {
@@ -227,12 +239,7 @@ impl Node for NerfstudioScene {
     /// The images and masks the JSON lists, where `images` / `masks` say they are.
     fn reads(&self, params: &Params) -> Result<Vec<PathBuf>> {
         let p: NerfstudioSceneParams = params.read_as()?;
-        let mut t = nerfstudio::read(Path::new(&p.path), &nerfstudio_roots(&p))?;
-        if !p.use_masks {
-            for f in &mut t.frames {
-                f.mask = None;
-            }
-        }
+        let t = read_transforms(&p)?;
         Ok(t.frames
             .into_iter()
             .flat_map(|f| std::iter::once(f.image).chain(f.mask))
@@ -241,13 +248,8 @@ impl Node for NerfstudioScene {
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let p: NerfstudioSceneParams = ctx.params_as()?;
+        let t = read_transforms(&p)?;
         let path = PathBuf::from(&p.path);
-        let mut t = nerfstudio::read(&path, &nerfstudio_roots(&p))?;
-        if !p.use_masks {
-            for f in &mut t.frames {
-                f.mask = None;
-            }
-        }
         t.check_files()?;
         let world = match p.world.as_str() {
             "json" => glam::DMat4::IDENTITY,
@@ -265,12 +267,7 @@ impl Node for NerfstudioScene {
             })?;
             Ok(format!("{} ({source})", path.display()))
         })?;
-        let written = scene::write_frames(
-            &ctx.output("frames")?,
-            views,
-            &split,
-            resolution_param(ctx)?,
-        )?;
+        let written = write_frames_output(ctx, views, &split)?;
         note_frames(ctx, &written);
         if t.skipped_bad > 0 {
             ctx.note("skipped is_bad frames", t.skipped_bad);
@@ -328,12 +325,7 @@ impl Node for ScannetppScene {
                 .count();
             Ok(file.display().to_string())
         })?;
-        let written = scene::write_frames(
-            &ctx.output("frames")?,
-            std::mem::take(&mut s.views),
-            &split,
-            resolution_param(ctx)?,
-        )?;
+        let written = write_frames_output(ctx, std::mem::take(&mut s.views), &split)?;
         objectsplat_core::write_mesh_artifact(&ctx.output("mesh")?, &s.mesh, &s.labels)?;
         scene::write_points(&ctx.output("points")?, &s.points)?;
         note_frames(ctx, &written);

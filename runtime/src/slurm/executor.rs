@@ -445,17 +445,7 @@ impl Tracker<'_> {
             }
             "corrupt" => {
                 let msg = result.error.unwrap_or_default();
-                self.warn(format!("warning: {msg}; recomputing"));
-                self.claims.release(&task.job.key);
-                let timing = task_timing(&task, None);
-                self.send(
-                    task.job,
-                    Err(JobError::Corrupt(msg)),
-                    Status::Failed,
-                    timing,
-                    vec![],
-                    Some(self.ran_on(&job_id, Some(result.host))),
-                );
+                self.recompute(task, msg, &job_id, result.host);
             }
             _ => self.confirm(task, result),
         }
@@ -474,19 +464,8 @@ impl Tracker<'_> {
                 since: Instant::now(),
             }),
             Err(c) => {
-                let msg = c.to_string();
-                self.warn(format!("warning: {msg}; recomputing"));
-                self.claims.release(&task.job.key);
-                let ran_on = Some(self.ran_on(&task.job_id, Some(result.host)));
-                let timing = task_timing(&task, None);
-                self.send(
-                    task.job,
-                    Err(JobError::Corrupt(msg)),
-                    Status::Failed,
-                    timing,
-                    vec![],
-                    ran_on,
-                );
+                let job_id = task.job_id.clone();
+                self.recompute(task, c.to_string(), &job_id, result.host);
             }
         }
     }
@@ -539,17 +518,28 @@ impl Tracker<'_> {
     }
 
     fn fail(&mut self, task: Task, message: String, host: Option<String>) {
-        self.claims.release(&task.job.key);
         self.keep_run_dir = true;
-        let ran_on = Some(self.ran_on(&task.job_id, host.or(task.host.clone())));
+        let ran_on = self.ran_on(&task.job_id, host.or(task.host.clone()));
+        self.end_failed(task, JobError::Failed(message), ran_on);
+    }
+
+    /// A result or record found corrupt: the coordinator computes the action again.
+    fn recompute(&mut self, task: Task, message: String, job_id: &str, host: String) {
+        self.warn(format!("warning: {message}; recomputing"));
+        let ran_on = self.ran_on(job_id, Some(host));
+        self.end_failed(task, JobError::Corrupt(message), ran_on);
+    }
+
+    fn end_failed(&mut self, task: Task, error: JobError, ran_on: RanOn) {
+        self.claims.release(&task.job.key);
         let timing = task_timing(&task, None);
         self.send(
             task.job,
-            Err(JobError::Failed(message)),
+            Err(error),
             Status::Failed,
             timing,
             vec![],
-            ran_on,
+            Some(ran_on),
         );
     }
 
@@ -612,6 +602,16 @@ impl Tracker<'_> {
         )
     }
 
+    /// Leaves the task's action to the run holding `claim`, watching for its result.
+    fn wait_for_claim(&mut self, task: Task, claim: Claim) {
+        let settings = self.arrays[task.array].settings.clone();
+        self.watched.push(Watched {
+            job: task.job,
+            claim,
+            settings,
+        });
+    }
+
     /// A job ended without a result: done after all, resubmitted, handed to the run
     /// that took its claim, or failed after the last attempt.
     fn lost(&mut self, mut task: Task, state: Option<&JobState>, why: String) {
@@ -638,24 +638,12 @@ impl Tracker<'_> {
         match self.claims.read(&key) {
             Some(c) if c.run != self.run_id => {
                 // Another run took it over (it thought this run's job dead): wait for it.
-                let settings = self.arrays[task.array].settings.clone();
-                self.watched.push(Watched {
-                    job: task.job,
-                    claim: c,
-                    settings,
-                });
-                return;
+                return self.wait_for_claim(task, c);
             }
             None => {
                 // Our claim vanished (someone cleaned up): claim again or wait.
                 if let Ok(Claimed::Theirs(c)) = self.claims.claim(&key) {
-                    let settings = self.arrays[task.array].settings.clone();
-                    self.watched.push(Watched {
-                        job: task.job,
-                        claim: c,
-                        settings,
-                    });
-                    return;
+                    return self.wait_for_claim(task, c);
                 }
             }
             Some(_) => {}
