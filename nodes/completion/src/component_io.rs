@@ -24,10 +24,6 @@ impl ComponentDir {
         })
     }
 
-    pub fn mask_path(&self, frame: &Frame) -> PathBuf {
-        component::mask_path(&self.dir, frame)
-    }
-
     pub fn has_frame(&self, name: &str) -> bool {
         self.frames.frames.iter().any(|f| f.name == name)
     }
