@@ -56,9 +56,7 @@ impl ComponentInfo {
             label: None,
         }
     }
-}
 
-impl ComponentInfo {
     /// Reads `component.json` from a Component folder.
     pub fn read(dir: &Path) -> Result<ComponentInfo> {
         let path = dir.join(COMPONENT_JSON);
