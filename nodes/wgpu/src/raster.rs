@@ -242,7 +242,7 @@ pub(crate) struct ModelBuffers {
     pub opacity_floor: f32,
 }
 
-/// Words of the frame record that come back to the host (raster_common.wgsl's
+/// Words of the frame record that come back to the host (frame_record.wgsl's
 /// FRAME_*: entry count, region), and the record's size on the device.
 const FRAME_READ_WORDS: usize = 5;
 const FRAME_BYTES: u64 = 64;
