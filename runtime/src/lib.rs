@@ -13,6 +13,7 @@ pub mod params;
 pub mod paths;
 pub mod plan;
 pub mod plugin;
+pub mod ports;
 pub mod registry;
 pub mod report;
 pub mod slurm;
@@ -27,5 +28,6 @@ pub use node::{
     PortSpec, ProgressSink, TypeRef,
 };
 pub use params::{NodeParams, ParamSpec, ParamType, Params};
+pub use ports::{Items, NodePorts};
 pub use registry::{Origin, Registry};
 pub use value::Value;

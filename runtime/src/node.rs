@@ -120,6 +120,29 @@ impl NodeSpec {
         self
     }
 
+    /// A port as [`crate::node_ports!`] declares it: an input (optional or not) or an output.
+    pub fn port_of_kind(
+        mut self,
+        name: &str,
+        ty: &str,
+        optional: bool,
+        output: bool,
+        doc: &str,
+    ) -> Self {
+        let port = Self::port(name, ty, optional, doc);
+        if output {
+            self.outputs.push(port);
+        } else {
+            self.inputs.push(port);
+        }
+        self
+    }
+
+    /// Every port of a [`crate::node_ports!`] type.
+    pub fn ports<P: crate::ports::NodePorts>(self) -> Self {
+        P::declare(self)
+    }
+
     /// Every parameter of a [`crate::node_params!`] type.
     pub fn params<P: crate::params::NodeParams>(self) -> Self {
         P::declare(self)
@@ -369,6 +392,11 @@ impl<'a> Context<'a> {
     /// All parameters as the node's declared type (see [`crate::node_params!`]).
     pub fn params_as<P: crate::params::NodeParams>(&self) -> Result<P> {
         P::read(self.params)
+    }
+
+    /// Every port's folder as the node's declared type (see [`crate::node_ports!`]).
+    pub fn ports_as<P: crate::ports::NodePorts>(&self) -> Result<P> {
+        P::read(self)
     }
 
     /// The item name when the node runs once per item of a fanned-out input.

@@ -3,7 +3,7 @@
 use anyhow::{Result, bail};
 use objectsplat_core::Image;
 use objectsplat_core::artifact::{IMAGE_PNG, MASK_PNG};
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, node_ports};
 use std::sync::Arc;
 
 objectsplat_runtime::node_params! {
@@ -17,20 +17,28 @@ objectsplat_runtime::node_params! {
 /// Reads an image file (PNG or JPEG) into an Image artifact.
 pub struct LoadImage;
 
+node_ports! {
+    struct LoadImagePorts {
+        /// the image
+        image: output "Image",
+    }
+}
+
 impl Node for LoadImage {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("load_image", "1")
             .doc("Reads a PNG or JPEG file into an Image artifact (8-bit images stay 8-bit, 16-bit stay 16-bit).")
-            .output("image", "Image", "the image")
+            .ports::<LoadImagePorts>()
             .params::<LoadImageParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: LoadImagePorts = ctx.ports_as()?;
         let p: LoadImageParams = ctx.params_as()?;
         let path: String = p.path;
         let img = Image::load(std::path::Path::new(&path))?;
         img.check_finite(&path)?;
-        let out = ctx.output("image")?.join(IMAGE_PNG);
+        let out = ports.image.join(IMAGE_PNG);
         if is_16_bit(std::path::Path::new(&path)) {
             img.save_png16(&out)?
         } else {
@@ -67,15 +75,23 @@ objectsplat_runtime::node_params! {
 /// Reads a mask image; any non-zero value (in any channel) counts as set.
 pub struct LoadMask;
 
+node_ports! {
+    struct LoadMaskPorts {
+        /// 8-bit mask, 255 = set
+        mask: output "Mask",
+    }
+}
+
 impl Node for LoadMask {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("load_mask", "1")
             .doc("Reads a mask image; a pixel is set where any channel is non-zero.")
-            .output("mask", "Mask", "8-bit mask, 255 = set")
+            .ports::<LoadMaskPorts>()
             .params::<LoadMaskParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: LoadMaskPorts = ctx.ports_as()?;
         let p: LoadMaskParams = ctx.params_as()?;
         let path: String = p.path;
         let img = Image::load(std::path::Path::new(&path))?;
@@ -91,7 +107,7 @@ impl Node for LoadMask {
                 .collect(),
         };
         let set = mask.data.iter().filter(|&&v| v > 0.0).count();
-        mask.save_png8(&ctx.output("mask")?.join(MASK_PNG))?;
+        mask.save_png8(&ports.mask.join(MASK_PNG))?;
         ctx.note("set_pixels", set);
         Ok(Outcome::Done)
     }
@@ -110,18 +126,27 @@ objectsplat_runtime::node_params! {
 /// Area-downscales an image by an integer factor or to a maximum width.
 pub struct ResizeImage;
 
+node_ports! {
+    struct ResizeImagePorts {
+        /// the image
+        image: input "Image",
+        /// the resized image
+        image_out: output "Image" as "image",
+    }
+}
+
 impl Node for ResizeImage {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("resize_image", "1")
             .doc("Box-filter downscale by an integer `factor`, or to at most `max_width` pixels wide.")
-            .input("image", "Image", "the image")
-            .output("image", "Image", "the resized image")
+            .ports::<ResizeImagePorts>()
             .params::<ResizeImageParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: ResizeImagePorts = ctx.ports_as()?;
         let p: ResizeImageParams = ctx.params_as()?;
-        let img = Image::load(&ctx.input("image")?.join(IMAGE_PNG))?;
+        let img = Image::load(&ports.image.join(IMAGE_PNG))?;
         let factor: u32 = p.factor;
         let max_width: Option<u32> = p.max_width;
         let mut w = (img.width / factor).max(1);
@@ -137,7 +162,7 @@ impl Node for ResizeImage {
         } else {
             img.resize_area(w, h)
         };
-        out.save_png8(&ctx.output("image")?.join(IMAGE_PNG))?;
+        out.save_png8(&ports.image_out.join(IMAGE_PNG))?;
         ctx.note("size", format!("{w}×{h}"));
         Ok(Outcome::Done)
     }
@@ -156,23 +181,32 @@ objectsplat_runtime::node_params! {
 /// Writes an image to a path inside the node's output folder.
 pub struct SaveImage;
 
+node_ports! {
+    struct SaveImagePorts {
+        /// the image
+        image: input "Image",
+        /// the written file
+        file: output "File",
+    }
+}
+
 impl Node for SaveImage {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("save_image", "1")
             .doc("Writes an image as PNG at `path` inside OUT/<node>/file/ (paths may not leave that folder).")
-            .input("image", "Image", "the image")
-            .output("file", "File", "the written file")
+            .ports::<SaveImagePorts>()
             .params::<SaveImageParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: SaveImagePorts = ctx.ports_as()?;
         let p: SaveImageParams = ctx.params_as()?;
-        let img = Image::load(&ctx.input("image")?.join(IMAGE_PNG))?;
+        let img = Image::load(&ports.image.join(IMAGE_PNG))?;
         let rel: String = p.path;
         if !rel.to_ascii_lowercase().ends_with(".png") {
             bail!("path {rel:?} must end in .png");
         }
-        let dest = ctx.output("file")?.join(&rel);
+        let dest = ports.file.join(&rel);
         if let Some(parent) = dest.parent() {
             std::fs::create_dir_all(parent)?;
         }

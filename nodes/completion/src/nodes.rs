@@ -10,7 +10,9 @@ use crate::surface_mesh::{SurfaceMeshParams, complete_scene_surfaces};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::artifact::{IMAGE_PNG, MASK_PNG};
 use objectsplat_core::{Frames, Points};
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params, Registry};
+use objectsplat_runtime::{
+    Context, Node, NodeSpec, Outcome, ParamType, Params, Registry, node_ports,
+};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
@@ -34,9 +36,8 @@ pub fn register(reg: &mut Registry) {
 }
 
 /// The scene points, when the optional `points` input is wired.
-fn optional_points(ctx: &Context) -> Result<Option<Points>> {
-    ctx.input_opt("points")
-        .map(|dir| Points::read_ply(&dir.join(objectsplat_core::artifact::POINTS_PLY)))
+fn optional_points(dir: Option<&Path>) -> Result<Option<Points>> {
+    dir.map(|dir| Points::read_ply(&dir.join(objectsplat_core::artifact::POINTS_PLY)))
         .transpose()
 }
 
@@ -90,25 +91,35 @@ objectsplat_runtime::node_params! {
     }
 }
 
+node_ports! {
+    struct InpaintNodePorts {
+        /// the image to fill (image.png, 8- or 16-bit)
+        image: input "Image",
+        /// mask.png, non-zero = fill
+        mask: input "Mask",
+        /// the filled image, same bit depth and channels
+        image_out: output "Image" as "image",
+    }
+}
+
 impl Node for InpaintNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("inpaint", "1")
             .doc("Single-image inpainting with OpenCV's semantics (cv::inpaint, 4.10+): fast-marching order, NS isophote-weighted or Telea averages. 8- and 16-bit PNGs, 1-4 channels; pixels outside the mask are unchanged.")
-            .input("image", "Image", "the image to fill (image.png, 8- or 16-bit)")
-            .input("mask", "Mask", "mask.png, non-zero = fill")
-            .output("image", "Image", "the filled image, same bit depth and channels")
+            .ports::<InpaintNodePorts>()
             .params::<InpaintParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: InpaintNodePorts = ctx.ports_as()?;
         let p: InpaintParams = ctx.params_as()?;
         let options = Options {
             method: p.method.parse().map_err(anyhow::Error::msg)?,
             radius: p.radius,
             threads: ctx.threads(),
         };
-        let image_path = ctx.input("image")?.join(IMAGE_PNG);
-        let (mw, mh, set) = load_mask(ctx.input("mask")?)?;
+        let image_path = ports.image.join(IMAGE_PNG);
+        let (mw, mh, set) = load_mask(&ports.mask)?;
         let img = image::open(&image_path)
             .with_context(|| format!("{}: cannot read image", image_path.display()))?;
         let (w, h) = (img.width(), img.height());
@@ -117,7 +128,7 @@ impl Node for InpaintNode {
         }
         let mask: Vec<u8> = set.iter().map(|&s| u8::from(s)).collect();
         let filled = set.iter().filter(|&&s| s).count();
-        let out = ctx.output("image")?.join(IMAGE_PNG);
+        let out = ports.image_out.join(IMAGE_PNG);
         let (wu, hu) = (w as usize, h as usize);
         use image::DynamicImage as D;
         use image::ExtendedColorType as E;
@@ -180,21 +191,30 @@ objectsplat_runtime::node_params! {
 
 pub struct FillHolesNode;
 
+node_ports! {
+    struct FillHolesNodePorts {
+        /// mask.png, non-zero = set
+        mask: input "Mask",
+        /// the filled mask (mask.png, 0/255)
+        mask_out: output "Mask" as "mask",
+    }
+}
+
 impl Node for FillHolesNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("fill_holes", "1")
             .doc("Binary hole filling with scipy.ndimage.binary_fill_holes semantics.")
-            .input("mask", "Mask", "mask.png, non-zero = set")
-            .output("mask", "Mask", "the filled mask (mask.png, 0/255)")
+            .ports::<FillHolesNodePorts>()
             .params::<FillHolesParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: FillHolesNodePorts = ctx.ports_as()?;
         let connectivity = connectivity(ctx.params_as::<FillHolesParams>()?.connectivity)?;
-        let (w, h, set) = load_mask(ctx.input("mask")?)?;
+        let (w, h, set) = load_mask(&ports.mask)?;
         let filled = fill_holes(&set, w as usize, h as usize, connectivity);
         let added = filled.iter().zip(&set).filter(|(f, s)| **f && !**s).count();
-        save_mask(&ctx.output("mask")?, w, h, &filled)?;
+        save_mask(&ports.mask_out, w, h, &filled)?;
         ctx.note("pixels_filled", added);
         Ok(Outcome::Done)
     }
@@ -217,18 +237,29 @@ objectsplat_runtime::node_params! {
 
 pub struct SurfaceCompletionNode;
 
+node_ports! {
+    struct SurfaceCompletionNodePorts {
+        /// the partition's components
+        components: items "Component",
+        /// the capture
+        frames: input "Frames",
+        /// scene points for the planarity test (optional)
+        points: optional "Points",
+        /// all components; completed surfaces gain pixels, targets/ and completion.json
+        components_out: output "[Component]" as "components",
+    }
+}
+
 impl Node for SurfaceCompletionNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("surface_completion", "2")
             .doc("Completes flat support surfaces (tables, desks, counters): hole-fills each surface mask per frame, adopts filled pixels owned by other objects, and inpaints their colours with NS as training targets. Qualitative use: the paper keeps it out of reported metrics.")
-            .input("components", "[Component]", "the partition's components")
-            .input("frames", "Frames", "the capture")
-            .optional_input("points", "Points", "scene points for the planarity test (optional)")
-            .output("components", "[Component]", "all components; completed surfaces gain pixels, targets/ and completion.json")
+            .ports::<SurfaceCompletionNodePorts>()
             .params::<SurfaceCompletionParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: SurfaceCompletionNodePorts = ctx.ports_as()?;
         let p: SurfaceCompletionParams = ctx.params_as()?;
         let params = SurfaceParams {
             labels: p.labels,
@@ -237,12 +268,11 @@ impl Node for SurfaceCompletionNode {
             connectivity: connectivity(p.connectivity)?,
         };
         // Validates the capture even though the components carry their own frames.
-        Frames::read(ctx.input("frames")?)?;
-        let points = optional_points(ctx)?;
-        let items = ctx.input_items("components")?.to_vec();
+        Frames::read(&ports.frames)?;
+        let points = optional_points(ports.points.as_deref())?;
+        let items = ports.components;
         ctx.progress(0, 1, "completing support surfaces");
-        let report =
-            complete_surfaces(&items, points.as_ref(), &params, &ctx.output("components")?)?;
+        let report = complete_surfaces(&items, points.as_ref(), &params, &ports.components_out)?;
         for s in &report.surfaces {
             ctx.note(
                 &format!("surface {}", s.component),
@@ -269,25 +299,37 @@ impl Node for SurfaceCompletionNode {
 
 pub struct CompleteSurfacesNode;
 
+node_ports! {
+    struct CompleteSurfacesNodePorts {
+        /// the composed scene (members in the frame they were trained in)
+        scene: input "Scene",
+        /// surface_completion's components: completion.json marks a support surface, targets/ hold its inpainted colours
+        components: items "Component",
+        /// the capture
+        frames: input "Frames",
+        /// scene points; those on a surface's pixels join its plane fit
+        points: optional "Points",
+        /// the scene with completed surfaces (model.json metadata surface_completion_3d records each patch)
+        scene_out: output "Scene" as "scene",
+    }
+}
+
 impl Node for CompleteSurfacesNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("complete_surfaces", "1")
             .doc("Closes the holes resting objects leave in trained support surfaces (those surface_completion completed): fits the surface's plane to its trained faces, finds the part of its outline under resting objects' footprints that its faces do not cover, triangulates it (constrained Delaunay, spade), colours it from the NS-inpainted per-frame completions and appends it to the surface's model as opaque triangles. Degenerate surfaces are skipped with a reason.")
-            .input("scene", "Scene", "the composed scene (members in the frame they were trained in)")
-            .input("components", "[Component]", "surface_completion's components: completion.json marks a support surface, targets/ hold its inpainted colours")
-            .input("frames", "Frames", "the capture")
-            .optional_input("points", "Points", "scene points; those on a surface's pixels join its plane fit")
-            .output("scene", "Scene", "the scene with completed surfaces (model.json metadata surface_completion_3d records each patch)")
+            .ports::<CompleteSurfacesNodePorts>()
             .params::<SurfaceMeshParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: CompleteSurfacesNodePorts = ctx.ports_as()?;
         let params: SurfaceMeshParams = ctx.params_as()?;
         // Validates the capture; the components carry their own frames.
-        Frames::read(ctx.input("frames")?)?;
-        let points = optional_points(ctx)?;
-        let mut scene = objectsplat_scene::load_scene(ctx.input("scene")?)?;
-        let items = ctx.input_items("components")?.to_vec();
+        Frames::read(&ports.frames)?;
+        let points = optional_points(ports.points.as_deref())?;
+        let mut scene = objectsplat_scene::load_scene(&ports.scene)?;
+        let items = ports.components;
         ctx.progress(0, 1, "completing support surfaces in 3D");
         let report = complete_scene_surfaces(&mut scene, &items, points.as_ref(), &params)?;
         for s in &report.surfaces {
@@ -309,7 +351,7 @@ impl Node for CompleteSurfacesNode {
                 Ok(Outcome::Skipped(reason))
             }
             None => {
-                objectsplat_scene::save_scene(&scene, &ctx.output("scene")?)?;
+                objectsplat_scene::save_scene(&scene, &ports.scene_out)?;
                 Ok(Outcome::Done)
             }
         }
@@ -336,13 +378,22 @@ objectsplat_runtime::node_params! {
 
 pub struct InpaintBackgroundNode;
 
+node_ports! {
+    struct InpaintBackgroundNodePorts {
+        /// the partition's components (the background's masks say what to fill)
+        components: items "Component",
+        /// the capture
+        frames: input "Frames",
+        /// <frame stem>.png per background frame
+        fills: output "Images",
+    }
+}
+
 impl Node for InpaintBackgroundNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("inpaint_background", "1")
             .doc("Fills the background where objects stood, per frame, for interactive/qualitative use only (never fed to metrics or training). Methods: built-in ns/telea, an external command (argv, no shell; protocol in the crate docs), or a folder of precomputed fills.")
-            .input("components", "[Component]", "the partition's components (the background's masks say what to fill)")
-            .input("frames", "Frames", "the capture")
-            .output("fills", "Images", "<frame stem>.png per background frame")
+            .ports::<InpaintBackgroundNodePorts>()
             .params::<InpaintBackgroundParams>()
     }
 
@@ -356,6 +407,7 @@ impl Node for InpaintBackgroundNode {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: InpaintBackgroundNodePorts = ctx.ports_as()?;
         let p: InpaintBackgroundParams = ctx.params_as()?;
         let source = match p.method.as_str() {
             "ns" | "telea" => FillSource::Builtin {
@@ -374,10 +426,10 @@ impl Node for InpaintBackgroundNode {
             }
             other => bail!("unknown method {other:?}"),
         };
-        let frames = Frames::read(ctx.input("frames")?)?;
-        let items = ctx.input_items("components")?.to_vec();
+        let frames = Frames::read(&ports.frames)?;
+        let items = ports.components;
         let scratch = ctx.scratch().to_path_buf();
-        let report = inpaint_background(&items, &frames, &source, &ctx.output("fills")?, &scratch)?;
+        let report = inpaint_background(&items, &frames, &source, &ports.fills, &scratch)?;
         ctx.note("use", "qualitative only: never fed to metrics or training");
         ctx.note(
             "frames_filled",

@@ -9,7 +9,7 @@ use anyhow::{Context as _, Result};
 use evaluate::{EvaluateSettings, GroundTruth, GtSurface, evaluate_scene};
 use objectsplat_core::{Frames, read_mesh_artifact};
 use objectsplat_metrics::{Lpips, MeshEvalParams, SampleCount, SsimMode};
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, node_ports};
 use objectsplat_scene::load_scene;
 use std::path::Path;
 use std::sync::Arc;
@@ -45,20 +45,33 @@ objectsplat_runtime::node_params! {
 /// `evaluate`: image metrics of the test renders and mesh F-score, scene and per object.
 pub struct Evaluate;
 
+node_ports! {
+    struct EvaluatePorts {
+        /// renders of the test frames (<frame stem>.png)
+        images: input "Images",
+        /// the capture; its test split is the ground truth
+        frames: input "Frames",
+        /// the scene whose surface is scored
+        scene: input "Scene",
+        /// ground-truth mesh; per-object F-score needs its object ids
+        mesh: optional "Mesh",
+        /// ground-truth object-id maps of the test frames, for per-object image metrics
+        masks: optional "Masks",
+        /// metrics.json + metrics.csv
+        metrics: output "Metrics",
+    }
+}
+
 impl Node for Evaluate {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("evaluate", "4")
             .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id (per object also at each of object_taus). Writes metrics.json and metrics.csv.")
-            .input("images", "Images", "renders of the test frames (<frame stem>.png)")
-            .input("frames", "Frames", "the capture; its test split is the ground truth")
-            .input("scene", "Scene", "the scene whose surface is scored")
-            .optional_input("mesh", "Mesh", "ground-truth mesh; per-object F-score needs its object ids")
-            .optional_input("masks", "Masks", "ground-truth object-id maps of the test frames, for per-object image metrics")
-            .output("metrics", "Metrics", "metrics.json + metrics.csv")
+            .ports::<EvaluatePorts>()
             .params::<EvaluateParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: EvaluatePorts = ctx.ports_as()?;
         let p: EvaluateParams = ctx.params_as()?;
         let tau: f64 = p.tau;
         let voxel: f64 = p.voxel;
@@ -79,15 +92,15 @@ impl Node for Evaluate {
             ),
             None => None,
         };
-        let frames = Frames::read(ctx.input("frames")?)?;
-        let scene = load_scene(ctx.input("scene")?)?;
-        let gt_mesh = match ctx.input_opt("mesh") {
+        let frames = Frames::read(&ports.frames)?;
+        let scene = load_scene(&ports.scene)?;
+        let gt_mesh = match ports.mesh.as_deref() {
             Some(dir) => Some(read_mesh_artifact(dir)?),
             None => None,
         };
         let truth = GroundTruth {
             mesh: gt_mesh.as_ref().map(|(m, l)| (m, l)),
-            masks: ctx.input_opt("masks"),
+            masks: ports.masks.as_deref(),
         };
         let settings = EvaluateSettings {
             mesh: MeshEvalParams {
@@ -108,9 +121,8 @@ impl Node for Evaluate {
             },
         };
         ctx.progress(0, 1, "evaluating");
-        let (report, summary) =
-            evaluate_scene(ctx.input("images")?, &frames, &scene, &truth, &settings)?;
-        report.write(&ctx.output("metrics")?)?;
+        let (report, summary) = evaluate_scene(&ports.images, &frames, &scene, &truth, &settings)?;
+        report.write(&ports.metrics)?;
         ctx.progress(1, 1, "evaluated");
         ctx.note("test images", summary.test_images);
         ctx.note("images with object masks", summary.images_with_masks);

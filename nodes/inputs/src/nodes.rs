@@ -10,7 +10,9 @@ use crate::scene::{self, Resolution, SplitChoice, WrittenFrames};
 use crate::{colmap, colmap_scene, nerfstudio};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::{Split, SplitPolicy};
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params, Registry};
+use objectsplat_runtime::{
+    Context, Node, NodeSpec, Outcome, ParamType, Params, Registry, node_ports,
+};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
@@ -65,13 +67,14 @@ fn resolution_param(ctx: &Context) -> Result<Resolution> {
     Resolution::new(p.resolution, p.max_width)
 }
 
-/// Writes the `frames` output, scaled by the shared resolution params.
+/// Writes the `frames` output into `out`, scaled by the shared resolution params.
 fn write_frames_output(
     ctx: &Context,
+    out: &Path,
     views: Vec<scene::SourceView>,
     split: &SplitChoice,
 ) -> Result<WrittenFrames> {
-    scene::write_frames(&ctx.output("frames")?, views, split, resolution_param(ctx)?)
+    scene::write_frames(out, views, split, resolution_param(ctx)?)
 }
 
 /// Report lines for the frames a source wrote: how many, how they split, what was undistorted.
@@ -122,13 +125,21 @@ objectsplat_runtime::node_params! {
 /// `colmap_scene`: a COLMAP sparse model and its images.
 pub struct ColmapScene;
 
+node_ports! {
+    struct ColmapScenePorts {
+        /// posed images, split and downscaled
+        frames: output "Frames",
+        /// the model's 3D points with colours
+        points: output "Points",
+    }
+}
+
 impl Node for ColmapScene {
     fn spec(&self) -> NodeSpec {
         with_scene_params(
             NodeSpec::new("colmap_scene", "1")
                 .doc("A COLMAP sparse model (text or binary, classic or rigs/frames layout) and its images. Distorted cameras (SIMPLE_RADIAL, RADIAL, OPENCV, FULL_OPENCV, OPENCV_FISHEYE, SIMPLE_RADIAL_FISHEYE, RADIAL_FISHEYE) are undistorted to the pinhole camera COLMAP's image_undistorter would choose, images resampled bilinearly.")
-                .output("frames", "Frames", "posed images, split and downscaled")
-                .output("points", "Points", "the model's 3D points with colours")
+                .ports::<ColmapScenePorts>()
                 .params::<ColmapSceneParams>(),
             None,
         )
@@ -144,6 +155,7 @@ impl Node for ColmapScene {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: ColmapScenePorts = ctx.ports_as()?;
         let p: ColmapSceneParams = ctx.params_as()?;
         let path = PathBuf::from(p.path);
         let model = colmap::read_model(&path)?;
@@ -154,9 +166,9 @@ impl Node for ColmapScene {
         let views = colmap_scene::views(&model, &images)?;
         ctx.progress(0, 2, "writing frames");
         let split = split_param(ctx, || bail!("a COLMAP model has no train/test lists"))?;
-        let written = write_frames_output(ctx, views, &split)?;
+        let written = write_frames_output(ctx, &ports.frames, views, &split)?;
         ctx.progress(1, 2, "writing points");
-        scene::write_points(&ctx.output("points")?, &colmap_scene::points(&model))?;
+        scene::write_points(&ports.points, &colmap_scene::points(&model))?;
         ctx.progress(2, 2, "done");
         note_frames(ctx, &written);
         ctx.note("points", model.points.len());
@@ -224,12 +236,19 @@ objectsplat_runtime::node_params! {
     }
 }
 
+node_ports! {
+    struct NerfstudioScenePorts {
+        /// posed images, split and downscaled; mask_path becomes valid/<stem>.png
+        frames: output "Frames",
+    }
+}
+
 impl Node for NerfstudioScene {
     fn spec(&self) -> NodeSpec {
         with_scene_params(
             NodeSpec::new("nerfstudio_scene", "2")
                 .doc("A nerfstudio/instant-ngp transforms.json (OpenGL camera-to-world, converted to OpenCV). Distorted cameras (camera_model OPENCV with k1, k2, k3, p1, p2; OPENCV_FISHEYE with k1..k4) are undistorted to the pinhole camera COLMAP's image_undistorter would choose. ScanNet++ test_frames are test frames.")
-                .output("frames", "Frames", "posed images, split and downscaled; mask_path becomes valid/<stem>.png")
+                .ports::<NerfstudioScenePorts>()
                 .params::<NerfstudioSceneParams>(),
             Some("the JSON's test_frames, or its train_filenames / test_filenames"),
         )
@@ -247,6 +266,7 @@ impl Node for NerfstudioScene {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: NerfstudioScenePorts = ctx.ports_as()?;
         let p: NerfstudioSceneParams = ctx.params_as()?;
         let t = read_transforms(&p)?;
         let path = PathBuf::from(&p.path);
@@ -267,7 +287,7 @@ impl Node for NerfstudioScene {
             })?;
             Ok(format!("{} ({source})", path.display()))
         })?;
-        let written = write_frames_output(ctx, views, &split)?;
+        let written = write_frames_output(ctx, &ports.frames, views, &split)?;
         note_frames(ctx, &written);
         if t.skipped_bad > 0 {
             ctx.note("skipped is_bad frames", t.skipped_bad);
@@ -292,20 +312,30 @@ objectsplat_runtime::node_params! {
 /// `scannetpp_scene`: one ScanNet++ scene folder.
 pub struct ScannetppScene;
 
+node_ports! {
+    struct ScannetppScenePorts {
+        /// posed undistorted DSLR images; the JSON's test_frames are test frames
+        frames: output "Frames",
+        /// mesh_aligned_0.05 with per-vertex object ids (the annotation's objectIds; ids above 65534 are an error) and labels
+        mesh: output "Mesh",
+        /// COLMAP points (mesh vertices when there are none)
+        points: output "Points",
+    }
+}
+
 impl Node for ScannetppScene {
     fn spec(&self) -> NodeSpec {
         with_scene_params(
             NodeSpec::new("scannetpp_scene", "2")
                 .doc("A ScanNet++ scene folder: DSLR images (the toolkit's undistorted ones, else the fisheye ones undistorted here), COLMAP poses (mesh frame), the annotated mesh with the annotation's own objectIds.")
-                .output("frames", "Frames", "posed undistorted DSLR images; the JSON's test_frames are test frames")
-                .output("mesh", "Mesh", "mesh_aligned_0.05 with per-vertex object ids (the annotation's objectIds; ids above 65534 are an error) and labels")
-                .output("points", "Points", "COLMAP points (mesh vertices when there are none)")
+                .ports::<ScannetppScenePorts>()
                 .params::<ScannetppSceneParams>(),
             Some("dslr/train_test_lists.json"),
         )
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: ScannetppScenePorts = ctx.ports_as()?;
         let p: ScannetppSceneParams = ctx.params_as()?;
         let path = PathBuf::from(p.path);
         let overlap = GroupOverlap::parse(&p.overlap)?;
@@ -325,9 +355,10 @@ impl Node for ScannetppScene {
                 .count();
             Ok(file.display().to_string())
         })?;
-        let written = write_frames_output(ctx, std::mem::take(&mut s.views), &split)?;
-        objectsplat_core::write_mesh_artifact(&ctx.output("mesh")?, &s.mesh, &s.labels)?;
-        scene::write_points(&ctx.output("points")?, &s.points)?;
+        let written =
+            write_frames_output(ctx, &ports.frames, std::mem::take(&mut s.views), &split)?;
+        objectsplat_core::write_mesh_artifact(&ports.mesh, &s.mesh, &s.labels)?;
+        scene::write_points(&ports.points, &s.points)?;
         note_frames(ctx, &written);
         ctx.note(
             "images",
@@ -392,23 +423,29 @@ objectsplat_runtime::node_params! {
     }
 }
 
+node_ports! {
+    struct ImportMasksPorts {
+        /// the frames the masks belong to (names and sizes)
+        frames: input "Frames",
+        /// the mask files made by another node (e.g. a `command` mask source), instead of `path`
+        source: optional "File",
+        /// one 16-bit id map per frame + objects.json
+        masks: output "Masks",
+    }
+}
+
 impl Node for ImportMasks {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("import_masks", "1")
             .doc("Imports DAVIS indexed PNGs, per-object PNG folders, SAM COCO-RLE JSON or Grounded-SAM-2 output as mutually exclusive id maps.")
-            .input("frames", "Frames", "the frames the masks belong to (names and sizes)")
-            .optional_input(
-                "source",
-                "File",
-                "the mask files made by another node (e.g. a `command` mask source), instead of `path`",
-            )
-            .output("masks", "Masks", "one 16-bit id map per frame + objects.json")
+            .ports::<ImportMasksPorts>()
             .params::<ImportMasksParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: ImportMasksPorts = ctx.ports_as()?;
         let p: ImportMasksParams = ctx.params_as()?;
-        let source = match (ctx.input_opt("source"), p.path) {
+        let source = match (ports.source.as_deref(), p.path) {
             (Some(dir), None) => dir.to_path_buf(),
             (None, Some(path)) => PathBuf::from(path),
             (Some(_), Some(path)) => bail!(
@@ -420,8 +457,8 @@ impl Node for ImportMasks {
         };
         let format = MaskFormat::parse(&p.format)?;
         let policy = OverlapPolicy::parse(&p.overlap)?;
-        let frames = ctx.input("frames")?.to_path_buf();
-        let out = ctx.output("masks")?;
+        let frames = ports.frames;
+        let out = ports.masks;
         let summary = {
             let ctx_ref: &Context = ctx;
             masks_import::import(&source, format, policy, &frames, &out, |done, total| {

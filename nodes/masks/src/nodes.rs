@@ -13,7 +13,7 @@ use objectsplat_core::frames::frame_stem;
 use objectsplat_core::masks::{NO_OBJECT, UNOWNED};
 use objectsplat_core::{Frames, read_mesh_artifact};
 use objectsplat_gpu::{AdapterChoice, GpuContext};
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, node_ports};
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
@@ -50,6 +50,17 @@ objectsplat_runtime::node_params! {
 
 pub struct GtMasksNode;
 
+node_ports! {
+    struct GtMasksNodePorts {
+        /// cameras to rasterize into
+        frames: input "Frames",
+        /// annotated mesh (per-vertex object_id + objects.json)
+        mesh: input "Mesh",
+        /// one 16-bit id map per frame + objects.json
+        masks: output "Masks",
+    }
+}
+
 impl Node for GtMasksNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("gt_masks", "2")
@@ -59,16 +70,15 @@ impl Node for GtMasksNode {
                  that is no kept object (background label, label not kept, or object below min_pixels in that \
                  frame); 65535 = no surface.",
             )
-            .input("frames", "Frames", "cameras to rasterize into")
-            .input("mesh", "Mesh", "annotated mesh (per-vertex object_id + objects.json)")
-            .output("masks", "Masks", "one 16-bit id map per frame + objects.json")
+            .ports::<GtMasksNodePorts>()
             .params::<GtMasksParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: GtMasksNodePorts = ctx.ports_as()?;
         let p: GtMasksParams = ctx.params_as()?;
-        let frames_dir = ctx.input("frames")?.to_path_buf();
-        let mesh_dir = ctx.input("mesh")?.to_path_buf();
+        let frames_dir = ports.frames;
+        let mesh_dir = ports.mesh;
         let frames = Frames::read(&frames_dir)?;
         let (mesh, labels) = read_mesh_artifact(&mesh_dir)?;
         let params = GtMaskParams {
@@ -108,7 +118,7 @@ impl Node for GtMasksNode {
                 objects_json.display()
             )
         })?;
-        let out = ctx.output("masks")?;
+        let out = ports.masks;
         let mut stems = BTreeSet::new();
         let mut present = BTreeSet::new();
         let total = frames.frames.len() as u64;
@@ -199,6 +209,17 @@ objectsplat_runtime::node_params! {
 
 pub struct PartitionNode;
 
+node_ports! {
+    struct PartitionNodePorts {
+        /// the capture
+        frames: input "Frames",
+        /// mutually exclusive object masks
+        masks: input "Masks",
+        /// one item per object + the background
+        components: output "[Component]",
+    }
+}
+
 impl Node for PartitionNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("partition", "1")
@@ -208,24 +229,18 @@ impl Node for PartitionNode {
                  objects below the budget, listed with a reason in background/dropped.json). holistic: true is the \
                  baseline — a single component `scene` (kind background) owning every pixel of every frame.",
             )
-            .input("frames", "Frames", "the capture")
-            .input("masks", "Masks", "mutually exclusive object masks")
-            .output("components", "[Component]", "one item per object + the background")
+            .ports::<PartitionNodePorts>()
             .params::<PartitionNodeParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: PartitionNodePorts = ctx.ports_as()?;
         let p: PartitionNodeParams = ctx.params_as()?;
         let params = PartitionParams {
             min_pixels: p.min_pixels,
             holistic: p.holistic,
         };
-        let plan = partition_folders(
-            ctx.input("frames")?,
-            ctx.input("masks")?,
-            &ctx.output("components")?,
-            &params,
-        )?;
+        let plan = partition_folders(&ports.frames, &ports.masks, &ports.components, &params)?;
         let names: Vec<&str> = plan
             .components
             .iter()

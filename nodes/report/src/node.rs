@@ -12,7 +12,7 @@ use anyhow::{Context as _, Result};
 use objectsplat_core::Frames;
 use objectsplat_core::frames::{Split, frame_stem};
 use objectsplat_raster::TrainingLog;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, node_ports};
 use std::path::Path;
 use std::sync::Arc;
 
@@ -67,36 +67,49 @@ objectsplat_runtime::node_params! {
     }
 }
 
+node_ports! {
+    struct ReportNodePorts {
+        /// the evaluation (metrics.json)
+        metrics: optional "Metrics",
+        /// the capture; its test-split frames are the ground truth of the views
+        frames: optional "Frames",
+        /// renders of the test frames, named <frame stem>.png
+        renders: optional "Images",
+        /// trained models; their training.json gives the training curves
+        models: optional_items "Model",
+        /// a `viewer` node's folder (index.html, scene.glb, viewer.json): its 3D view is embedded
+        viewer: optional "File",
+        /// a folder with index.html
+        file: output "File",
+    }
+}
+
 impl Node for ReportNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("report", "3")
             .doc("A self-contained HTML report (index.html): the run's graph with each node's status and time (read from the run.js `objectsplat run` writes beside the outputs), the interactive 3D view of the scene (when a `viewer` folder is wired), metrics table, test-view triplets (ground truth / render / error heatmap), training curves of the models; no external resources.")
-            .optional_input("metrics", "Metrics", "the evaluation (metrics.json)")
-            .optional_input("frames", "Frames", "the capture; its test-split frames are the ground truth of the views")
-            .optional_input("renders", "Images", "renders of the test frames, named <frame stem>.png")
-            .optional_input("models", "[Model]", "trained models; their training.json gives the training curves")
-            .optional_input("viewer", "File", "a `viewer` node's folder (index.html, scene.glb, viewer.json): its 3D view is embedded")
-            .output("file", "File", "a folder with index.html")
+            .ports::<ReportNodePorts>()
             .params::<ReportParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: ReportNodePorts = ctx.ports_as()?;
         let p: ReportParams = ctx.params_as()?;
         let title: String = p.title;
         let max_views: i64 = p.max_views;
         let error_scale: f64 = p.error_scale;
-        let metrics = match ctx.input_opt("metrics") {
+        let metrics = match ports.metrics.as_deref() {
             Some(dir) => Some(MetricsReport::read(dir)?),
             None => None,
         };
-        let views = match (ctx.input_opt("frames"), ctx.input_opt("renders")) {
+        let views = match (ports.frames.as_deref(), ports.renders.as_deref()) {
             (Some(frames), Some(renders)) => {
                 test_views(frames, renders, max_views.max(0) as usize)?
             }
             _ => Vec::new(),
         };
-        let training = match ctx.input_opt("models") {
-            Some(_) => training_logs(ctx.input_items("models")?)?,
+        let training = match &ports.models {
+            Some(models) => training_logs(models)?,
             None => Vec::new(),
         };
         ctx.note("views", views.len());
@@ -104,7 +117,7 @@ impl Node for ReportNode {
             let logged = training.iter().filter(|t| t.log.is_some()).count();
             ctx.note("training logs", format!("{logged} of {}", training.len()));
         }
-        let viewer = ctx.input_opt("viewer").map(Path::to_path_buf);
+        let viewer = ports.viewer;
         if viewer.is_some() {
             ctx.note("3D view", "embedded");
         }
@@ -118,7 +131,7 @@ impl Node for ReportNode {
             ..Default::default()
         };
         ctx.progress(0, 1, "writing report");
-        render_report(&ctx.output("file")?, &data)?;
+        render_report(&ports.file, &data)?;
         ctx.progress(1, 1, "report written");
         Ok(Outcome::Done)
     }

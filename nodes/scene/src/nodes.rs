@@ -16,6 +16,7 @@ use objectsplat_export::{ExportObject, ExportedComponent, SrgbColors, build_glb}
 use objectsplat_raster::load_model;
 use objectsplat_runtime::{
     CheckedInput, Context, Node, NodeSpec, Outcome, ParamError, ParamType, Params, Registry, Value,
+    node_ports,
 };
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -31,16 +32,25 @@ fn check_cancel(ctx: &Context) -> Result<()> {
 /// `compose`: the trained components side by side, as one separable scene.
 pub struct Compose;
 
+node_ports! {
+    struct ComposePorts {
+        /// one trained model per component; items named `background` or `obj_<id>_<label>` (or model.json metadata.component says which)
+        models: items "Model",
+        /// scene.json + objects/<name>/ (one Model folder per member)
+        scene: output "Scene",
+    }
+}
+
 impl Node for Compose {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("compose", "1")
             .doc("The union of the trained component models in the shared world frame: one scene member per component (object id, label), no re-optimization.")
-            .input("models", "[Model]", "one trained model per component; items named `background` or `obj_<id>_<label>` (or model.json metadata.component says which)")
-            .output("scene", "Scene", "scene.json + objects/<name>/ (one Model folder per member)")
+            .ports::<ComposePorts>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let items = ctx.input_items("models")?.to_vec();
+        let ports: ComposePorts = ctx.ports_as()?;
+        let items = ports.models;
         if items.is_empty() {
             bail!("the models collection is empty; there is nothing to compose");
         }
@@ -56,7 +66,7 @@ impl Node for Compose {
             });
         }
         let scene = Scene::new(objects)?;
-        save_scene(&scene, &ctx.output("scene")?)?;
+        save_scene(&scene, &ports.scene)?;
         ctx.progress(items.len() as u64, items.len() as u64, "composed");
         ctx.note("members", scene.objects.len());
         ctx.note("triangles", scene.face_count());
@@ -75,20 +85,28 @@ objectsplat_runtime::node_params! {
 /// `load_scene`: a Scene folder from disk, e.g. one a previous run materialized.
 pub struct LoadScene;
 
+node_ports! {
+    struct LoadScenePorts {
+        /// the scene as read
+        scene: output "Scene",
+    }
+}
+
 impl Node for LoadScene {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("load_scene", "1")
             .doc("Reads a Scene folder (scene.json + objects/<name>/ + optional fills/) from disk, e.g. one a previous run wrote under OUT/<node>/scene/, and checks it.")
-            .output("scene", "Scene", "the scene as read")
+            .ports::<LoadScenePorts>()
             .params::<LoadSceneParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: LoadScenePorts = ctx.ports_as()?;
         let p: LoadSceneParams = ctx.params_as()?;
         let path: String = p.path;
         let dir = PathBuf::from(&path);
         let scene = load_scene(&dir)?;
-        let out = ctx.output("scene")?;
+        let out = ports.scene;
         save_scene(&scene, &out)?;
         if dir.join(SCENE_FILLS_DIR).is_dir() {
             let fills = copy_pngs(&dir.join(SCENE_FILLS_DIR), &out.join(SCENE_FILLS_DIR))?;
@@ -122,13 +140,22 @@ pub struct EditScene;
 
 const EDITS_DOC: &str = "list of edits applied in order, e.g. [Move(target: Id(3), by: (0.5, 0, 0)), Rotate(target: Label(\"chair\"), axis: (0, 0, 1), degrees: 90), Scale(target: Id(2), factor: 1.5), Duplicate(target: Id(4), offset: (1, 0, 0)), Remove(target: Label(\"cup\")), Recolor(target: Id(3), rgb: (1, 0, 0))]; targets Id(n), Label(\"…\") (all objects with it) or Name(\"…\") (a member, e.g. \"background\")";
 
+node_ports! {
+    struct EditScenePorts {
+        /// the scene to edit
+        scene: input "Scene",
+        /// per-frame inpainted background images (<frame stem>.png)
+        fills: optional "Images",
+        /// the edited scene
+        scene_out: output "Scene" as "scene",
+    }
+}
+
 impl Node for EditScene {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("edit_scene", "2")
             .doc("Edits a composed scene. Rigid edits (move, rotate, scale, a duplicate's offset) change the member's placement, not its model, so the exported .glb node carries them as its transform; rotation and scale act about the member's pivot (its centroid); a duplicate gets the next free id. The scene records the edits it has been through (scene.json `edits`). When `fills` (inpainted background views) is wired, it is stored with the scene and `render` shows it wherever no triangle covers a pixel, e.g. where a moved object used to be.")
-            .input("scene", "Scene", "the scene to edit")
-            .optional_input("fills", "Images", "per-frame inpainted background images (<frame stem>.png)")
-            .output("scene", "Scene", "the edited scene")
+            .ports::<EditScenePorts>()
             .param("edits", ParamType::Ron("list of edits".into()), Some("[]"), EDITS_DOC)
     }
 
@@ -186,6 +213,7 @@ impl Node for EditScene {
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: EditScenePorts = ctx.ports_as()?;
         let items = match ctx.params().value("edits") {
             Some(Value::List(items)) => items.clone(),
             Some(other) => bail!(
@@ -195,8 +223,8 @@ impl Node for EditScene {
             None => bail!("parameter `edits` is not declared"),
         };
         let edits = parse_edits(&items)?;
-        let input = ctx.input("scene")?.to_path_buf();
-        if edits.is_empty() && ctx.input_opt("fills").is_none() {
+        let input = ports.scene;
+        if edits.is_empty() && ports.fills.is_none() {
             ctx.forward("scene", "scene")?;
             return Ok(Outcome::Skipped(
                 "no edits given; the scene is passed on unchanged".into(),
@@ -204,9 +232,9 @@ impl Node for EditScene {
         }
         let mut scene = load_scene(&input)?;
         let log = apply_edits(&mut scene, &edits)?;
-        let out = ctx.output("scene")?;
+        let out = ports.scene_out;
         save_scene(&scene, &out)?;
-        let fills = match ctx.input_opt("fills") {
+        let fills = match ports.fills.as_deref() {
             Some(dir) => Some(dir.to_path_buf()),
             None => Some(input.join(SCENE_FILLS_DIR)).filter(|d| d.is_dir()),
         };
@@ -256,18 +284,29 @@ objectsplat_runtime::node_params! {
 /// `render`: the scene from the frames' cameras or an orbit, as PNGs.
 pub struct Render;
 
+node_ports! {
+    struct RenderPorts {
+        /// the scene to render
+        scene: input "Scene",
+        /// cameras (and intrinsics/scale for the orbit)
+        frames: input "Frames",
+        /// per-frame background images (<frame stem>.png), e.g. from inpaint_background
+        fills: optional "Images",
+        /// one PNG per view
+        images: output "Images",
+    }
+}
+
 impl Node for Render {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("render", "2")
             .doc("Renders the (composed or edited) scene: all members' triangles in one pass, the renderer's depth order deciding. Views: the frames' test/train/all cameras (PNG per frame, <frame stem>.png) or an orbit (orbit_000.png …) around the objects at the frames' mean height and distance. Where no triangle covers a pixel it shows the background fill of that frame (the `fills` input, else the scene's stored fills), else the `background` colour.")
-            .input("scene", "Scene", "the scene to render")
-            .input("frames", "Frames", "cameras (and intrinsics/scale for the orbit)")
-            .optional_input("fills", "Images", "per-frame background images (<frame stem>.png), e.g. from inpaint_background")
-            .output("images", "Images", "one PNG per view")
+            .ports::<RenderPorts>()
             .params::<RenderParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: RenderPorts = ctx.ports_as()?;
         let p: RenderParams = ctx.params_as()?;
         let views: String = p.views;
         let orbit_count: i64 = p.orbit_count;
@@ -282,15 +321,15 @@ impl Node for Render {
             );
         };
         let uniform = [r as f32, g as f32, b as f32];
-        let scene_dir = ctx.input("scene")?.to_path_buf();
+        let scene_dir = ports.scene;
         let scene = load_scene(&scene_dir)?;
-        let frames = Frames::read(ctx.input("frames")?)?;
+        let frames = Frames::read(&ports.frames)?;
         let merged = scene.merged_model()?.model;
-        let fills = match ctx.input_opt("fills") {
+        let fills = match ports.fills.as_deref() {
             Some(dir) => Some(dir.to_path_buf()),
             None => Some(scene_dir.join(SCENE_FILLS_DIR)).filter(|d| d.is_dir()),
         };
-        let out = ctx.output("images")?;
+        let out = ports.images;
 
         let jobs: Vec<(String, objectsplat_core::Camera, Option<PathBuf>)> = if views == "orbit" {
             orbit_cameras(&scene, &frames.frames, orbit_count as usize)?
@@ -388,18 +427,27 @@ pub fn export_objects(scene: &Scene) -> Vec<ExportObject> {
         .collect()
 }
 
+node_ports! {
+    struct ExportGltfPorts {
+        /// the scene to export
+        scene: input "Scene",
+        /// scene.glb + ply/<member>.ply
+        file: output "File",
+    }
+}
+
 impl Node for ExportGltf {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("export_gltf", "2")
             .doc("Exports the scene as scene.glb (a node per member named obj_<id>_<label> or background, its origin on the member's centre and its placement — edits included — as the node's translation / rotation / scale, vertices in the object's frame, extras with id and label, linear vertex colours from the SH DC term, unlit material, Z-up → Y-up root) and ply/<member>.ply (capture frame, 8-bit sRGB). Faces too faint for the renderer to draw (opacity < 0.01) are left out.")
-            .input("scene", "Scene", "the scene to export")
-            .output("file", "File", "scene.glb + ply/<member>.ply")
+            .ports::<ExportGltfPorts>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
-        let scene = load_scene(ctx.input("scene")?)?;
+        let ports: ExportGltfPorts = ctx.ports_as()?;
+        let scene = load_scene(&ports.scene)?;
         let objects = export_objects(&scene);
-        let out = ctx.output("file")?;
+        let out = ports.file;
         ctx.progress(0, 2, "writing scene.glb");
         let glb_path = out.join(SCENE_GLB);
         let (bytes, written) = scene_glb(&scene)
@@ -456,21 +504,31 @@ objectsplat_runtime::node_params! {
     }
 }
 
+node_ports! {
+    struct ViewerPorts {
+        /// the scene to show
+        scene: input "Scene",
+        /// the capture: the view starts from its first camera, looking at the objects
+        frames: optional "Frames",
+        /// index.html + scene.glb + viewer.json
+        file: output "File",
+    }
+}
+
 impl Node for Viewer {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("viewer", "1")
             .doc("The scene as an interactive page (index.html; opens from disk with no network; WebGL2): orbit / pan / zoom, click an object to select it (highlight + name and label), move / turn / scale it with the mouse or keys, duplicate, remove, recolor, undo; `Export edits` gives the RON list that edit_scene's `edits` takes (the scene's own earlier edits first), so a graph reproduces what was done by hand. Scripting surface window.objectsplat: ready, objects(), pick(x, y), apply(edit), edits(). Also writes scene.glb (as export_gltf) and viewer.json; the report embeds the view when given this folder.")
-            .input("scene", "Scene", "the scene to show")
-            .optional_input("frames", "Frames", "the capture: the view starts from its first camera, looking at the objects")
-            .output("file", "File", "index.html + scene.glb + viewer.json")
+            .ports::<ViewerPorts>()
             .params::<ViewerParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: ViewerPorts = ctx.ports_as()?;
         let p: ViewerParams = ctx.params_as()?;
         let title: String = p.title;
-        let scene = load_scene(ctx.input("scene")?)?;
-        let frames = match ctx.input_opt("frames") {
+        let scene = load_scene(&ports.scene)?;
+        let frames = match ports.frames.as_deref() {
             Some(dir) => Some(Frames::read(dir)?),
             None => None,
         };
@@ -493,7 +551,7 @@ impl Node for Viewer {
             edits: scene.edits.clone(),
             camera: starting_camera(&scene, frames.as_ref())?,
         };
-        write_viewer(&ctx.output("file")?, &glb, &view)?;
+        write_viewer(&ports.file, &glb, &view)?;
         ctx.progress(1, 1, "viewer written");
         ctx.note("members", scene.objects.len());
         ctx.note(

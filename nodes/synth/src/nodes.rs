@@ -6,7 +6,7 @@
 use crate::scene::{SyntheticParams, generate};
 use anyhow::{Result, bail};
 use objectsplat_core::SplitPolicy;
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry};
+use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, node_ports};
 use std::sync::Arc;
 
 /// Adds `synthetic_scene` to `reg` (its types must be registered already).
@@ -48,6 +48,17 @@ objectsplat_runtime::node_params! {
 
 pub struct SyntheticSceneNode;
 
+node_ports! {
+    struct SyntheticSceneNodePorts {
+        /// rendered views, frame_000… (8-bit PNG)
+        frames: output "Frames",
+        /// the complete annotated mesh (per-vertex object_id, objects.json)
+        mesh: output "Mesh",
+        /// sparse coloured points
+        points: output "Points",
+    }
+}
+
 impl Node for SyntheticSceneNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("synthetic_scene", "1")
@@ -57,13 +68,12 @@ impl Node for SyntheticSceneNode {
                  and SfM-like sparse points (surface samples seen by ≥ 2 cameras, with Gaussian noise). Deterministic \
                  from its seed.",
             )
-            .output("frames", "Frames", "rendered views, frame_000… (8-bit PNG)")
-            .output("mesh", "Mesh", "the complete annotated mesh (per-vertex object_id, objects.json)")
-            .output("points", "Points", "sparse coloured points")
+            .ports::<SyntheticSceneNodePorts>()
             .params::<SyntheticSceneParams>()
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: SyntheticSceneNodePorts = ctx.ports_as()?;
         let p: SyntheticSceneParams = ctx.params_as()?;
         let split = match p.split.as_str() {
             "sparse" => SplitPolicy::Sparse,
@@ -87,11 +97,7 @@ impl Node for SyntheticSceneNode {
             threads: ctx.threads().max(1),
         };
         let scene = generate(&params)?;
-        scene.write(
-            &ctx.output("frames")?,
-            &ctx.output("mesh")?,
-            &ctx.output("points")?,
-        )?;
+        scene.write(&ports.frames, &ports.mesh, &ports.points)?;
         let (w, h) = params.image_size();
         ctx.note("frames", format!("{} at {w}×{h}", scene.frames.len()));
         ctx.note(

@@ -11,11 +11,11 @@ use objectsplat_core::{ComponentInfo, ComponentKind, Points};
 use objectsplat_raster::save_model;
 use objectsplat_raster::{Model, load_model};
 use objectsplat_runtime::{
-    Context, Node, NodeSpec, Outcome, ParamError, ParamType, Params, Registry,
+    Context, Node, NodeSpec, Outcome, ParamError, ParamType, Params, Registry, node_ports,
 };
 use serde_json::{Map, Number, Value};
 use std::collections::BTreeMap;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 
 /// Numbers from the graph as JSON: whole numbers as integers (iteration counts
@@ -102,6 +102,21 @@ objectsplat_runtime::node_params! {
 
 pub struct TrainNode;
 
+node_ports! {
+    struct TrainNodePorts {
+        /// the component to train (fan out over [Component])
+        component: input "Component",
+        /// sparse SfM points of the scene
+        points: input "Points",
+        /// trained objects (another train node's models): the background is trained behind
+        /// them, frozen, so every pixel is supervised by the composite; items of kinds not
+        /// trained here (`components`) are passed through from it by name
+        occluders: optional_items "Model",
+        /// the best model on the component's held-out views
+        model: output "Model",
+    }
+}
+
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("train", "7")
@@ -109,24 +124,7 @@ impl Node for TrainNode {
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
             )
-            .input(
-                "component",
-                "Component",
-                "the component to train (fan out over [Component])",
-            )
-            .input("points", "Points", "sparse SfM points of the scene")
-            .optional_input(
-                "occluders",
-                "[Model]",
-                "trained objects (another train node's models): the background is trained behind \
-                 them, frozen, so every pixel is supervised by the composite; items of kinds not \
-                 trained here (`components`) are passed through from it by name",
-            )
-            .output(
-                "model",
-                "Model",
-                "the best model on the component's held-out views",
-            )
+            .ports::<TrainNodePorts>()
             .params::<TrainParams>()
     }
 
@@ -164,22 +162,20 @@ impl Node for TrainNode {
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let p: TrainParams = ctx.params_as()?;
-        let component_dir = ctx.input("component")?.to_path_buf();
+        let ports: TrainNodePorts = ctx.ports_as()?;
+        let component_dir = ports.component;
         let info = ComponentInfo::read(&component_dir)?;
         let wanted = match p.components.as_str() {
             "objects" => info.kind == ComponentKind::Object,
             "background" => info.kind == ComponentKind::Background,
             _ => true,
         };
-        let occluders: Vec<(String, PathBuf)> = match ctx.input_opt("occluders") {
-            Some(_) => ctx.input_items("occluders")?.to_vec(),
-            None => Vec::new(),
-        };
+        let occluders = ports.occluders.unwrap_or_default();
         if !wanted {
             let item = ctx.item().unwrap_or(&info.name).to_string();
             return match occluders.iter().find(|(name, _)| *name == item) {
                 Some((_, dir)) => {
-                    copy_folder(dir, &ctx.output("model")?)?;
+                    copy_folder(dir, &ports.model)?;
                     ctx.note("passed through", "from `occluders`");
                     Ok(Outcome::Done)
                 }
@@ -208,7 +204,7 @@ impl Node for TrainNode {
         let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
         let (backend, why) = objectsplat_wgpu::backend_for(&backend_name, ctx.threads())?;
         ctx.note("backend", why);
-        let points_path = ctx.input("points")?.join(POINTS_PLY);
+        let points_path = ports.points.join(POINTS_PLY);
         let all_points = Points::read_ply(&points_path)?;
         let masks = ComponentMasks::read(&component_dir)?;
         // Nothing to fit: an empty component, or one no training view sees.
@@ -299,9 +295,8 @@ impl Node for TrainNode {
         for n in &report.notes {
             ctx.note("schedule", n);
         }
-        let model_dir = ctx.output("model")?;
-        save_model(&report.model, &model_dir)?;
-        report.log.save(&model_dir)?;
+        save_model(&report.model, &ports.model)?;
+        report.log.save(&ports.model)?;
         Ok(Outcome::Done)
     }
 }
