@@ -340,12 +340,13 @@ impl Params {
 pub trait NodeParams: Sized {
     /// Adds every parameter (name, type, default, doc) to `spec`, in declaration order.
     fn declare(spec: crate::NodeSpec) -> crate::NodeSpec;
+    /// The validated values as the struct; an error names the param that does not read.
+    fn try_read(params: &Params) -> Result<Self, crate::ParamError>;
     /// The validated values as the struct.
-    fn read(params: &Params) -> anyhow::Result<Self>;
+    fn read(params: &Params) -> anyhow::Result<Self> {
+        Self::try_read(params).map_err(|e| anyhow::anyhow!(e.message))
+    }
 }
-
-/// What [`NodeParams::read`] returns (named here so that a macro user needs no `anyhow`).
-pub type ReadResult<T> = anyhow::Result<T>;
 
 /// One doc text from the lines of a doc comment (as `///` gives them: each with a leading space).
 pub fn doc_text(lines: &[&str]) -> String {
@@ -419,9 +420,13 @@ macro_rules! node_params {
                 )*
             }
 
-            fn read(params: &$crate::Params) -> $crate::params::ReadResult<Self> {
+            fn try_read(params: &$crate::Params) -> ::std::result::Result<Self, $crate::ParamError> {
                 Ok($name {
-                    $( $field: params.get::<$ty>(stringify!($field))?, )*
+                    $(
+                        $field: params.get::<$ty>(stringify!($field)).map_err(|e| {
+                            $crate::ParamError::new(stringify!($field), format!("{e:#}"))
+                        })?,
+                    )*
                 })
             }
         }

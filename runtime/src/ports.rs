@@ -14,6 +14,9 @@ pub trait NodePorts: Sized {
     fn read(ctx: &Context) -> anyhow::Result<Self>;
 }
 
+/// What [`NodePorts::read`] returns (named here so that a macro user needs no `anyhow`).
+pub type ReadResult<T> = anyhow::Result<T>;
+
 /// The items of a collection input, in order: (item name, folder).
 pub type Items = Vec<(String, PathBuf)>;
 
@@ -92,7 +95,7 @@ macro_rules! node_ports {
                 )*
             }
 
-            fn read(ctx: &$crate::Context) -> $crate::params::ReadResult<Self> {
+            fn read(ctx: &$crate::Context) -> $crate::ports::ReadResult<Self> {
                 Ok($name {
                     $( $field: $crate::node_ports!(@read $kind ctx $crate::node_ports!(@name $field $($port)?)), )*
                 })

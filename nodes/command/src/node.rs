@@ -27,8 +27,8 @@
 use crate::process::Program;
 use anyhow::{Context as _, Result, bail};
 use objectsplat_runtime::{
-    Context, DeclaredPorts, Node, NodeSpec, Outcome, ParamError, ParamType, Params, PortSpec,
-    Registry, TypeRef,
+    Context, DeclaredPorts, Node, NodeParams, NodeSpec, Outcome, ParamError, ParamType, Params,
+    PortSpec, Registry, TypeRef, node_params,
 };
 use serde_json::Value;
 use std::collections::BTreeMap;
@@ -47,6 +47,27 @@ fn defining_file(name: &str) -> Option<&'static str> {
 
 pub struct CommandNode;
 
+node_params! {
+    /// The params as the graph gives them.
+    struct CommandParams {
+        /// the program and its arguments, e.g. ["python3", "{script}", "{in:frames}", "{out:masks}"]
+        argv: Vec<String> = required as ParamType::list(ParamType::Str),
+        /// the input ports: name → type (each appears as a folder, {in:NAME})
+        consumes: BTreeMap<String, String> = "{}"
+            as ParamType::Ron("a map of input port name to type, e.g. {\"frames\": \"Frames\"}".into()),
+        /// the output ports: name → type (each an empty folder the program fills, {out:NAME})
+        produces: BTreeMap<String, String> = required
+            as ParamType::Ron("a map of output port name to type, e.g. {\"masks\": \"File\"}".into()),
+        /// the file the program runs ({script}); its content is part of the cache key
+        script: Option<String> = "None" as ParamType::optional(ParamType::Path),
+        /// values for the program: written to options.json ({options}); {opt:NAME} is one value as text
+        options: BTreeMap<String, Value> = "{}"
+            as ParamType::Ron("a map of names to values (strings, numbers, bools, lists)".into()),
+        /// seconds before the program is killed
+        timeout_s: f64 = "3600.0" as ParamType::float_range(0.001, 1.0e7),
+    }
+}
+
 /// The params as the node uses them.
 struct Declared {
     argv: Vec<String>,
@@ -54,29 +75,23 @@ struct Declared {
     produces: BTreeMap<String, TypeRef>,
     options: BTreeMap<String, Value>,
     script: Option<String>,
+    timeout: Duration,
 }
 
-fn param_error(param: &str, message: impl Into<String>) -> ParamError {
-    ParamError::new(param, message)
-}
-
-fn ports(params: &Params, name: &str) -> Result<BTreeMap<String, TypeRef>, ParamError> {
-    let raw: BTreeMap<String, String> = params.get(name).map_err(|e| {
-        param_error(
-            name,
-            format!("{e:#}; expected a map of port name to type, e.g. {{\"frames\": \"Frames\"}}"),
-        )
-    })?;
+fn ports(
+    raw: BTreeMap<String, String>,
+    name: &str,
+) -> Result<BTreeMap<String, TypeRef>, ParamError> {
     raw.into_iter()
         .map(|(port, ty)| {
             if port.is_empty() || !port.chars().all(|c| c.is_ascii_alphanumeric() || c == '_') {
-                return Err(param_error(
+                return Err(ParamError::new(
                     name,
                     format!("port name {port:?} must be made of letters, digits and `_`"),
                 ));
             }
             let ty = TypeRef::parse(&ty)
-                .map_err(|e| param_error(name, format!("port `{port}`: {e}")))?;
+                .map_err(|e| ParamError::new(name, format!("port `{port}`: {e}")))?;
             Ok((port, ty))
         })
         .collect()
@@ -84,43 +99,45 @@ fn ports(params: &Params, name: &str) -> Result<BTreeMap<String, TypeRef>, Param
 
 impl Declared {
     fn read(params: &Params) -> Result<Declared, ParamError> {
-        let argv: Vec<String> = params
-            .get("argv")
-            .map_err(|e| param_error("argv", format!("{e:#}")))?;
-        let consumes = ports(params, "consumes")?;
-        let produces = ports(params, "produces")?;
-        let options: BTreeMap<String, Value> = params.get("options").map_err(|e| {
-            param_error(
-                "options",
-                format!("{e:#}; expected a map of names to values"),
-            )
+        let p = CommandParams::try_read(params).map_err(|mut e| {
+            let hint = match e.param.as_str() {
+                "consumes" | "produces" => {
+                    "; expected a map of port name to type, e.g. {\"frames\": \"Frames\"}"
+                }
+                "options" => "; expected a map of names to values",
+                _ => "",
+            };
+            e.message.push_str(hint);
+            e
         })?;
-        let script: Option<String> = params
-            .get("script")
-            .map_err(|e| param_error("script", format!("{e:#}")))?;
+        let argv = p.argv;
+        let consumes = ports(p.consumes, "consumes")?;
+        let produces = ports(p.produces, "produces")?;
+        let options = p.options;
         // The program runs in its own folder, so the script's path must not be relative
         // (the engine resolves it against the graph's folder, which may itself be relative).
-        let script = script
+        let script = p
+            .script
             .map(|s| {
                 std::path::absolute(&s)
                     .map(|p| p.display().to_string())
-                    .map_err(|e| param_error("script", format!("{s}: {e}")))
+                    .map_err(|e| ParamError::new("script", format!("{s}: {e}")))
             })
             .transpose()?;
         if argv.is_empty() {
-            return Err(param_error(
+            return Err(ParamError::new(
                 "argv",
                 "the command is empty: give the program and its arguments, e.g. [\"python3\", \"{script}\", \"{in:frames}\", \"{out:masks}\"]",
             ));
         }
         if produces.is_empty() {
-            return Err(param_error(
+            return Err(ParamError::new(
                 "produces",
                 "declare at least one output port, e.g. {\"masks\": \"File\"}",
             ));
         }
         if let Some(port) = consumes.keys().find(|p| produces.contains_key(*p)) {
-            return Err(param_error(
+            return Err(ParamError::new(
                 "produces",
                 format!("`{port}` is declared both as an input and as an output"),
             ));
@@ -131,12 +148,13 @@ impl Declared {
             produces,
             options,
             script,
+            timeout: Duration::from_secs_f64(p.timeout_s),
         };
         // Every placeholder must name something declared; substituting with dummy
         // folders finds the ones that do not.
         for arg in &d.argv {
             d.substitute(arg, Path::new(""), &BTreeMap::new())
-                .map_err(|e| param_error("argv", e))?;
+                .map_err(|e| ParamError::new("argv", e))?;
         }
         Ok(d)
     }
@@ -224,42 +242,7 @@ impl Node for CommandNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new(KIND, "1")
             .doc("Runs a program (argv, no shell) as a stage: its ports are declared by `consumes` / `produces`, inputs appear as folders (copies) and outputs are the folders it writes. Placeholders in argv: {in:PORT}, {out:PORT}, {script}, {options}, {opt:NAME}. The script's content is part of the cache key; stderr's tail is quoted when it fails.")
-            .param(
-                "argv",
-                ParamType::list(ParamType::Str),
-                None,
-                "the program and its arguments, e.g. [\"python3\", \"{script}\", \"{in:frames}\", \"{out:masks}\"]",
-            )
-            .param(
-                "consumes",
-                ParamType::Ron("a map of input port name to type, e.g. {\"frames\": \"Frames\"}".into()),
-                Some("{}"),
-                "the input ports: name → type (each appears as a folder, {in:NAME})",
-            )
-            .param(
-                "produces",
-                ParamType::Ron("a map of output port name to type, e.g. {\"masks\": \"File\"}".into()),
-                None,
-                "the output ports: name → type (each an empty folder the program fills, {out:NAME})",
-            )
-            .param(
-                "script",
-                ParamType::optional(ParamType::Path),
-                Some("None"),
-                "the file the program runs ({script}); its content is part of the cache key",
-            )
-            .param(
-                "options",
-                ParamType::Ron("a map of names to values (strings, numbers, bools, lists)".into()),
-                Some("{}"),
-                "values for the program: written to options.json ({options}); {opt:NAME} is one value as text",
-            )
-            .param(
-                "timeout_s",
-                ParamType::float_range(0.001, 1.0e7),
-                Some("3600.0"),
-                "seconds before the program is killed",
-            )
+            .params::<CommandParams>()
     }
 
     fn declared_ports(&self, params: &Params) -> Result<Option<DeclaredPorts>, ParamError> {
@@ -275,7 +258,6 @@ impl Node for CommandNode {
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let d = Declared::read(ctx.params())
             .map_err(|e| anyhow::anyhow!("{}: {}", e.param, e.message))?;
-        let timeout = Duration::from_secs_f64(ctx.param("timeout_s")?);
         // Folders are handed to a program running elsewhere: make them absolute.
         let absolute = |p: &Path| {
             std::path::absolute(p).with_context(|| format!("{}: no absolute path", p.display()))
@@ -312,7 +294,7 @@ impl Node for CommandNode {
                 what: "command",
                 argv,
                 workdir: &workdir,
-                timeout,
+                timeout: d.timeout,
                 cancelled: &|| ctx_ref.cancelled(),
             }
             .run()?

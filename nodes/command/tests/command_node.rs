@@ -212,6 +212,19 @@ fn bad_declarations_are_refused_naming_the_param() {
 }
 
 #[test]
+fn maps_of_the_wrong_shape_are_refused_with_the_shape_expected() {
+    let e = declaration_error("(argv: [\"p\"], produces: [\"o\"])");
+    assert!(e.starts_with("produces: parameter `produces`"), "{e}");
+    assert!(
+        e.ends_with("; expected a map of port name to type, e.g. {\"frames\": \"Frames\"}"),
+        "{e}"
+    );
+    let e = declaration_error("(argv: [\"p\"], produces: {\"o\": \"File\"}, options: [1])");
+    assert!(e.starts_with("options: parameter `options`"), "{e}");
+    assert!(e.ends_with("; expected a map of names to values"), "{e}");
+}
+
+#[test]
 fn braces_that_are_no_placeholder_reach_the_program_verbatim() {
     let dir = tempfile::tempdir().unwrap();
     let literal = "{\"json\": [1, 2]} {unknown} {";
