@@ -189,14 +189,12 @@ impl Column {
     /// Value `i` as f64 (exact for every PLY type).
     pub fn get_f64(&self, i: usize) -> f64 {
         match self {
-            Column::I8(v) => v[i].into(),
-            Column::U8(v) => v[i].into(),
-            Column::I16(v) => v[i].into(),
-            Column::U16(v) => v[i].into(),
-            Column::I32(v) => v[i].into(),
-            Column::U32(v) => v[i].into(),
             Column::F32(v) => v[i].into(),
             Column::F64(v) => v[i],
+            // Integer columns hold at most 32 bits: exact as i64 and as f64.
+            _ => self
+                .get_i64(i)
+                .expect("get_i64 is Some for integer columns") as f64,
         }
     }
 
@@ -711,17 +709,21 @@ impl Ply {
             elements: Vec::with_capacity(header.elements.len()),
         };
         let body = &bytes[header.body_start..];
+        let (declared, base, out) = (&header.elements, header.body_start, &mut ply.elements);
         match header.format {
             Format::Ascii => {
-                read_ascii_body(&header.elements, body, header.body_start, &mut ply.elements)
+                let tokens = Tokens { text: body, pos: 0 };
+                read_body(declared, base, &mut AsciiDecoder { tokens }, out)
             }
-            Format::BinaryLittleEndian | Format::BinaryBigEndian => read_binary_body(
-                &header.elements,
-                body,
-                header.body_start,
-                header.format == Format::BinaryBigEndian,
-                &mut ply.elements,
-            ),
+            Format::BinaryLittleEndian | Format::BinaryBigEndian => {
+                let big_endian = header.format == Format::BinaryBigEndian;
+                let mut decoder = BinaryDecoder {
+                    body,
+                    pos: 0,
+                    big_endian,
+                };
+                read_body(declared, base, &mut decoder, out)
+            }
         }
         .map_err(err)?;
         Ok(ply)
@@ -1046,57 +1048,99 @@ fn empty_property(name: &str, decl: &Declared, capacity: usize) -> Property {
     }
 }
 
-fn read_binary_body(
-    declared: &[DeclaredElement],
-    body: &[u8],
+/// Where a value of the body sits, for error messages.
+struct At<'a> {
+    element: &'a str,
+    row: usize,
+    property: &'a str,
+    /// Offset of the body in the file.
     base: usize,
-    big_endian: bool,
+}
+
+impl At<'_> {
+    /// `message`, naming the element, row, property and the file offset of body byte `pos`.
+    fn fail(&self, pos: usize, message: impl fmt::Display) -> String {
+        format!(
+            "element {:?} row {} property {:?} at byte {}: {message}",
+            self.element,
+            self.row,
+            self.property,
+            self.base + pos
+        )
+    }
+}
+
+/// The part of a property a value is read for.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Slot {
+    Value,
+    ListCount,
+    ListItem,
+}
+
+impl Slot {
+    fn noun(self) -> &'static str {
+        match self {
+            Slot::Value => "value",
+            Slot::ListCount => "list count",
+            Slot::ListItem => "list item",
+        }
+    }
+}
+
+/// One encoding of a PLY body, read one value at a time.
+trait BodyDecoder {
+    /// Refuses `d.count` rows when the rest of the body cannot hold them (before anything
+    /// is allocated for them); otherwise says how many rows to reserve.
+    fn capacity(&self, d: &DeclaredElement, base: usize) -> Result<usize, String>;
+
+    /// Appends the next value, of `col`'s type, to `col`; returns the body offset it
+    /// starts at.
+    fn read(&mut self, col: &mut Column, slot: Slot, at: &At) -> Result<usize, String>;
+
+    /// Refuses a list of `len` `item`s, its count read at body offset `count_pos`, when
+    /// the rest of the body cannot hold it. Without a check here each item must still
+    /// come from real data, so nothing is reserved from `len`.
+    fn check_list(
+        &self,
+        _len: i64,
+        _item: ScalarType,
+        _count_pos: usize,
+        _at: &At,
+    ) -> Result<(), String> {
+        Ok(())
+    }
+}
+
+/// Reads the rows of every declared element from `decoder`; `base` is the body's offset
+/// in the file.
+fn read_body(
+    declared: &[DeclaredElement],
+    base: usize,
+    decoder: &mut impl BodyDecoder,
     out: &mut Vec<Element>,
 ) -> Result<(), String> {
-    let mut pos = 0usize;
     for d in declared {
-        // The smallest number of bytes one row can occupy: refuse counts the file cannot hold
-        // before allocating anything for them.
-        let min_row: usize = d
-            .properties
-            .iter()
-            .map(|(_, p)| match p {
-                Declared::Scalar(t) => t.size(),
-                Declared::List { count, .. } => count.size(),
-            })
-            .sum();
-        let remaining = body.len() - pos;
-        if min_row > 0 && d.count > remaining / min_row {
-            return Err(format!(
-                "element {:?} declares {} rows of at least {min_row} bytes but only {remaining} bytes remain at byte {}",
-                d.name,
-                d.count,
-                base + pos
-            ));
-        }
-        let capacity = if min_row > 0 { d.count } else { 0 };
+        let capacity = decoder.capacity(d, base)?;
         let mut props: Vec<Property> = d
             .properties
             .iter()
             .map(|(n, p)| empty_property(n, p, capacity))
             .collect();
-        for row in 0..d.count {
+        // Rows of an element without properties hold nothing: walking a huge declared
+        // count of them would only spin.
+        let rows = if d.properties.is_empty() { 0 } else { d.count };
+        for row in 0..rows {
             for (prop, (name, decl)) in props.iter_mut().zip(&d.properties) {
-                let at = |pos: usize| {
-                    format!(
-                        "element {:?} row {row} property {name:?} at byte {}",
-                        d.name,
-                        base + pos
-                    )
+                let at = At {
+                    element: &d.name,
+                    row,
+                    property: name,
+                    base,
                 };
                 match (&mut prop.data, decl) {
-                    (PropertyData::Scalar(col), Declared::Scalar(t)) => {
-                        let n = t.size();
-                        let bytes = body.get(pos..pos + n).ok_or_else(|| {
-                            format!("{}: file ends (a {t} needs {n} bytes)", at(pos))
-                        })?;
-                        col.push_bytes(bytes, big_endian);
-                        pos += n;
+                    (PropertyData::Scalar(col), Declared::Scalar(_)) => {
+                        decoder.read(col, Slot::Value, &at)?;
                     }
                     (
                         PropertyData::List {
@@ -1104,32 +1148,17 @@ fn read_binary_body(
                         },
                         Declared::List { count, item },
                     ) => {
-                        let n = count.size();
-                        let bytes = body.get(pos..pos + n).ok_or_else(|| {
-                            format!("{}: file ends inside the list count", at(pos))
-                        })?;
                         let mut c = Column::empty(*count, 1);
-                        c.push_bytes(bytes, big_endian);
+                        let count_pos = decoder.read(&mut c, Slot::ListCount, &at)?;
                         // `count` is an integer type (checked in the header), so get_i64 is Some.
                         let len = c.get_i64(0).unwrap_or(-1);
                         if len < 0 {
-                            return Err(format!("{}: negative list count {len}", at(pos)));
+                            return Err(at.fail(count_pos, format!("negative list count {len}")));
                         }
-                        pos += n;
-                        let need = (len as u64).saturating_mul(item.size() as u64);
-                        let left = (body.len() - pos) as u64;
-                        if need > left {
-                            return Err(format!(
-                                "{}: list of {len} {item} items needs {need} bytes but only {left} remain",
-                                at(pos - n)
-                            ));
+                        decoder.check_list(len, *item, count_pos, &at)?;
+                        for _ in 0..len {
+                            decoder.read(values, Slot::ListItem, &at)?;
                         }
-                        let len = len as usize;
-                        let s = item.size();
-                        for k in 0..len {
-                            values.push_bytes(&body[pos + k * s..pos + (k + 1) * s], big_endian);
-                        }
-                        pos += len * s;
                         offsets.push(values.len());
                     }
                     // Properties are built from the same declarations they are zipped with.
@@ -1144,6 +1173,71 @@ fn read_binary_body(
         });
     }
     Ok(())
+}
+
+/// A `binary_little_endian` or `binary_big_endian` body.
+struct BinaryDecoder<'a> {
+    body: &'a [u8],
+    pos: usize,
+    big_endian: bool,
+}
+
+impl BodyDecoder for BinaryDecoder<'_> {
+    fn capacity(&self, d: &DeclaredElement, base: usize) -> Result<usize, String> {
+        // The smallest number of bytes one row can occupy.
+        let min_row: usize = d
+            .properties
+            .iter()
+            .map(|(_, p)| match p {
+                Declared::Scalar(t) => t.size(),
+                Declared::List { count, .. } => count.size(),
+            })
+            .sum();
+        let remaining = self.body.len() - self.pos;
+        if min_row > 0 && d.count > remaining / min_row {
+            return Err(format!(
+                "element {:?} declares {} rows of at least {min_row} bytes but only {remaining} bytes remain at byte {}",
+                d.name,
+                d.count,
+                base + self.pos
+            ));
+        }
+        Ok(if min_row > 0 { d.count } else { 0 })
+    }
+
+    fn read(&mut self, col: &mut Column, slot: Slot, at: &At) -> Result<usize, String> {
+        let start = self.pos;
+        let t = col.scalar_type();
+        let n = t.size();
+        let bytes = self.body.get(start..start + n).ok_or_else(|| match slot {
+            Slot::ListCount => at.fail(start, "file ends inside the list count"),
+            // (List items never get here: `check_list` has seen the bytes for all of them.)
+            Slot::Value | Slot::ListItem => {
+                at.fail(start, format!("file ends (a {t} needs {n} bytes)"))
+            }
+        })?;
+        col.push_bytes(bytes, self.big_endian);
+        self.pos += n;
+        Ok(start)
+    }
+
+    fn check_list(
+        &self,
+        len: i64,
+        item: ScalarType,
+        count_pos: usize,
+        at: &At,
+    ) -> Result<(), String> {
+        let need = (len as u64).saturating_mul(item.size() as u64);
+        let left = (self.body.len() - self.pos) as u64;
+        if need > left {
+            return Err(at.fail(
+                count_pos,
+                format!("list of {len} {item} items needs {need} bytes but only {left} remain"),
+            ));
+        }
+        Ok(())
+    }
 }
 
 /// Splits ASCII text into whitespace-separated tokens, remembering where each starts.
@@ -1168,91 +1262,42 @@ impl<'a> Tokens<'a> {
     }
 }
 
-fn read_ascii_body(
-    declared: &[DeclaredElement],
-    body: &[u8],
-    base: usize,
-    out: &mut Vec<Element>,
-) -> Result<(), String> {
-    let mut tokens = Tokens { text: body, pos: 0 };
-    for d in declared {
+/// An `ascii` body: one whitespace-separated token a value.
+struct AsciiDecoder<'a> {
+    tokens: Tokens<'a>,
+}
+
+impl BodyDecoder for AsciiDecoder<'_> {
+    fn capacity(&self, d: &DeclaredElement, base: usize) -> Result<usize, String> {
         // Every property of every row needs at least one token of one byte plus a separator.
-        let remaining = body.len() - tokens.pos;
+        let remaining = self.tokens.text.len() - self.tokens.pos;
         let per_row = d.properties.len();
         if per_row > 0 && d.count > (remaining / 2 + 1) / per_row {
             return Err(format!(
                 "element {:?} declares {} rows of {per_row} values but only {remaining} bytes remain at byte {}",
                 d.name,
                 d.count,
-                base + tokens.pos
+                base + self.tokens.pos
             ));
         }
-        let capacity = if per_row > 0 { d.count } else { 0 };
-        let mut props: Vec<Property> = d
-            .properties
-            .iter()
-            .map(|(n, p)| empty_property(n, p, capacity))
-            .collect();
-        for row in 0..d.count {
-            for (prop, (name, decl)) in props.iter_mut().zip(&d.properties) {
-                let mut next = |what: &str| -> Result<(usize, &str), String> {
-                    let here = base + tokens.pos;
-                    let (at, tok) = tokens.next().ok_or_else(|| {
-                        format!("element {:?} row {row} property {name:?}: file ends at byte {here} before its {what}", d.name)
-                    })?;
-                    let tok = std::str::from_utf8(tok).map_err(|_| {
-                        format!(
-                            "element {:?} row {row} property {name:?} at byte {}: not text",
-                            d.name,
-                            base + at
-                        )
-                    })?;
-                    Ok((at, tok))
-                };
-                let bad = |at: usize, e: String| {
-                    format!(
-                        "element {:?} row {row} property {name:?} at byte {}: {e}",
-                        d.name,
-                        base + at
-                    )
-                };
-                match (&mut prop.data, decl) {
-                    (PropertyData::Scalar(col), Declared::Scalar(_)) => {
-                        let (at, tok) = next("value")?;
-                        col.push_token(tok).map_err(|e| bad(at, e))?;
-                    }
-                    (
-                        PropertyData::List {
-                            offsets, values, ..
-                        },
-                        Declared::List { count, .. },
-                    ) => {
-                        let (at, tok) = next("list count")?;
-                        let mut c = Column::empty(*count, 1);
-                        c.push_token(tok).map_err(|e| bad(at, e))?;
-                        let len = c.get_i64(0).unwrap_or(-1);
-                        if len < 0 {
-                            return Err(bad(at, format!("negative list count {len}")));
-                        }
-                        // No reservation from `len`: each item must come from a real token.
-                        for _ in 0..len {
-                            let (at, tok) = next("list item")?;
-                            values.push_token(tok).map_err(|e| bad(at, e))?;
-                        }
-                        offsets.push(values.len());
-                    }
-                    // Properties are built from the same declarations they are zipped with.
-                    _ => unreachable!("property storage mirrors its declaration"),
-                }
-            }
-        }
-        out.push(Element {
-            name: d.name.clone(),
-            count: d.count,
-            properties: props,
-        });
+        Ok(if per_row > 0 { d.count } else { 0 })
     }
-    Ok(())
+
+    fn read(&mut self, col: &mut Column, slot: Slot, at: &At) -> Result<usize, String> {
+        let here = at.base + self.tokens.pos;
+        let (start, tok) = self.tokens.next().ok_or_else(|| {
+            format!(
+                "element {:?} row {} property {:?}: file ends at byte {here} before its {}",
+                at.element,
+                at.row,
+                at.property,
+                slot.noun()
+            )
+        })?;
+        let tok = std::str::from_utf8(tok).map_err(|_| at.fail(start, "not text"))?;
+        col.push_token(tok).map_err(|e| at.fail(start, e))?;
+        Ok(start)
+    }
 }
 
 #[cfg(test)]
@@ -1299,6 +1344,21 @@ mod tests {
                 },
                 "{format:?}"
             );
+        }
+    }
+
+    #[test]
+    fn an_element_without_properties_keeps_its_count_without_walking_it() {
+        for format in ["ascii", "binary_little_endian"] {
+            let text = format!(
+                "ply\nformat {format} 1.0\nelement empty 99999999999\nelement vertex 1\nproperty uchar v\nend_header\n"
+            );
+            let mut bytes = text.into_bytes();
+            bytes.extend_from_slice(if format == "ascii" { b"7\n" } else { &[7] });
+            let ply = Ply::from_bytes(&bytes, "mem").unwrap();
+            assert_eq!(ply.element("empty").unwrap().count, 99_999_999_999);
+            let v = ply.element("vertex").unwrap().scalar_f64("v").unwrap();
+            assert_eq!(v, vec![7.0], "{format}");
         }
     }
 
