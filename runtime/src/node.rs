@@ -120,24 +120,6 @@ impl NodeSpec {
         self
     }
 
-    /// A port as [`crate::node_ports!`] declares it: an input (optional or not) or an output.
-    pub fn port_of_kind(
-        mut self,
-        name: &str,
-        ty: &str,
-        optional: bool,
-        output: bool,
-        doc: &str,
-    ) -> Self {
-        let port = Self::port(name, ty, optional, doc);
-        if output {
-            self.outputs.push(port);
-        } else {
-            self.inputs.push(port);
-        }
-        self
-    }
-
     /// Every port of a [`crate::node_ports!`] type.
     pub fn ports<P: crate::ports::NodePorts>(self) -> Self {
         P::declare(self)

@@ -84,15 +84,16 @@ macro_rules! node_ports {
 
         impl $crate::ports::NodePorts for $name {
             fn declare(spec: $crate::NodeSpec) -> $crate::NodeSpec {
-                spec $(
-                    .port_of_kind(
+                $(
+                    let spec = $crate::node_ports!(
+                        @declare spec,
+                        $kind,
                         $crate::node_ports!(@name $field $($port)?),
-                        $crate::node_ports!(@declared $kind $ty),
-                        $crate::node_ports!(@optional $kind),
-                        $crate::node_ports!(@is_output $kind),
-                        &$crate::params::doc_text(&[$($doc),*]),
-                    )
+                        $ty,
+                        &$crate::params::doc_text(&[$($doc),*])
+                    );
                 )*
+                spec
             }
 
             fn read(ctx: &$crate::Context) -> $crate::ports::ReadResult<Self> {
@@ -112,16 +113,22 @@ macro_rules! node_ports {
     (@field optional_items) => { ::std::option::Option<$crate::ports::Items> };
     (@field output) => { ::std::path::PathBuf };
 
-    (@declared items $ty:literal) => { concat!("[", $ty, "]") };
-    (@declared optional_items $ty:literal) => { concat!("[", $ty, "]") };
-    (@declared $kind:ident $ty:literal) => { $ty };
-
-    (@optional optional) => { true };
-    (@optional optional_items) => { true };
-    (@optional $kind:ident) => { false };
-
-    (@is_output output) => { true };
-    (@is_output $kind:ident) => { false };
+    // Each kind declares itself through the NodeSpec builder method that fits it.
+    (@declare $spec:ident, input, $port:expr, $ty:literal, $doc:expr) => {
+        $spec.input($port, $ty, $doc)
+    };
+    (@declare $spec:ident, optional, $port:expr, $ty:literal, $doc:expr) => {
+        $spec.optional_input($port, $ty, $doc)
+    };
+    (@declare $spec:ident, items, $port:expr, $ty:literal, $doc:expr) => {
+        $spec.input($port, concat!("[", $ty, "]"), $doc)
+    };
+    (@declare $spec:ident, optional_items, $port:expr, $ty:literal, $doc:expr) => {
+        $spec.optional_input($port, concat!("[", $ty, "]"), $doc)
+    };
+    (@declare $spec:ident, output, $port:expr, $ty:literal, $doc:expr) => {
+        $spec.output($port, $ty, $doc)
+    };
 
     (@read input $ctx:ident $port:expr) => { $ctx.input($port)?.to_path_buf() };
     (@read optional $ctx:ident $port:expr) => { $ctx.input_opt($port).map(::std::path::Path::to_path_buf) };
