@@ -64,6 +64,10 @@ enum Command {
         /// Worker threads (default: the number of CPUs).
         #[arg(short = 'j', long = "jobs")]
         jobs: Option<usize>,
+        /// Threads each job may use (default: the worker threads not busy when it starts);
+        /// `-j 1 --threads N` runs one job at a time on N threads.
+        #[arg(long)]
+        threads: Option<usize>,
         #[command(flatten)]
         executor: Box<cluster::ExecutorArgs>,
     },
@@ -196,6 +200,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             plugins,
             json,
             jobs,
+            threads,
             executor,
         } => {
             let executor = executor.executor(&sets, &plugins)?;
@@ -211,6 +216,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                 &store,
                 &RunOptions {
                     jobs,
+                    threads_per_job: threads,
                     out_dir: Some(out.clone()),
                     observer: observer.clone(),
                 },

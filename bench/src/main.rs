@@ -9,6 +9,7 @@
 //! Everything goes through the ordinary engine and cache: a rerun only
 //! computes what is missing.
 
+mod device_speed;
 mod quality;
 mod train_speed;
 
@@ -42,6 +43,8 @@ enum Command {
     TrainSpeed(train_speed::TrainSpeedArgs),
     /// Composed-scene quality of trainer variants (an ablation), over seeds.
     Quality(quality::QualityArgs),
+    /// Training iterations per second per component kind on each render backend (GPU machines).
+    DeviceSpeed(device_speed::DeviceSpeedArgs),
 }
 
 #[derive(clap::Args)]
@@ -154,6 +157,7 @@ fn main() -> std::process::ExitCode {
         Command::Paper(args) => paper(&args),
         Command::TrainSpeed(args) => train_speed::train_speed(&args),
         Command::Quality(args) => quality::quality(&args),
+        Command::DeviceSpeed(args) => device_speed::device_speed(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,
@@ -229,6 +233,7 @@ fn paper(args: &PaperArgs) -> Result<()> {
                             &store,
                             &RunOptions {
                                 jobs,
+                                threads_per_job: None,
                                 out_dir: Some(out.clone()),
                                 observer: Arc::new(Silent),
                             },

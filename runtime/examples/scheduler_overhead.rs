@@ -61,6 +61,7 @@ fn main() -> Result<()> {
     let src = GraphSource::read(&graph)?;
     let opts = RunOptions {
         jobs,
+        threads_per_job: None,
         out_dir: None,
         observer: Arc::new(Silent),
     };

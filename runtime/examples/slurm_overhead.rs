@@ -119,6 +119,7 @@ fn run_graph(dir: &Path, n: usize, cache: &str, executor: &Executor) -> Result<(
     let store = Store::open(&dir.join(cache))?;
     let opts = RunOptions {
         jobs: 2,
+        threads_per_job: None,
         out_dir: None,
         observer: Arc::new(Silent),
     };

@@ -39,6 +39,10 @@ impl Observer for Silent {}
 
 pub struct RunOptions {
     pub jobs: usize,
+    /// Threads each job may use (None: the workers left to it, `jobs` / jobs running).
+    /// One job at a time with every core (`jobs: 1, threads_per_job: Some(cores)`) is how
+    /// benchmarks time items one by one.
+    pub threads_per_job: Option<usize>,
     /// Where to materialize targets' outputs (`OUT/<node>/<port>/`); `None` = don't.
     pub out_dir: Option<PathBuf>,
     pub observer: Arc<dyn Observer>,
@@ -742,7 +746,7 @@ fn execute(
     let queued = t0.saturating_duration_since(job.queued_at).as_secs_f64();
     opts.observer.job_started(&job.label);
     let running = active.fetch_add(1, Ordering::SeqCst) + 1;
-    let threads = (jobs / running).max(1);
+    let threads = opts.threads_per_job.unwrap_or(jobs / running).max(1);
     let mut warnings = Vec::new();
     let here = RanOn::local();
     let result = execute_inner(

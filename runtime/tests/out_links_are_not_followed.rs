@@ -25,6 +25,7 @@ fn a_link_at_a_node_folder_is_refused_and_its_target_untouched() {
         &store,
         &objectsplat_runtime::exec::RunOptions {
             jobs: 1,
+            threads_per_job: None,
             out_dir: Some(ws.out()),
             observer: std::sync::Arc::new(objectsplat_runtime::exec::Silent),
         },

@@ -75,6 +75,7 @@ fn run(dir: &Path) -> (Status, Vec<u8>) {
     let plan = build_plan(&graph, &reg, &[], &[]).unwrap_or_else(|d| panic!("{d}"));
     let options = RunOptions {
         jobs: 1,
+        threads_per_job: None,
         out_dir: Some(dir.join("out")),
         observer: Arc::new(Silent),
     };

@@ -26,6 +26,7 @@ fn run(dir: &Path) -> (Status, Image) {
         &store,
         &RunOptions {
             jobs: 1,
+            threads_per_job: None,
             out_dir: Some(out.clone()),
             observer: Arc::new(Silent),
         },

@@ -65,6 +65,7 @@ fn targets_are_checked_against_the_cached_scene() {
     let upstream = build_plan(&src, &registry(), &[], &["loaded".to_string()]).unwrap();
     let opts = RunOptions {
         jobs: 1,
+        threads_per_job: None,
         out_dir: None,
         observer: Arc::new(Silent),
     };

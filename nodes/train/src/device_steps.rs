@@ -1,29 +1,31 @@
 //! Training iterations and evaluations on a wgpu device ([`DeviceTrainer`])
-//! inside the host's training loop. The host keeps the schedule, the random
-//! view and background choices, densification, pruning and connectivity; the
-//! device keeps the parameters, Adam's moments and the per-face weight
-//! statistics between those events, renders only each view's footprint when
-//! cropping is on (as the host steps do), and scores the held-out views.
-//! Parameters cross to the host only when an event needs the model, losses
-//! only at the loss-log points, face statistics only when asked for.
+//! behind the loop's [`StepRunner`] interface. The loop keeps the schedule,
+//! the random view and background choices, densification, pruning and
+//! connectivity; the device keeps the parameters, Adam's moments and the
+//! per-face weight statistics between those events, renders the trained
+//! model with its frozen occluders (the background behind the objects), adds
+//! the depth loss at measured points and the planar prior, renders only each
+//! view's footprint when cropping is on (as the host steps do), and scores
+//! the held-out views. Parameters cross to the host only at [`StepRunner::sync`],
+//! losses when the device's result slots fill up or the loop waits for them.
 //!
 //! Face statistics: the device keeps the running per-face maxima of the
 //! current and previous epoch (`face_stats.rs`' two arrays) while it holds the
-//! newest model; the host's copy, remapped through topology edits, goes to the
-//! device with the next upload of the model ([`DeviceSteps::set_face_weights`]).
-//! The epoch count stays with the host's `FaceWeights`.
+//! newest model; the host's copy goes to the device with the next upload of
+//! the model. The epoch count stays with the host's `FaceWeights`.
 
-use crate::host_steps::HeldOut;
-use crate::optim::Optim;
+use crate::composite::Composite;
+use crate::point_depth::PointDepth;
+use crate::steps::{HeldOut, StepInput, StepLoss, StepRunner, Subject, TrainingState};
 use crate::supervision::{ComponentData, supervision_parts};
 use anyhow::{Result, bail};
+use objectsplat_core::component::OWN;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::{CROP_MARGIN, DEFAULT_LAMBDA_DSSIM};
 use objectsplat_raster::{Model, RenderSettings};
 use objectsplat_wgpu::WgpuBackend;
 use objectsplat_wgpu::training::{
-    AdamSettings, DeviceTrainer, FaceWeightArrays, LearningRates, Moments, OptimizerState, Step,
-    TrainingView, ViewScore,
+    DepthWeights, DeviceTrainer, Step, StepResult, Trained, TrainingView, ViewScore,
 };
 use std::collections::VecDeque;
 
@@ -35,25 +37,20 @@ enum Newest {
     Both,
 }
 
-pub(crate) struct DeviceSteps {
+pub(crate) struct DeviceSteps<'a> {
+    data: &'a ComponentData,
     trainer: DeviceTrainer,
+    composite: Option<Composite>,
     newest: Newest,
-    /// (iteration, view index) of the steps whose losses have not come back yet.
+    /// (iteration, view index) of the steps whose results have not come back yet.
     in_flight: VecDeque<(u64, usize)>,
-    /// Losses of the steps that came back and were not yet taken.
-    arrived: Vec<f32>,
-    /// View index within `data.views` of each device view: the training
+    /// Losses that came back and were not yet taken.
+    arrived: Vec<StepLoss>,
+    /// Device view of each of `data.views` that was uploaded: the training
     /// views first (device view = training slot), then the held-out views.
-    views: Vec<usize>,
-    /// Device view of each of `data.views` that was uploaded.
     device_view: Vec<Option<usize>>,
     crop: bool,
-    /// Face statistics the host set for its model, uploaded with it.
-    host_face_weights: Option<FaceWeightArrays>,
-    /// The device's face statistics as the last pull read them (valid while
-    /// both sides hold the same model).
-    pulled_face_weights: Option<FaceWeightArrays>,
-    /// Training steps taken and the share of their frames they rendered, summed.
+    /// Training steps whose results came back, and the share of their frames they rendered, summed.
     steps: u64,
     rendered: f64,
     uploads: u64,
@@ -61,119 +58,79 @@ pub(crate) struct DeviceSteps {
     evaluations: u64,
 }
 
-impl Optim {
-    fn device_state(&self) -> OptimizerState {
-        let g = &self.adam.groups;
-        let moments = |i: usize| Moments {
-            first: g[i].first_moment().to_vec(),
-            second: g[i].second_moment().to_vec(),
-            steps: g[i].steps,
-        };
-        // The SH group's rows are the device's layout already (16×3 per vertex, DC first).
-        OptimizerState {
-            positions: moments(self.vertices),
-            sh: moments(self.sh),
-            opacity_logits: moments(self.opacity),
-        }
-    }
-
-    fn set_device_state(&mut self, state: OptimizerState) -> Result<()> {
-        let g = &mut self.adam.groups;
-        for (group, m) in [
-            (self.vertices, state.positions),
-            (self.sh, state.sh),
-            (self.opacity, state.opacity_logits),
-        ] {
-            g[group].set_moments(m.first, m.second, m.steps)?;
-        }
-        Ok(())
-    }
-
-    fn learning_rates(&self) -> LearningRates {
-        let g = &self.adam.groups;
-        LearningRates {
-            positions: g[self.vertices].lr,
-            sh_dc: g[self.sh].lr,
-            sh_rest: g[self.sh].lr_rest,
-            opacity: g[self.opacity].lr,
-        }
-    }
-}
-
-/// Held-out loss and PSNR from per-view scores, as `HostSteps::evaluate`
-/// defines them: the mean loss over the views, and the PSNR of one MSE pooled
-/// over every supervised pixel and channel of them.
+/// Held-out loss and PSNR from per-view scores, as the host's evaluation
+/// defines them.
 fn held_out(scores: &[ViewScore]) -> HeldOut {
-    let loss: f64 = scores.iter().map(|s| s.loss).sum();
-    let squared: f64 = scores.iter().map(|s| s.squared_error).sum();
-    let weight: f64 = scores.iter().map(|s| 3.0 * s.total_weight).sum();
-    let mse = squared / weight.max(1.0);
-    HeldOut {
-        loss: loss / scores.len().max(1) as f64,
-        // A perfect fit is capped at 100 dB rather than reported as infinity.
-        psnr: if mse > 1e-10 {
-            -10.0 * mse.log10()
-        } else {
-            100.0
-        },
-    }
+    HeldOut::pooled(
+        scores.iter().map(|s| s.loss).sum(),
+        scores.len(),
+        scores.iter().map(|s| s.squared_error).sum(),
+        scores.iter().map(|s| 3.0 * s.total_weight).sum(),
+    )
 }
 
-impl DeviceSteps {
+impl<'a> DeviceSteps<'a> {
     /// Uploads the training views `train` and the held-out views `held_out`
-    /// (indices into `data.views`; a view in both is uploaded once). With
-    /// `crop`, steps and evaluations render each view's footprint only.
+    /// (indices into `data.views`; a view in both is uploaded once), with the
+    /// measured points each sees when `depth_supervised`. With `crop`, steps
+    /// and evaluations render each view's footprint only.
     pub fn new(
         backend: &WgpuBackend,
-        data: &ComponentData,
+        data: &'a ComponentData,
         train: &[usize],
         held_out: &[usize],
-        optim: &Optim,
         crop: bool,
-    ) -> Result<DeviceSteps> {
+        depth_supervised: bool,
+    ) -> Result<Self> {
         let mut views: Vec<usize> = train.to_vec();
         views.extend(held_out.iter().filter(|v| !train.contains(v)));
         let mut device_view = vec![None; data.views.len()];
         for (slot, &v) in views.iter().enumerate() {
             let Some(entry) = device_view.get_mut(v) else {
-                bail!("view {v} of {} views", data.views.len());
+                bail!("view {v} of {}", data.views.len());
             };
             *entry = Some(slot);
         }
+        let points = if depth_supervised {
+            PointDepth::new(&data.depth_points, data)
+        } else {
+            PointDepth::default()
+        };
         let uploads: Vec<TrainingView> = views
             .iter()
             .map(|&i| {
                 let view = &data.views[i];
-                let (target, weights, from_background) = supervision_parts(view, data.kind);
+                let (target, weights, from_background) = supervision_parts(view, data.rule());
                 TrainingView {
                     camera: view.camera,
                     target,
                     weights,
                     from_background,
+                    own: view.labels.iter().map(|&l| l == OWN).collect(),
+                    points: points.of_view(i).to_vec(),
                 }
             })
             .collect();
-        let adam = AdamSettings {
-            beta1: optim.adam.beta1,
-            beta2: optim.adam.beta2,
-            eps: optim.adam.eps,
-        };
         Ok(DeviceSteps {
-            trainer: DeviceTrainer::new(backend, &uploads, adam)?,
+            data,
+            trainer: DeviceTrainer::new(backend, &uploads)?,
+            composite: data.occluders.as_ref().map(Composite::new).transpose()?,
             newest: Newest::Host,
             in_flight: VecDeque::new(),
             arrived: Vec::new(),
-            views,
             device_view,
             crop,
-            host_face_weights: None,
-            pulled_face_weights: None,
             steps: 0,
             rendered: 0.0,
             uploads: 0,
             downloads: 0,
             evaluations: 0,
         })
+    }
+
+    /// Times the host has waited for the device so far (readbacks).
+    pub fn host_syncs(&self) -> u64 {
+        self.trainer.host_syncs()
     }
 
     /// The region a pass renders: the view's footprint (the device adds the
@@ -189,151 +146,66 @@ impl DeviceSteps {
         }
     }
 
-    /// Makes the host's model and optimizer state the newest, fetching them
-    /// (and the face statistics, in the same readback) if needed; an error if
-    /// a step since the last call diverged.
-    pub fn pull(
-        &mut self,
-        model: &mut Model<f32>,
-        optim: &mut Optim,
-        data: &ComponentData,
-    ) -> Result<()> {
-        self.fetch(data)?;
-        if self.newest == Newest::Device {
-            let (state, faces) = self.trainer.store_with_face_weights(model)?;
-            self.pulled_face_weights = Some(faces);
-            optim.set_device_state(state)?;
-            self.downloads += 1;
-            self.newest = Newest::Both;
-        }
-        Ok(())
-    }
-
-    /// The host changed the model or the optimizer state (after [`DeviceSteps::pull`]).
-    pub fn host_edited(&mut self) {
-        self.newest = Newest::Host;
-        self.host_face_weights = None;
-        self.pulled_face_weights = None;
-    }
-
-    /// Puts the host's model on the device when the host holds the newest one.
-    fn upload_if_newer(&mut self, model: &Model<f32>, optim: &Optim) -> Result<()> {
-        if self.newest == Newest::Host {
-            self.trainer.load(model, &optim.device_state())?;
-            if let Some((current, previous)) = self.host_face_weights.take() {
-                self.trainer.set_face_weights(&current, &previous)?;
-            }
-            self.uploads += 1;
-            self.newest = Newest::Both;
-        }
-        Ok(())
-    }
-
-    /// One line for the training log: where the iterations ran and how often the model moved.
-    pub fn summary(&self) -> String {
-        format!(
-            "iterations ran on the device (render, loss, backward and Adam on the GPU; {}); \
-             {} held-out evaluations on the device; the model went to the device {} times \
-             and came back {} times (densification, pruning, connectivity, checkpoints); \
-             {} host waits for the device in all",
-            match self.rendered_fraction() {
-                Some(f) => format!("{:.0} % of the frame rendered on average", 100.0 * f),
-                None => "no steps".into(),
+    /// The settings of a pass of the trained model at `render` (with the
+    /// occluders, at the composite's SH degree) or of it alone.
+    fn pass_settings(&self, render: &RenderSettings, with_occluders: bool) -> RenderSettings {
+        RenderSettings {
+            region: self.region(),
+            sh_degree: match (&self.composite, with_occluders) {
+                (Some(c), true) => c.sh_degree(render.sh_degree),
+                _ => render.sh_degree,
             },
-            self.evaluations,
-            self.uploads,
-            self.downloads,
-            self.host_syncs()
-        )
-    }
-
-    /// Times the host has waited for the device so far (readbacks).
-    pub fn host_syncs(&self) -> u64 {
-        self.trainer.host_syncs()
-    }
-
-    /// Mean share of the frame the training steps rendered (None before any step).
-    pub fn rendered_fraction(&self) -> Option<f64> {
-        (self.steps > 0).then(|| self.rendered / self.steps as f64)
-    }
-
-    /// Queues iteration `iteration` (1-based) on training view slot `slot`.
-    pub fn step(
-        &mut self,
-        model: &Model<f32>,
-        optim: &Optim,
-        iteration: u64,
-        slot: usize,
-        background: [f32; 3],
-        render: RenderSettings,
-    ) -> Result<()> {
-        self.upload_if_newer(model, optim)?;
-        self.trainer.step(&Step {
-            view: slot,
-            background,
-            render: RenderSettings {
-                region: self.region(),
-                ..render
-            },
-            learning_rates: optim.learning_rates(),
-            lambda_dssim: DEFAULT_LAMBDA_DSSIM,
-        })?;
-        self.newest = Newest::Device;
-        self.pulled_face_weights = None;
-        self.in_flight.push_back((iteration, slot));
-        if let Some(region) = self.trainer.last_region() {
-            self.steps += 1;
-            self.rendered += region.pixels() as f64 / self.trainer.view_pixels(slot) as f64;
+            ..render.clone()
         }
-        Ok(())
     }
 
-    /// The training model's loss and PSNR on `views` (indices into
-    /// `data.views`, all uploaded at construction) over a black background,
-    /// scored on the device with one readback (`HostSteps::evaluate`'s definitions).
-    pub fn evaluate(
-        &mut self,
-        model: &Model<f32>,
-        optim: &Optim,
-        data: &ComponentData,
-        views: &[usize],
-        render: RenderSettings,
-    ) -> Result<HeldOut> {
-        self.upload_if_newer(model, optim)?;
-        self.score(data, views, render)
-    }
-
-    /// As [`DeviceSteps::evaluate`] for a model the host holds that is not
-    /// the training model (a checkpoint, the finally pruned model): it goes
-    /// up without Adam state, and the next step uploads the training model
-    /// again. The host must hold the newest training model ([`DeviceSteps::pull`]).
-    pub fn evaluate_model(
-        &mut self,
-        model: &Model<f32>,
-        data: &ComponentData,
-        views: &[usize],
-        render: RenderSettings,
-    ) -> Result<HeldOut> {
-        if self.newest == Newest::Device {
-            bail!("evaluating another model would overwrite steps the host has not pulled");
-        }
+    /// Puts `model` on the device (with the occluders behind it), with
+    /// `state`'s Adam state and statistics when it is the training model.
+    fn load(&mut self, model: &Model<f32>, state: Option<&TrainingState>) -> Result<()> {
+        let trained = Trained::all_of(model);
+        let rendered = match self.composite.as_mut() {
+            Some(c) => c.assemble(model, model.sigma),
+            None => model,
+        };
         self.trainer
-            .load(model, &OptimizerState::zeros(model.vertex_count()))?;
+            .load(rendered, trained, state.map(|s| &s.optim))?;
+        if let Some(state) = state {
+            let (current, previous) = state.stats.arrays();
+            self.trainer.set_face_weights(current, previous)?;
+        }
         self.uploads += 1;
-        self.newest = Newest::Host;
-        self.host_face_weights = None;
-        self.pulled_face_weights = None;
-        self.score(data, views, render)
+        Ok(())
     }
 
-    /// Scores the device's model on `views` (indices into `data.views`).
-    fn score(
-        &mut self,
-        data: &ComponentData,
-        views: &[usize],
-        render: RenderSettings,
-    ) -> Result<HeldOut> {
-        let slots = views
+    /// Puts the host's training state on the device when the host holds the newest one.
+    fn upload_if_newer(&mut self, state: &TrainingState) -> Result<()> {
+        if self.newest == Newest::Host {
+            self.load(&state.model, Some(state))?;
+            self.newest = Newest::Both;
+        }
+        Ok(())
+    }
+
+    /// Makes `subject` the device's model: the training model (uploaded when
+    /// the host's is newer), or another model without optimizer state, after
+    /// which the next step uploads the training model again.
+    fn load_subject(&mut self, subject: Subject<'_>) -> Result<()> {
+        match subject {
+            Subject::Training(state) => self.upload_if_newer(state),
+            Subject::Other(model) => {
+                if self.newest == Newest::Device {
+                    bail!("evaluating another model would overwrite steps the host has not synced");
+                }
+                self.load(model, None)?;
+                self.newest = Newest::Host;
+                Ok(())
+            }
+        }
+    }
+
+    /// The device views of `views` (indices into `data.views`).
+    fn slots(&self, views: &[usize]) -> Result<Vec<usize>> {
+        views
             .iter()
             .map(|&v| match self.device_view.get(v).copied().flatten() {
                 Some(slot) => Ok(slot),
@@ -341,106 +213,192 @@ impl DeviceSteps {
                     "view {v} was not uploaded to the device (neither a training nor a held-out view)"
                 ),
             })
-            .collect::<Result<Vec<_>>>()?;
-        let settings = RenderSettings {
-            region: self.region(),
-            ..render
-        };
-        let scores = match self
-            .trainer
-            .evaluate(&slots, &settings, DEFAULT_LAMBDA_DSSIM)
-        {
-            Ok(scores) => scores,
-            Err(e) => {
-                // A diverged step explains a non-finite evaluation better than the evaluation does.
-                self.fetch(data)?;
-                return Err(e);
-            }
-        };
-        self.evaluations += 1;
-        Ok(held_out(&scores))
+            .collect()
     }
 
-    /// The device's running per-face maxima of the blending weight (current
-    /// and previous epoch) when the device holds the newest model: those the
-    /// last [`DeviceSteps::pull`] brought along, else read back. None when the
-    /// host holds the newest model (its own statistics are the newest then).
-    pub fn face_weights(&mut self) -> Result<Option<FaceWeightArrays>> {
-        match self.newest {
-            Newest::Host => Ok(None),
-            Newest::Both => match self.pulled_face_weights.take() {
-                Some(faces) => Ok(Some(faces)),
-                None => self.trainer.face_weights().map(Some),
-            },
-            Newest::Device => self.trainer.face_weights().map(Some),
-        }
-    }
-
-    /// The host's face statistics for its model (after remapping them through
-    /// an edit): they go to the device with the model.
-    pub fn set_face_weights(&mut self, current: Vec<f32>, previous: Vec<f32>) -> Result<()> {
-        self.pulled_face_weights = None;
-        if self.newest == Newest::Host {
-            self.host_face_weights = Some((current, previous));
-            Ok(())
-        } else {
-            self.trainer.set_face_weights(&current, &previous)
-        }
-    }
-
-    /// Every training view has been rendered once more (the host's
-    /// `FaceWeights::end_epoch`): the device's statistics follow while it holds
-    /// the newest model; the host's own copy is the host's to roll.
-    pub fn end_epoch(&mut self) {
-        self.pulled_face_weights = None;
-        if self.newest != Newest::Host {
-            self.trainer.end_epoch();
-        }
-    }
-
-    /// The losses of the steps queued since the last call, in order; an error
-    /// naming the first step in which something turned non-finite.
-    pub fn losses(&mut self, data: &ComponentData) -> Result<Vec<f32>> {
-        self.fetch(data)?;
-        Ok(std::mem::take(&mut self.arrived))
-    }
-
-    fn fetch(&mut self, data: &ComponentData) -> Result<()> {
-        for result in self.trainer.results()? {
-            let Some((iteration, slot)) = self.in_flight.pop_front() else {
+    /// Takes in results that came back: losses, the rendered share, and an
+    /// error naming the first step in which something turned non-finite.
+    fn arrive(&mut self, results: Vec<StepResult>) -> Result<()> {
+        for result in results {
+            let Some((iteration, view)) = self.in_flight.pop_front() else {
                 bail!("the device reported more steps than were queued");
             };
             if !result.non_finite.is_empty() {
                 bail!(
                     "training of {:?} diverged at iteration {iteration}: {} became non-finite \
                      (view {:?}, loss {}; parameters overflowed, lower the learning rates)",
-                    data.name,
+                    self.data.name,
                     result.non_finite.join(", "),
-                    data.views[self.views[slot]].name,
+                    self.data.views[view].name,
                     result.loss
                 );
             }
-            self.arrived.push(result.loss);
+            let camera = &self.data.views[view].camera;
+            self.steps += 1;
+            self.rendered +=
+                result.rendered_pixels as f64 / (camera.width as f64 * camera.height as f64);
+            self.arrived.push(StepLoss {
+                iteration,
+                loss: result.loss as f64,
+            });
         }
         Ok(())
     }
 }
 
+impl StepRunner for DeviceSteps<'_> {
+    fn step(&mut self, state: &mut TrainingState, iteration: u64, input: &StepInput) -> Result<()> {
+        self.upload_if_newer(state)?;
+        let [slot] = self.slots(&[input.view])?[..] else {
+            unreachable!("one view asked for, one slot returned");
+        };
+        self.trainer.step(&Step {
+            view: slot,
+            background: input.background,
+            render: self.pass_settings(&input.render, true),
+            learning_rates: state.optim.learning_rates(),
+            lambda_dssim: DEFAULT_LAMBDA_DSSIM,
+            sh_degree: state.model.sh_degree,
+            depth: DepthWeights {
+                points: input.point_depth_weight,
+                planar: input.smoothness_weight,
+            },
+        })?;
+        self.newest = Newest::Device;
+        self.in_flight.push_back((iteration, input.view));
+        let collected = self.trainer.take_collected();
+        self.arrive(collected)
+    }
+
+    fn losses(&mut self, wait: bool) -> Result<Vec<StepLoss>> {
+        let results = if wait {
+            self.trainer.results()?
+        } else {
+            self.trainer.take_collected()
+        };
+        self.arrive(results)?;
+        Ok(std::mem::take(&mut self.arrived))
+    }
+
+    fn evaluate(
+        &mut self,
+        subject: Subject<'_>,
+        views: &[usize],
+        render: &RenderSettings,
+    ) -> Result<HeldOut> {
+        self.load_subject(subject)?;
+        let slots = self.slots(views)?;
+        let settings = self.pass_settings(render, true);
+        let scores = self
+            .trainer
+            .evaluate(&slots, &settings, DEFAULT_LAMBDA_DSSIM)?;
+        let collected = self.trainer.take_collected();
+        self.arrive(collected)?;
+        self.evaluations += 1;
+        Ok(held_out(&scores))
+    }
+
+    fn face_max_weight(
+        &mut self,
+        subject: Subject<'_>,
+        views: &[usize],
+        render: &RenderSettings,
+    ) -> Result<Vec<f32>> {
+        self.load_subject(subject)?;
+        let slots = self.slots(views)?;
+        let settings = self.pass_settings(render, false);
+        let weights = self.trainer.face_max_weight(&slots, &settings)?;
+        let collected = self.trainer.take_collected();
+        self.arrive(collected)?;
+        Ok(weights)
+    }
+
+    fn sync(&mut self, state: &mut TrainingState) -> Result<()> {
+        if self.newest == Newest::Device {
+            let (current, previous) = self.trainer.store(&mut state.model, &mut state.optim)?;
+            state.stats.set_arrays(current, previous);
+            self.downloads += 1;
+            self.newest = Newest::Both;
+        }
+        let collected = self.trainer.take_collected();
+        self.arrive(collected)
+    }
+
+    fn edited(&mut self) {
+        self.newest = Newest::Host;
+    }
+
+    fn model_is_current(&self) -> bool {
+        self.newest != Newest::Device
+    }
+
+    /// The device's statistics roll with the host's while it holds the
+    /// newest model; otherwise the host's rolled copy goes up with the next upload.
+    fn end_epoch(&mut self) {
+        if self.newest != Newest::Host {
+            self.trainer.end_epoch();
+        }
+    }
+
+    fn rendered(&self) -> (u64, f64) {
+        (self.steps, self.rendered)
+    }
+
+    fn set_rendered(&mut self, (steps, rendered): (u64, f64)) {
+        self.steps = steps;
+        self.rendered = rendered;
+    }
+
+    fn place(&self) -> &'static str {
+        "device"
+    }
+
+    fn summary(&self) -> Option<String> {
+        Some(format!(
+            "iterations ran on the device (render, loss, depth terms, backward and Adam on the \
+             GPU{}; {}); {} held-out evaluations on the device; the model went to the device {} \
+             times and came back {} times (densification, pruning, connectivity, checkpoints); \
+             {} host waits for the device in all; {} steps replayed after outgrowing their \
+             tile-entry buffers",
+            if self.composite.is_some() {
+                ", behind the frozen occluders"
+            } else {
+                ""
+            },
+            match (self.steps > 0).then(|| self.rendered / self.steps as f64) {
+                Some(f) => format!("{:.0} % of the frame rendered on average", 100.0 * f),
+                None => "no steps".into(),
+            },
+            self.evaluations,
+            self.uploads,
+            self.downloads,
+            self.host_syncs(),
+            self.trainer.replays()
+        ))
+    }
+}
+
 #[cfg(test)]
 mod tests {
-    //! DeviceSteps against HostSteps on the CPU backend: the same step (loss,
-    //! moved parameters, face statistics) and the same held-out evaluation,
-    //! within the device tolerances of objectsplat-wgpu's tests.
+    //! DeviceSteps against HostSteps on the CPU backend, through the one
+    //! StepRunner interface: the same steps (loss, moved parameters, face
+    //! statistics) and the same evaluations, for an object and for the
+    //! background behind frozen occluders with both depth terms, within the
+    //! device tolerances of objectsplat-wgpu's tests; and the depth terms'
+    //! device gradient against the host's analytic gradient and against
+    //! finite differences of the host's loss, on the device's own render.
     use super::*;
+    use crate::depth_smoothness::{self, DepthImage};
     use crate::face_stats::FaceWeights;
     use crate::host_steps::HostSteps;
     use crate::schedule::Schedule;
     use crate::supervision::View;
     use glam::DVec3;
-    use objectsplat_core::component::{IGNORE, OTHER, OWN};
+    use objectsplat_core::component::{IGNORE, OTHER};
     use objectsplat_core::{Camera, ComponentKind, Split};
     use objectsplat_gpu::{AdapterChoice, GpuContext};
-    use objectsplat_raster::{CpuBackend, SH_COEFFS};
+    use objectsplat_optim::Optim;
+    use objectsplat_raster::{CpuBackend, RenderOutput, SH_COEFFS};
 
     fn gpu() -> Option<WgpuBackend> {
         match GpuContext::shared(AdapterChoice::Auto) {
@@ -467,16 +425,13 @@ mod tests {
         }
     }
 
-    /// A small object (60 random triangles near the origin) and an object
-    /// component of four 96×72 views: OWN pixels in a box around the object's
-    /// image, OTHER pixels elsewhere and a band of IGNORE pixels; the last view is held out.
-    fn object() -> (Model<f32>, ComponentData) {
-        let mut rng = Rng(0x5eed_0042);
+    /// `faces` random triangles around `centre`, SH up to `degree`.
+    fn soup(rng: &mut Rng, faces: u32, centre: [f64; 3], spread: f64, degree: u32) -> Model<f32> {
         let mut model = Model::<f32>::empty();
-        model.sh_degree = 2;
+        model.sh_degree = degree;
         model.opacity_floor = 0.0;
-        for f in 0..60u32 {
-            let c = [0, 1, 2].map(|_| rng.uniform(-0.3, 0.3));
+        for f in 0..faces {
+            let c = [0, 1, 2].map(|a| centre[a] + rng.uniform(-spread, spread));
             let r = rng.uniform(0.1, 0.25);
             for _ in 0..3 {
                 model
@@ -492,6 +447,18 @@ mod tests {
             }
             model.faces.push([3 * f, 3 * f + 1, 3 * f + 2]);
         }
+        model
+    }
+
+    /// The trained model (60 random triangles near the origin) and a
+    /// component of four 96×72 views of it: OWN pixels in a box around its
+    /// image, OTHER pixels elsewhere and a band of IGNORE pixels; the last view
+    /// is held out; measured points on the trained model's faces.
+    /// `behind` makes it the background behind frozen occluders (a second
+    /// soup, nearer the cameras, with its own σ per face and SH degree 3).
+    fn component(kind: ComponentKind, behind: bool) -> (Model<f32>, ComponentData) {
+        let mut rng = Rng(0x5eed_0042);
+        let model = soup(&mut rng, 60, [0.0; 3], 0.3, 2);
         let eyes = [
             DVec3::new(0.2, -0.3, -3.0),
             DVec3::new(-0.5, 0.2, -2.8),
@@ -507,7 +474,7 @@ mod tests {
                 let labels = (0..w * h)
                     .map(|p| {
                         let (x, y) = (p % w, p / w);
-                        if x.abs_diff(w / 2) < 12 && y.abs_diff(h / 2) < 10 {
+                        if x.abs_diff(w / 2) < 22 && y.abs_diff(h / 2) < 16 {
                             OWN
                         } else if y % 9 == 4 {
                             IGNORE
@@ -527,19 +494,42 @@ mod tests {
                 }
             })
             .collect();
+        let occluders = behind.then(|| {
+            let mut frozen = soup(&mut rng, 25, [0.35, 0.1, -0.6], 0.35, 3);
+            frozen.sigma = 0.4;
+            frozen.face_sigma = (0..frozen.face_count())
+                .map(|f| 0.2 + 0.05 * (f % 7) as f64)
+                .collect();
+            frozen
+        });
+        // Each face's centroid and the points halfway from it to the corners.
+        let depth_points = model
+            .faces
+            .iter()
+            .flat_map(|f| {
+                let v = f.map(|i| model.vertices[i as usize]);
+                let c = [0, 1, 2].map(|a| (v[0][a] + v[1][a] + v[2][a]) / 3.0);
+                let halfway = v.map(|corner| [0, 1, 2].map(|a| 0.5 * (c[a] + corner[a])));
+                std::iter::once(c).chain(halfway)
+            })
+            .collect();
         let data = ComponentData {
-            name: "object".into(),
-            kind: ComponentKind::Object,
+            name: "component".into(),
+            kind,
             views,
-            occluders: None,
-            depth_points: Vec::new(),
+            occluders,
+            depth_points,
         };
         (model, data)
     }
 
-    fn optim(model: &Model<f32>) -> Optim {
+    fn state(model: &Model<f32>) -> TrainingState {
         let schedule = Schedule::new(100, &serde_json::Map::new()).unwrap();
-        Optim::new(&schedule, model.vertex_count()).unwrap()
+        TrainingState {
+            model: model.clone(),
+            optim: Optim::new(schedule.learning_rates(0), model.vertex_count()).unwrap(),
+            stats: FaceWeights::new(model.face_count()),
+        }
     }
 
     fn flat(m: &Model<f32>) -> Vec<f64> {
@@ -559,156 +549,299 @@ mod tests {
         (d / n.max(1e-300)).sqrt()
     }
 
-    #[test]
-    fn device_evaluation_equals_the_host_evaluation() {
-        let Some(gpu) = gpu() else { return };
-        let (model, data) = object();
-        let optim = optim(&model);
-        let cpu = CpuBackend::new(2);
-        let render = RenderSettings::for_model(&model);
-        for crop in [true, false] {
-            let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], &optim, crop).unwrap();
-            let mut host = HostSteps::new(&cpu, &data, crop, false).unwrap();
-            for views in [&[3usize][..], &[0, 1, 2, 3][..]] {
-                let got = device
-                    .evaluate(&model, &optim, &data, views, render.clone())
-                    .unwrap();
-                let want = host.evaluate(&model, &data, views, &render).unwrap();
-                eprintln!("crop {crop}, views {views:?}: device {got:?}, host {want:?}");
-                assert!(
-                    (got.loss - want.loss).abs() <= 1e-5 * want.loss,
-                    "{got:?} vs {want:?}"
-                );
-                assert!((got.psnr - want.psnr).abs() <= 1e-3, "{got:?} vs {want:?}");
-            }
-            let err = DeviceSteps::new(&gpu, &data, &[0], &[], &optim, crop)
-                .unwrap()
-                .evaluate(&model, &optim, &data, &[3], render.clone())
-                .unwrap_err();
-            assert!(format!("{err:#}").contains("not uploaded"), "{err:#}");
-        }
+    /// Two steps (views 1 and 0, two backgrounds) with the given depth weights.
+    fn inputs(model: &Model<f32>, points: f64, planar: f64) -> Vec<StepInput> {
+        [(1usize, [0.3f32, 0.8, 0.1]), (0, [0.7, 0.2, 0.5])]
+            .into_iter()
+            .map(|(view, background)| StepInput {
+                view,
+                background,
+                render: RenderSettings::for_model(model),
+                point_depth_weight: points,
+                smoothness_weight: planar,
+            })
+            .collect()
     }
 
-    #[test]
-    fn a_device_step_matches_the_host_step() {
-        let Some(gpu) = gpu() else { return };
-        let (model, data) = object();
-        let cpu = CpuBackend::new(2);
-        let render = RenderSettings::for_model(&model);
-        let backgrounds = [[0.3f32, 0.8, 0.1], [0.7, 0.2, 0.5]];
-        let slots = [1usize, 0];
-
-        let (mut host_model, mut host_optim) = (model.clone(), optim(&model));
-        let mut host = HostSteps::new(&cpu, &data, true, false).unwrap();
-        let mut host_stats = FaceWeights::new(model.face_count());
-        let mut host_losses = Vec::new();
-        for (&slot, &b) in slots.iter().zip(&backgrounds) {
-            host_losses.push(
-                host.step(
-                    &mut host_model,
-                    &mut host_optim,
-                    &data,
-                    slot,
-                    b,
-                    &render,
-                    0.0,
-                    0.0,
-                    &mut host_stats,
-                )
-                .unwrap(),
-            );
+    /// Runs `inputs` on `runner`; returns the losses and the synced state.
+    fn run(
+        runner: &mut dyn StepRunner,
+        model: &Model<f32>,
+        inputs: &[StepInput],
+    ) -> (Vec<f64>, TrainingState) {
+        let mut state = state(model);
+        for (k, input) in inputs.iter().enumerate() {
+            runner.step(&mut state, k as u64 + 1, input).unwrap();
         }
-
-        let (mut device_model, mut device_optim) = (model.clone(), optim(&model));
-        let mut device =
-            DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], &device_optim, true).unwrap();
-        for (k, (&slot, &b)) in slots.iter().zip(&backgrounds).enumerate() {
-            device
-                .step(
-                    &device_model,
-                    &device_optim,
-                    k as u64 + 1,
-                    slot,
-                    b,
-                    render.clone(),
-                )
-                .unwrap();
-        }
-        let losses = device.losses(&data).unwrap();
-        device
-            .pull(&mut device_model, &mut device_optim, &data)
-            .unwrap();
-        let fraction = device.rendered_fraction().unwrap();
-        eprintln!("losses device {losses:?}, host {host_losses:?}; rendered {fraction:.2}");
-        assert!(
-            fraction < 0.8,
-            "the object's footprint is part of the frame: {fraction}"
+        let losses = runner.losses(true).unwrap();
+        runner.sync(&mut state).unwrap();
+        assert_eq!(
+            losses.iter().map(|l| l.iteration).collect::<Vec<_>>(),
+            (1..=inputs.len() as u64).collect::<Vec<_>>()
         );
-        for (d, h) in losses.iter().zip(&host_losses) {
-            assert!((*d as f64 - h).abs() <= 1e-5 * h, "loss {d} vs {h}");
+        (losses.into_iter().map(|l| l.loss).collect(), state)
+    }
+
+    /// The device's steps against the host's: losses, parameter updates,
+    /// Adam's step counts and the face statistics.
+    fn steps_agree(kind: ComponentKind, behind: bool, points: f64, planar: f64) {
+        let Some(gpu) = gpu() else { return };
+        let (model, data) = component(kind, behind);
+        let cpu = CpuBackend::new(2);
+        let inputs = inputs(&model, points, planar);
+        let depth = points > 0.0;
+        let mut host = HostSteps::new(&cpu, &data, true, depth).unwrap();
+        let (host_losses, host_state) = run(&mut host, &model, &inputs);
+        let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, depth).unwrap();
+        let (device_losses, device_state) = run(&mut device, &model, &inputs);
+        let fraction = (&device as &dyn StepRunner).rendered_fraction().unwrap();
+        let want_fraction = (&host as &dyn StepRunner).rendered_fraction().unwrap();
+        eprintln!(
+            "{kind:?} behind {behind}, depth {points}/{planar}: losses device {device_losses:?}, \
+             host {host_losses:?}; rendered {fraction:.3} vs {want_fraction:.3}"
+        );
+        assert!((fraction - want_fraction).abs() < 1e-9, "rendered share");
+        for (d, h) in device_losses.iter().zip(&host_losses) {
+            assert!((d - h).abs() <= 1e-5 * h, "loss {d} vs {h}");
         }
         let before = flat(&model);
         let moved = |m: &Model<f32>| -> Vec<f64> {
             flat(m).iter().zip(&before).map(|(a, b)| a - b).collect()
         };
-        let d = relative(&moved(&device_model), &moved(&host_model));
+        let d = relative(&moved(&device_state.model), &moved(&host_state.model));
         eprintln!("parameter updates differ by {d:.2e}");
         assert!(d <= 2e-3, "parameter updates differ by {d:.3e}");
-        let g = &device_optim.adam.groups[device_optim.sh];
-        let h = &host_optim.adam.groups[host_optim.sh];
-        assert_eq!(g.steps, h.steps);
-
-        // Face statistics: the same running maxima as the host step's records,
-        // brought back by the pull (no further readback).
-        let syncs = device.host_syncs();
-        let (current, previous) = device.face_weights().unwrap().unwrap();
-        assert_eq!(device.host_syncs(), syncs);
-        let want = host_stats.max_weight();
-        for (f, (a, b)) in current.iter().zip(&want).enumerate() {
+        assert_eq!(
+            device_state.optim.groups().map(|g| g.steps),
+            host_state.optim.groups().map(|g| g.steps)
+        );
+        let (now, previous) = device_state.stats.arrays();
+        let want = host_state.stats.max_weight();
+        for (f, (a, b)) in now.iter().zip(&want).enumerate() {
             assert!((a - b).abs() <= 1e-4, "face {f}: {a} vs {b}");
         }
         assert!(previous.iter().all(|&w| w == 0.0));
-        assert!(current.iter().any(|&w| w > 0.0));
+        assert!(now.iter().any(|&w| w > 0.0));
+    }
+
+    #[test]
+    fn an_object_step_matches_the_host_step() {
+        steps_agree(ComponentKind::Object, false, 0.0, 0.0);
+    }
+
+    #[test]
+    fn a_background_step_behind_occluders_matches_the_host_step() {
+        steps_agree(ComponentKind::Background, true, 0.0, 0.0);
+    }
+
+    #[test]
+    fn a_background_step_with_both_depth_terms_matches_the_host_step() {
+        steps_agree(ComponentKind::Background, true, 1.0, 3.0);
+        steps_agree(ComponentKind::Background, false, 1.0, 3.0);
+    }
+
+    #[test]
+    fn device_evaluation_and_face_weights_equal_the_host_ones() {
+        let Some(gpu) = gpu() else { return };
+        let cpu = CpuBackend::new(2);
+        for behind in [false, true] {
+            let (model, data) = component(ComponentKind::Background, behind);
+            let state = state(&model);
+            let render = RenderSettings::for_model(&model);
+            for crop in [true, false] {
+                let mut device =
+                    DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], crop, false).unwrap();
+                let mut host = HostSteps::new(&cpu, &data, crop, false).unwrap();
+                for views in [&[3usize][..], &[0, 1, 2, 3][..]] {
+                    for subject in [Subject::Training(&state), Subject::Other(&model)] {
+                        let got =
+                            StepRunner::evaluate(&mut device, subject, views, &render).unwrap();
+                        let want =
+                            StepRunner::evaluate(&mut host, subject, views, &render).unwrap();
+                        eprintln!(
+                            "behind {behind}, crop {crop}, views {views:?}: device {got:?}, host {want:?}"
+                        );
+                        assert!(
+                            (got.loss - want.loss).abs() <= 1e-5 * want.loss,
+                            "{got:?} vs {want:?}"
+                        );
+                        assert!((got.psnr - want.psnr).abs() <= 1e-3, "{got:?} vs {want:?}");
+                    }
+                    let got = StepRunner::face_max_weight(
+                        &mut device,
+                        Subject::Training(&state),
+                        views,
+                        &render,
+                    )
+                    .unwrap();
+                    let want = StepRunner::face_max_weight(
+                        &mut host,
+                        Subject::Training(&state),
+                        views,
+                        &render,
+                    )
+                    .unwrap();
+                    assert_eq!(got.len(), want.len());
+                    for (f, (a, b)) in got.iter().zip(&want).enumerate() {
+                        assert!((a - b).abs() <= 1e-4, "face {f}: {a} vs {b}");
+                    }
+                }
+                let err = DeviceSteps::new(&gpu, &data, &[0], &[], crop, false)
+                    .unwrap()
+                    .evaluate(Subject::Training(&state), &[3], &render)
+                    .unwrap_err();
+                assert!(format!("{err:#}").contains("not uploaded"), "{err:#}");
+            }
+        }
     }
 
     #[test]
     fn host_face_statistics_go_to_the_device_with_the_model() {
         let Some(gpu) = gpu() else { return };
-        let (model, data) = object();
-        let optim = optim(&model);
-        let render = RenderSettings::for_model(&model);
+        let (model, data) = component(ComponentKind::Object, false);
+        let mut state = state(&model);
         let nf = model.face_count();
-        let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], &optim, true).unwrap();
-        // The host holds the newest model: its statistics wait for the upload.
-        assert_eq!(device.face_weights().unwrap(), None);
+        let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, false).unwrap();
         let current: Vec<f32> = (0..nf)
             .map(|f| if f % 2 == 0 { 2.0 } else { 0.0 })
             .collect();
         let previous: Vec<f32> = (0..nf).map(|f| f as f32 / nf as f32).collect();
-        device
-            .set_face_weights(current.clone(), previous.clone())
-            .unwrap();
-        device.end_epoch(); // the host rolled its own copy already
-        device
-            .step(&model, &optim, 1, 0, [0.5; 3], render.clone())
-            .unwrap();
-        let (now, before) = device.face_weights().unwrap().unwrap();
-        assert_eq!(before, previous);
+        state.stats = FaceWeights::from_parts(current.clone(), previous.clone(), 1).unwrap();
+        let input = &inputs(&model, 0.0, 0.0)[0];
+        device.step(&mut state, 1, input).unwrap();
+        device.sync(&mut state).unwrap();
+        let (now, before) = state.stats.arrays();
+        assert_eq!(before, &previous[..]);
         // Weights of a step are at most 1: the even faces keep the host's 2.0.
-        for f in 0..nf {
-            if f % 2 == 0 {
-                assert_eq!(now[f], 2.0);
-            }
+        for f in (0..nf).step_by(2) {
+            assert_eq!(now[f], 2.0);
         }
         assert!(now.iter().enumerate().any(|(f, &w)| f % 2 == 1 && w > 0.0));
+        // The device rolls its statistics with the host's while it holds the newest model.
+        let rolled = now.to_vec();
+        state.stats.end_epoch();
         device.end_epoch();
-        let (now2, before2) = device.face_weights().unwrap().unwrap();
-        assert_eq!(before2, now);
-        assert!(now2.iter().all(|&w| w == 0.0));
-        // Statistics of another face count are refused once the device holds the model.
-        let err = device
-            .set_face_weights(vec![0.0; nf + 1], vec![0.0; nf + 1])
-            .unwrap_err();
-        assert!(format!("{err:#}").contains("faces"), "{err:#}");
+        device.step(&mut state, 2, input).unwrap();
+        device.sync(&mut state).unwrap();
+        let (now, before) = state.stats.arrays();
+        assert_eq!(before, &rolled[..]);
+        assert!(now.iter().all(|&w| w < 2.0) && now.iter().any(|&w| w > 0.0));
+    }
+
+    /// The depth terms' gradient the device starts its backward pass from,
+    /// on its own render: against the host's analytic gradient, and against
+    /// central differences of the host's loss on that render.
+    #[test]
+    fn device_depth_gradients_match_the_host_terms_and_finite_differences() {
+        let Some(gpu) = gpu() else { return };
+        let (model, data) = component(ComponentKind::Background, false);
+        let points = PointDepth::new(&data.depth_points, &data);
+        assert!(points.count(0) > 3, "the view must see measured points");
+        for (point_weight, planar_weight) in [(1.0, 0.0), (0.0, 3.0), (0.7, 2.0)] {
+            let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, true).unwrap();
+            let mut state = state(&model);
+            let mut input = inputs(&model, point_weight, planar_weight).swap_remove(1);
+            input.render.sh_degree = model.sh_degree;
+            device.step(&mut state, 1, &input).unwrap();
+            let pass = device.trainer.last_pass().unwrap();
+            let region = pass.region;
+            let (rw, rh) = (region.width() as usize, region.height() as usize);
+            let channel = |values: &[f32], k: usize| -> Vec<f32> {
+                values.chunks_exact(6).map(|v| v[k]).collect()
+            };
+            let (alpha, depth) = (channel(&pass.image, 3), channel(&pass.image, 4));
+            let out = RenderOutput {
+                width: data.views[0].camera.width,
+                height: data.views[0].camera.height,
+                region,
+                alpha: alpha.clone(),
+                depth: depth.clone(),
+                ..RenderOutput::default()
+            };
+            let labels = &data.views[0].labels;
+            let frame_width = out.width as usize;
+            let own = |i: usize| {
+                let (x, y) = (region.x0 as usize + i % rw, region.y0 as usize + i / rw);
+                labels[y * frame_width + x] == OWN
+            };
+            // The host's terms on the device's render.
+            let loss_and_gradient = |alpha: &[f32], depth: &[f32]| {
+                let (mut dd, mut da) = (vec![0.0f32; rw * rh], vec![0.0f32; rw * rh]);
+                let out = RenderOutput {
+                    alpha: alpha.to_vec(),
+                    depth: depth.to_vec(),
+                    ..out.clone()
+                };
+                let mut loss = points.add_gradient(0, &out, point_weight, &mut dd, &mut da);
+                if planar_weight > 0.0 {
+                    let image = DepthImage {
+                        width: rw,
+                        height: rh,
+                        depth,
+                        alpha,
+                    };
+                    loss += depth_smoothness::add_gradient(
+                        &image,
+                        own,
+                        planar_weight,
+                        &mut dd,
+                        &mut da,
+                    );
+                }
+                (loss, dd, da)
+            };
+            let (_, want_depth, want_alpha) = loss_and_gradient(&alpha, &depth);
+            let (got_alpha, got_depth) = (channel(&pass.upstream, 3), channel(&pass.upstream, 4));
+            let to64 = |v: &[f32]| v.iter().map(|&x| x as f64).collect::<Vec<_>>();
+            for (name, got, want) in [
+                ("depth", &got_depth, &want_depth),
+                ("alpha", &got_alpha, &want_alpha),
+            ] {
+                let d = relative(&to64(got), &to64(want));
+                eprintln!(
+                    "weights {point_weight}/{planar_weight}: d/d{name} device vs host {d:.2e}"
+                );
+                assert!(
+                    want.iter().any(|&g| g != 0.0),
+                    "{name}: no gradient to compare"
+                );
+                assert!(
+                    d <= 1e-4,
+                    "{name}: the device's gradient differs by {d:.3e}"
+                );
+            }
+            // Central differences of the loss at pixels where the device has a
+            // gradient, where the loss is smooth at the step's scale: both terms
+            // are L1, with kinks where a point's depth error or a run's second
+            // difference crosses 0 (there the one-sided differences disagree).
+            let eps = 1e-3f32;
+            let mut checked = 0;
+            for i in (0..rw * rh).filter(|&i| got_depth[i] != 0.0).take(60) {
+                for (plane, analytic) in [(4usize, got_depth[i]), (3, got_alpha[i])] {
+                    let shifted = |delta: f32| {
+                        let (mut a, mut d) = (alpha.clone(), depth.clone());
+                        if plane == 4 {
+                            d[i] += delta;
+                        } else {
+                            a[i] += delta;
+                        }
+                        loss_and_gradient(&a, &d).0
+                    };
+                    let (up, here, down) = (shifted(eps), shifted(0.0), shifted(-eps));
+                    let (right, left) = ((up - here) / eps as f64, (here - down) / eps as f64);
+                    if (right - left).abs() > 1e-2 * (1.0 + right.abs()) {
+                        continue;
+                    }
+                    let numeric = (up - down) / (2.0 * eps as f64);
+                    assert!(
+                        (numeric - analytic as f64).abs() <= 5e-3 * (1.0 + numeric.abs()),
+                        "pixel {i} channel {plane}: numeric {numeric} device {analytic}"
+                    );
+                    checked += 1;
+                }
+            }
+            eprintln!("weights {point_weight}/{planar_weight}: {checked} finite differences");
+            assert!(checked >= 10, "only {checked} finite differences");
+        }
     }
 }

@@ -9,14 +9,16 @@
 //! the whole frame; for an object it is its neighbourhood. On the CPU backend
 //! every buffer lives in a workspace reused from step to step.
 
+use crate::composite::Composite;
 use crate::depth_smoothness::{self, DepthImage};
 use crate::face_stats::FaceWeights;
-use crate::optim::Optim;
 use crate::point_depth::PointDepth;
+use crate::steps::{HeldOut, StepInput, StepLoss, StepRunner, Subject, TrainingState};
 use crate::supervision::{ComponentData, ViewSummary, fill_region};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::Camera;
 use objectsplat_core::component::OWN;
+use objectsplat_optim::Optim;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::cpu::{Background, CpuWorkspace};
 use objectsplat_raster::loss::{
@@ -114,89 +116,9 @@ impl<'a> Renderer<'a> {
     }
 }
 
-/// The model being trained, rendered together with frozen occluders (the
-/// trained objects behind which the background is trained). The model's
-/// vertices and faces come first, so its gradients and face statistics are a
-/// prefix of the composite's; each occluder keeps its own σ, opacities and colours.
-struct Composite {
-    frozen: Model<f32>,
-    /// Activated opacity of every frozen vertex (kept exactly while the floor moves).
-    frozen_opacity: Vec<f64>,
-    /// σ of every frozen face.
-    frozen_sigma: Vec<f64>,
-    /// The frozen logits under `floor`.
-    frozen_logits: Vec<f32>,
-    floor: Option<f64>,
-    merged: Model<f32>,
-}
-
-impl Composite {
-    fn new(frozen: &Model<f32>) -> Result<Self> {
-        frozen.validate().context("the occluders")?;
-        Ok(Composite {
-            frozen_opacity: (0..frozen.vertex_count())
-                .map(|v| frozen.vertex_opacity(v) as f64)
-                .collect(),
-            frozen_sigma: if frozen.face_sigma.is_empty() {
-                vec![frozen.sigma; frozen.face_count()]
-            } else {
-                frozen.face_sigma.clone()
-            },
-            frozen: frozen.clone(),
-            frozen_logits: Vec::new(),
-            floor: None,
-            merged: Model::empty(),
-        })
-    }
-
-    /// `model` (at σ `sigma`) followed by the occluders, in one model.
-    fn assemble(&mut self, model: &Model<f32>, sigma: f64) -> &Model<f32> {
-        let floor = model.opacity_floor;
-        if self.floor != Some(floor) {
-            self.frozen_logits.clear();
-            self.frozen_logits
-                .extend(self.frozen_opacity.iter().map(|&o| {
-                    objectsplat_raster::model::inverse_sigmoid((o - floor) / (1.0 - floor)) as f32
-                }));
-            self.floor = Some(floor);
-        }
-        let m = &mut self.merged;
-        let nv = model.vertex_count() as u32;
-        m.vertices.clear();
-        m.vertices.extend_from_slice(&model.vertices);
-        m.vertices.extend_from_slice(&self.frozen.vertices);
-        m.sh.clear();
-        m.sh.extend_from_slice(&model.sh);
-        m.sh.extend_from_slice(&self.frozen.sh);
-        m.opacity_logits.clear();
-        m.opacity_logits.extend_from_slice(&model.opacity_logits);
-        m.opacity_logits.extend_from_slice(&self.frozen_logits);
-        m.faces.clear();
-        m.faces.extend_from_slice(&model.faces);
-        m.faces
-            .extend(self.frozen.faces.iter().map(|f| f.map(|v| v + nv)));
-        m.face_sigma.clear();
-        m.face_sigma
-            .extend(std::iter::repeat_n(sigma, model.face_count()));
-        m.face_sigma.extend_from_slice(&self.frozen_sigma);
-        m.opacity_floor = floor;
-        m.sigma = sigma;
-        m.sh_degree = model.sh_degree.max(self.frozen.sh_degree);
-        m
-    }
-}
-
-/// A model's quality on some views of a component.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct HeldOut {
-    /// Mean weighted photometric loss (`0.8·L1 + 0.2·D-SSIM`); selects the checkpoint.
-    pub loss: f64,
-    /// PSNR (dB) over every supervised pixel of those views (one pooled MSE).
-    pub psnr: f64,
-}
-
 /// Renders, scores and back-propagates a component's views.
 pub(crate) struct HostSteps<'a> {
+    data: &'a ComponentData,
     renderer: Renderer<'a>,
     loss: PhotometricLoss<f32>,
     target: Vec<f32>,
@@ -214,12 +136,14 @@ pub(crate) struct HostSteps<'a> {
     /// Reused dL/ddepth and dL/dalpha planes of the depth loss.
     d_depth: Vec<f32>,
     d_alpha: Vec<f32>,
+    /// Losses of the steps not yet taken by the loop.
+    losses: Vec<StepLoss>,
 }
 
 impl<'a> HostSteps<'a> {
     pub fn new(
         backend: &'a dyn RenderBackend<f32>,
-        data: &ComponentData,
+        data: &'a ComponentData,
         crop: bool,
         depth_supervised: bool,
     ) -> Result<Self> {
@@ -229,6 +153,7 @@ impl<'a> HostSteps<'a> {
             PointDepth::default()
         };
         Ok(HostSteps {
+            data,
             renderer: Renderer::new(backend),
             loss: PhotometricLoss::new(),
             target: Vec::new(),
@@ -245,22 +170,8 @@ impl<'a> HostSteps<'a> {
             point_depth,
             d_depth: Vec::new(),
             d_alpha: Vec::new(),
+            losses: Vec::new(),
         })
-    }
-
-    /// Steps taken and the summed share of frames they rendered (saved with a run's state).
-    pub fn rendered(&self) -> (u64, f64) {
-        (self.steps, self.rendered)
-    }
-
-    pub fn set_rendered(&mut self, (steps, rendered): (u64, f64)) {
-        self.steps = steps;
-        self.rendered = rendered;
-    }
-
-    /// Mean share of the frame the training steps rendered (None before any step).
-    pub fn rendered_fraction(&self) -> Option<f64> {
-        (self.steps > 0).then(|| self.rendered / self.steps as f64)
     }
 
     fn region(&self, view: usize) -> Region {
@@ -280,12 +191,12 @@ impl<'a> HostSteps<'a> {
     fn render_and_score(
         &mut self,
         model: &Model<f32>,
-        data: &ComponentData,
         view: usize,
         b: [f32; 3],
         render: &RenderSettings,
         gradient: bool,
     ) -> Result<(f64, f64)> {
+        let data = self.data;
         let v = &data.views[view];
         let mut settings = RenderSettings {
             region: self.region(view),
@@ -344,24 +255,25 @@ impl<'a> HostSteps<'a> {
         Ok((value.total, squared))
     }
 
-    /// One iteration: render view `view` over `b`, loss (with the depth loss at
-    /// weight `depth_weight` and the planarity prior at `smoothness_weight`),
-    /// backward, Adam. The render's per-face weights go into `stats`. Returns the
-    /// photometric loss.
-    #[allow(clippy::too_many_arguments)]
-    pub fn step(
+    /// One iteration: render the input's view over its background, loss (with
+    /// the depth loss and the planarity prior at the input's weights),
+    /// backward, Adam. The render's per-face weights go into `stats`. Returns
+    /// the photometric loss.
+    fn train_step(
         &mut self,
         model: &mut Model<f32>,
         optim: &mut Optim,
-        data: &ComponentData,
-        view: usize,
-        b: [f32; 3],
-        render: &RenderSettings,
-        depth_weight: f64,
-        smoothness_weight: f64,
         stats: &mut FaceWeights,
+        input: &StepInput,
     ) -> Result<f64> {
-        let (loss, _) = self.render_and_score(model, data, view, b, render, true)?;
+        let data = self.data;
+        let (view, depth_weight, smoothness_weight) = (
+            input.view,
+            input.point_depth_weight,
+            input.smoothness_weight,
+        );
+        let (loss, _) =
+            self.render_and_score(model, view, input.background, &input.render, true)?;
         let camera = &data.views[view].camera;
         self.steps += 1;
         self.rendered +=
@@ -375,7 +287,7 @@ impl<'a> HostSteps<'a> {
             Renderer::Other(r) => &r.out.face_max_weight[..faces],
         });
         let rendered = match &self.composite {
-            Some(c) => &c.merged,
+            Some(c) => c.merged(),
             None => &*model,
         };
         let with_points = depth_weight > 0.0 && self.point_depth.count(view) > 0;
@@ -444,37 +356,27 @@ impl<'a> HostSteps<'a> {
     pub fn evaluate(
         &mut self,
         model: &Model<f32>,
-        data: &ComponentData,
         views: &[usize],
         render: &RenderSettings,
     ) -> Result<HeldOut> {
         let (mut loss, mut squared, mut weight) = (0.0, 0.0, 0.0);
         for &view in views {
-            let (l, s) = self.render_and_score(model, data, view, [0.0; 3], render, false)?;
+            let (l, s) = self.render_and_score(model, view, [0.0; 3], render, false)?;
             loss += l;
             squared += s;
             weight += 3.0 * self.summaries[view].total_weight;
         }
-        let mse = squared / weight.max(1.0);
-        Ok(HeldOut {
-            loss: loss / views.len().max(1) as f64,
-            // A perfect fit is capped at 100 dB rather than reported as infinity.
-            psnr: if mse > 1e-10 {
-                -10.0 * mse.log10()
-            } else {
-                100.0
-            },
-        })
+        Ok(HeldOut::pooled(loss, views.len(), squared, weight))
     }
 
     /// Per face, the largest blending weight over renders of `views` (no loss).
     pub fn face_max_weight(
         &mut self,
         model: &Model<f32>,
-        data: &ComponentData,
         views: &[usize],
         render: &RenderSettings,
     ) -> Result<Vec<f32>> {
+        let data = self.data;
         let mut max = vec![0.0f32; model.face_count()];
         for &view in views {
             let settings = RenderSettings {
@@ -489,5 +391,79 @@ impl<'a> HostSteps<'a> {
             }
         }
         Ok(max)
+    }
+}
+
+impl StepRunner for HostSteps<'_> {
+    fn step(&mut self, state: &mut TrainingState, iteration: u64, input: &StepInput) -> Result<()> {
+        let TrainingState {
+            model,
+            optim,
+            stats,
+        } = state;
+        let loss = self
+            .train_step(model, optim, stats, input)
+            .with_context(|| {
+                format!(
+                    "training of {:?} diverged at iteration {iteration} (view {:?}; parameters \
+                     overflowed, lower the learning rates)",
+                    self.data.name, self.data.views[input.view].name
+                )
+            })?;
+        self.losses.push(StepLoss { iteration, loss });
+        Ok(())
+    }
+
+    fn losses(&mut self, _wait: bool) -> Result<Vec<StepLoss>> {
+        Ok(std::mem::take(&mut self.losses))
+    }
+
+    fn evaluate(
+        &mut self,
+        subject: Subject<'_>,
+        views: &[usize],
+        render: &RenderSettings,
+    ) -> Result<HeldOut> {
+        HostSteps::evaluate(self, subject.model(), views, render)
+    }
+
+    fn face_max_weight(
+        &mut self,
+        subject: Subject<'_>,
+        views: &[usize],
+        render: &RenderSettings,
+    ) -> Result<Vec<f32>> {
+        HostSteps::face_max_weight(self, subject.model(), views, render)
+    }
+
+    /// The host's state is the only one.
+    fn sync(&mut self, _state: &mut TrainingState) -> Result<()> {
+        Ok(())
+    }
+
+    fn edited(&mut self) {}
+
+    fn model_is_current(&self) -> bool {
+        true
+    }
+
+    fn end_epoch(&mut self) {}
+
+    fn rendered(&self) -> (u64, f64) {
+        (self.steps, self.rendered)
+    }
+
+    fn set_rendered(&mut self, (steps, rendered): (u64, f64)) {
+        self.steps = steps;
+        self.rendered = rendered;
+    }
+
+    fn place(&self) -> &'static str {
+        "host"
+    }
+
+    /// None: the run report's backend note already says where host steps ran.
+    fn summary(&self) -> Option<String> {
+        None
     }
 }

@@ -1,6 +1,7 @@
 //! The mesh-splatting trainer's building blocks (see docs/trainer.md):
 //!
-//! - [`adam`]: Adam with per-group learning rates and row-resizable state;
+//! - [`adam`] and [`Optim`] (from objectsplat-optim, shared with the device
+//!   trainer): Adam with per-group learning rates and row-resizable state;
 //! - [`schedule`]: every scheduled number, scaled to the iteration budget;
 //! - [`densify`]: midpoint-subdivision densification and pruning;
 //! - [`delaunay`] + [`connectivity`]: the restricted Delaunay connectivity step;
@@ -12,8 +13,8 @@
 // Numerical loops index several parallel arrays with one index.
 #![allow(clippy::neg_cmp_op_on_partial_ord, clippy::needless_range_loop)]
 
-pub mod adam;
 pub mod checkpoint;
+mod composite;
 pub mod connectivity;
 pub mod delaunay;
 pub mod densify;
@@ -23,11 +24,11 @@ pub mod face_stats;
 mod host_steps;
 pub mod hull;
 pub mod init;
-pub mod optim;
 pub mod point_depth;
 pub mod schedule;
+mod steps;
 
-pub use adam::{Adam, LogLinearDecay};
+pub use objectsplat_optim::{Adam, LogLinearDecay, Optim, adam};
 pub use schedule::Schedule;
 pub mod node;
 pub mod supervision;

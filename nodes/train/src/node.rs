@@ -279,6 +279,13 @@ impl Node for TrainNode {
             )?
         };
         ctx.note("iterations", report.iterations_run);
+        ctx.note(
+            "steps",
+            format!(
+                "all {} on the {}",
+                report.iterations_run, report.steps_ran_on
+            ),
+        );
         ctx.note("best_iteration", report.best_iteration);
         ctx.note("best_score", format!("{:.5}", report.best_score));
         ctx.note("held_out_psnr", format!("{:.2} dB", report.log.final_psnr));

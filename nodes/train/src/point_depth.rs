@@ -65,6 +65,12 @@ impl PointDepth {
         self.views.get(view).map_or(0, Vec::len)
     }
 
+    /// The points kept in view `view`: (pixel index in the frame, camera
+    /// depth), one per pixel, in pixel order.
+    pub fn of_view(&self, view: usize) -> &[(u32, f32)] {
+        self.views.get(view).map_or(&[], Vec::as_slice)
+    }
+
     /// Adds `weight · mean |D/α − d| / d` over view `view`'s points inside the
     /// render's region (at least half covered) to the depth and alpha gradients
     /// (region-sized) and returns that loss (0 when the view keeps no point there).

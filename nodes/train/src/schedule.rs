@@ -282,6 +282,16 @@ impl Schedule {
         Ok(())
     }
 
+    /// The learning rates at iteration `it` (only the vertices' decay).
+    pub fn learning_rates(&self, it: u64) -> objectsplat_optim::LearningRates {
+        objectsplat_optim::LearningRates {
+            positions: self.lr_vertices(it),
+            sh_dc: self.lr_sh_dc,
+            sh_rest: self.lr_sh_dc / self.sh_rest_lr_divisor,
+            opacity: self.lr_opacity,
+        }
+    }
+
     pub fn lr_vertices(&self, it: u64) -> f64 {
         crate::adam::LogLinearDecay {
             start: self.lr_vertices_start,

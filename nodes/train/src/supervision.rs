@@ -129,7 +129,7 @@ impl PixelRule {
 
 /// Pixel weights and targets of one view under background colour `b`.
 pub fn supervision(view: &View, kind: ComponentKind, b: [f32; 3]) -> (Vec<f32>, Vec<f32>) {
-    let (mut target, weights, from_background) = supervision_parts(view, kind);
+    let (mut target, weights, from_background) = supervision_parts(view, PixelRule::new(kind));
     for p in (0..weights.len()).filter(|&p| from_background[p]) {
         target[3 * p..3 * p + 3].copy_from_slice(&b);
     }
@@ -138,11 +138,7 @@ pub fn supervision(view: &View, kind: ComponentKind, b: [f32; 3]) -> (Vec<f32>, 
 
 /// The parts of [`supervision`] that do not depend on the background colour:
 /// targets, weights, and which pixels take the background colour as target.
-pub(crate) fn supervision_parts(
-    view: &View,
-    kind: ComponentKind,
-) -> (Vec<f32>, Vec<f32>, Vec<bool>) {
-    let rule = PixelRule::new(kind);
+pub(crate) fn supervision_parts(view: &View, rule: PixelRule) -> (Vec<f32>, Vec<f32>, Vec<bool>) {
     let (weights, from_background) = view.labels.iter().map(|&l| rule.apply(l)).unzip();
     (view.target.clone(), weights, from_background)
 }

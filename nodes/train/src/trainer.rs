@@ -27,10 +27,11 @@ use crate::device_steps::DeviceSteps;
 use crate::face_stats::FaceWeights;
 use crate::host_steps::HostSteps;
 use crate::init::{InitSettings, init_model};
-use crate::optim::Optim;
 use crate::schedule::Schedule;
+use crate::steps::{StepInput, StepLoss, StepRunner, Subject, TrainingState};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::{ComponentKind, Points, Split};
+use objectsplat_optim::{LearningRates, Optim};
 use objectsplat_raster::{
     EvalRecord, Model, RenderBackend, RenderSettings, StepRecord, TrainingLog,
 };
@@ -38,9 +39,10 @@ use objectsplat_wgpu::WgpuBackend;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
+use std::collections::VecDeque;
 use std::time::Instant;
 
-pub use crate::host_steps::HeldOut;
+pub use crate::steps::HeldOut;
 pub use crate::supervision::{ComponentData, View, supervision};
 
 /// Which model a run returns.
@@ -128,6 +130,8 @@ pub struct TrainReport {
     pub notes: Vec<String>,
     /// Curves and outcome, saved next to the model as `training.json`.
     pub log: TrainingLog,
+    /// Where the iterations ran: "host" or "device".
+    pub steps_ran_on: &'static str,
 }
 
 fn render_settings(model: &Model<f32>, settings: &TrainSettings) -> RenderSettings {
@@ -208,7 +212,6 @@ pub fn held_out_eval(
 ) -> Result<HeldOut> {
     HostSteps::new(backend, data, settings.crop, false)?.evaluate(
         model,
-        data,
         &evaluation_views(data),
         &render_settings(model, settings),
     )
@@ -310,20 +313,20 @@ pub struct Step<'a> {
     /// Iterations done, this one included (1-based).
     pub iteration: u64,
     pub total: u64,
-    /// The index into `ComponentData::views` of the view this iteration rendered
-    /// (None on the device path, which picks views on the device).
+    /// The index into `ComponentData::views` of the view this iteration rendered.
     pub view: Option<usize>,
-    /// The photometric loss of that view (host path only).
+    /// The photometric loss of that view, when known at once (the host's
+    /// steps; a device reports its losses in batches).
     pub loss: Option<f64>,
-    /// The model after this iteration's update. On the device path it is copied
-    /// back only for a hook that asks ([`StepHook::wants_model`]), which is slow.
+    /// The model after this iteration's update. On a device it is copied back
+    /// only for a hook that asks ([`StepHook::wants_model`]), which is slow.
     pub model: Option<&'a Model<f32>>,
 }
 
 /// Watches a training run step by step — for probes and studies that would
 /// otherwise copy the training loop — and may interrupt it.
 pub trait StepHook {
-    /// Whether [`Step::model`] should be filled on the device path too.
+    /// Whether [`Step::model`] should be filled on a device too.
     fn wants_model(&self) -> bool {
         false
     }
@@ -337,6 +340,79 @@ struct ProgressHook<F>(F);
 impl<F: FnMut(u64, u64) -> bool> StepHook for ProgressHook<F> {
     fn after_step(&mut self, step: &Step) -> bool {
         (self.0)(step.iteration, step.total)
+    }
+}
+
+/// The loss log: one record per `every` iterations, the mean loss of its
+/// window. A device's losses arrive after the log point they belong to, so
+/// points wait for their windows.
+struct LossLog {
+    records: Vec<StepRecord>,
+    /// Points whose window has not fully arrived: (iteration, wall seconds, faces).
+    waiting: VecDeque<(u64, f64, usize)>,
+    arrived: VecDeque<StepLoss>,
+    window_sum: f64,
+    window_len: u64,
+    /// The iteration of the last loss summed into a window.
+    last_taken: Option<u64>,
+}
+
+impl LossLog {
+    fn new(records: Vec<StepRecord>) -> Self {
+        LossLog {
+            records,
+            waiting: VecDeque::new(),
+            arrived: VecDeque::new(),
+            window_sum: 0.0,
+            window_len: 0,
+            last_taken: None,
+        }
+    }
+
+    fn point(&mut self, iteration: u64, wall_seconds: f64, faces: usize) {
+        self.waiting.push_back((iteration, wall_seconds, faces));
+        self.resolve();
+    }
+
+    fn arrive(&mut self, losses: Vec<StepLoss>) {
+        self.arrived.extend(losses);
+        self.resolve();
+    }
+
+    fn resolve(&mut self) {
+        while let Some(&(iteration, wall_seconds, faces)) = self.waiting.front() {
+            while let Some(l) = self.arrived.front().filter(|l| l.iteration <= iteration) {
+                self.window_sum += l.loss;
+                self.window_len += 1;
+                self.last_taken = Some(l.iteration);
+                self.arrived.pop_front();
+            }
+            let complete = self.window_len > 0
+                && self
+                    .arrived
+                    .front()
+                    .map_or(self.last_arrived_was(iteration), |next| {
+                        next.iteration > iteration
+                    });
+            if !complete {
+                return;
+            }
+            self.records.push(StepRecord {
+                iteration,
+                wall_seconds,
+                loss: self.window_sum / self.window_len as f64,
+                faces,
+            });
+            self.waiting.pop_front();
+            self.window_sum = 0.0;
+            self.window_len = 0;
+        }
+    }
+
+    /// With nothing left in `arrived`: whether the window of `iteration` is
+    /// complete, i.e. its last loss was the last one taken.
+    fn last_arrived_was(&self, iteration: u64) -> bool {
+        self.last_taken == Some(iteration)
     }
 }
 
@@ -376,7 +452,7 @@ pub fn train_component_with_hook(
     if train.is_empty() {
         bail!("component {:?} has no training views", data.name);
     }
-    let mut model = init_model(
+    let model = init_model(
         points,
         &InitSettings {
             seed: settings.seed,
@@ -384,7 +460,18 @@ pub fn train_component_with_hook(
         },
     )
     .with_context(|| format!("initializing component {:?}", data.name))?;
-    let mut optim = Optim::new(s, model.vertex_count())?;
+    let optim = Optim::new(
+        LearningRates {
+            positions: s.lr_vertices_start,
+            ..s.learning_rates(0)
+        },
+        model.vertex_count(),
+    )?;
+    let mut state = TrainingState {
+        stats: FaceWeights::new(model.face_count()),
+        model,
+        optim,
+    };
     let depth_weight = s.point_depth_weight_for(data.kind);
     let depth_supervised = depth_weight > 0.0 && !data.depth_points.is_empty();
     let smoothness_weight = s.depth_smoothness_weight_for(data.kind);
@@ -400,39 +487,35 @@ pub fn train_component_with_hook(
             "planarity prior on the rendered depth, weight {smoothness_weight}"
         ));
     }
-    // Both depth terms are built only on the host path.
-    let host_depth_terms = depth_supervised || smoothness_weight > 0.0;
-    // On a wgpu backend the iterations run on the device; everything else stays here.
-    // Training behind frozen occluders renders a composite, which only the host path builds.
-    let mut device = match backend
+    // The returned model is reported on the held-out test views, whichever views chose it.
+    let report_views = evaluation_views(data);
+    // On a wgpu backend the iterations run on the device; everything else
+    // (schedule, edits, checkpoints) stays here.
+    let mut runner: Box<dyn StepRunner> = match backend
         .as_any()
         .and_then(|b| b.downcast_ref::<WgpuBackend>())
     {
-        // Depth supervision at measured points, too, is built only on the host.
-        Some(gpu) if data.occluders.is_none() && !host_depth_terms => Some(DeviceSteps::new(
-            gpu,
-            data,
-            &train,
-            &held_out,
-            &optim,
-            settings.crop,
-        )?),
-        Some(_) if host_depth_terms && data.occluders.is_none() => {
-            notes.push(
-                "wgpu renders each step, but the steps run on the host path: the depth loss at \
-                 measured points and the planarity prior are not built on the device (schedule \
-                 point_depth_weight: 0 and depth_smoothness_weight: 0, or \
-                 object_point_depth_weight: 0 for an object, keep the steps on the device)"
-                    .into(),
-            );
-            None
+        Some(gpu) => {
+            let mut scored = held_out.clone();
+            scored.extend(report_views.iter().filter(|v| !held_out.contains(v)));
+            Box::new(DeviceSteps::new(
+                gpu,
+                data,
+                &train,
+                &scored,
+                settings.crop,
+                depth_supervised,
+            )?)
         }
-        _ => None,
+        None => Box::new(HostSteps::new(
+            backend,
+            data,
+            settings.crop,
+            depth_supervised,
+        )?),
     };
-    let mut host = HostSteps::new(backend, data, settings.crop, depth_supervised)?;
     let mut rng = Pcg64Mcg::seed_from_u64(settings.seed ^ 0x9e37_79b9_7f4a_7c15);
     let mut order = ViewOrder::new(train.len());
-    let mut stats = FaceWeights::new(model.face_count());
     // What a saved state must belong to for this run to continue from it.
     let identity = format!(
         "{}|{:?}|{}|{}|{:?}|{:?}|{}|{}",
@@ -457,28 +540,26 @@ pub fn train_component_with_hook(
     };
     // About 200 loss points per run, whatever the budget.
     let log_every = (s.iterations / 200).max(1);
-    let (mut steps, mut evals) = (Vec::new(), Vec::new());
-    let mut window_loss = 0.0;
+    let mut log = LossLog::new(Vec::new());
+    let mut evals = Vec::new();
     let mut stopped_early = false;
     let mut cleanup_pending = false;
-    // The host changed the face statistics; the device gets them with the next step.
-    let mut stats_edited = false;
     let mut it = 0;
     let mut elapsed_before = 0.0;
     if let Some(dir) = &settings.resume_dir
-        && let Some(state) = TrainerState::load(dir, &identity, &optim.adam)
+        && let Some(saved) = TrainerState::load(dir, &identity, &state.optim.adam)
             .with_context(|| format!("reading the saved training state in {}", dir.display()))?
     {
-        let p = state.progress;
-        model = state.model;
-        optim.adam = state.adam;
-        stats = state.stats;
+        let p = saved.progress;
+        state.model = saved.model;
+        state.optim.adam = saved.adam;
+        state.stats = saved.stats;
         rng = p.rng;
         order = ViewOrder {
             order: p.order,
             next: p.order_next,
         };
-        best = match (p.best, state.best) {
+        best = match (p.best, saved.best) {
             (Some((score, iteration, _)), Some((model, face_weights))) => Some(Snapshot {
                 score,
                 iteration,
@@ -487,29 +568,30 @@ pub fn train_component_with_hook(
             }),
             _ => None,
         };
-        (steps, evals, notes) = (p.steps, p.evals, p.notes);
+        log = LossLog::new(p.steps);
+        (evals, notes) = (p.evals, p.notes);
         cleanup_pending = p.cleanup_pending;
         elapsed_before = p.elapsed;
-        host.set_rendered(p.rendered);
+        runner.set_rendered(p.rendered);
         it = p.iteration;
-        // A device gets the restored statistics with its first step.
-        stats_edited = device.is_some();
         notes.push(format!("resumed at iteration {it} from a saved state"));
     }
     let clock = |started: &Instant| elapsed_before + started.elapsed().as_secs_f64();
     let mut last_save = Instant::now();
     while it < s.iterations {
-        let edits_model = (it == s.connectivity_at && model.face_count() > 0)
+        let edits_model = (it == s.connectivity_at && state.model.face_count() > 0)
             || s.floor_update(it).is_some()
             || s.prune_at(it).is_some()
-            || (s.densify_at(it) && model.vertex_count() < s.max_vertices);
-        if let Some(device) = device.as_mut().filter(|_| edits_model) {
-            device.pull(&mut model, &mut optim, data)?;
-            if let Some((current, previous)) = device.face_weights()? {
-                stats.set_arrays(current, previous);
-            }
-            device.host_edited();
+            || (s.densify_at(it) && state.model.vertex_count() < s.max_vertices);
+        if edits_model {
+            runner.sync(&mut state)?;
+            runner.edited();
         }
+        let TrainingState {
+            model,
+            optim,
+            stats,
+        } = &mut state;
         if it == s.connectivity_at && model.face_count() > 0 {
             let faces = restricted_delaunay(
                 &model.vertices,
@@ -546,7 +628,7 @@ pub fn train_component_with_hook(
         let prune = s.prune_at(it);
         let densify = s.densify_at(it) && model.vertex_count() < s.max_vertices;
         if prune.is_some() || densify {
-            let render = render_settings(&model, settings);
+            let render = render_settings(model, settings);
             // The running maxima cover the last one to two epochs. When prunes come
             // more often than an epoch they would keep faces a fresh render no longer
             // shows (300 iterations on 42 views at 320×240: 1.2 M faces at the
@@ -555,9 +637,9 @@ pub fn train_component_with_hook(
             let mut max_weight = if stats.complete() && stats_recent {
                 stats.max_weight()
             } else {
-                host.face_max_weight(&model, data, &train, &render)?
+                runner.face_max_weight(Subject::Other(model), &train, &render)?
             };
-            let mut sizes = screen_sizes(&model, &train_cameras);
+            let mut sizes = screen_sizes(model, &train_cameras);
             if let Some(threshold) = prune {
                 let keep: Vec<bool> = (0..model.face_count())
                     .map(|f| {
@@ -568,8 +650,8 @@ pub fn train_component_with_hook(
                     .collect();
                 // Never prune the model away entirely; the held-out score decides what survives.
                 if keep.iter().any(|&k| k) {
-                    let edit = prune_faces(&mut model, &keep)?;
-                    optim.apply_edit(&edit)?;
+                    let edit = prune_faces(model, &keep)?;
+                    optim.follow_rows(&edit.keep, edit.appended)?;
                     stats.follow(&edit);
                     sizes.inradius = edit
                         .face_origin
@@ -594,15 +676,10 @@ pub fn train_component_with_hook(
                     .iter()
                     .map(|&r| r >= s.densify_min_inradius)
                     .collect();
-                let chosen = select_faces_to_split(
-                    &model,
-                    &max_weight,
-                    Some(&splittable),
-                    policy,
-                    &mut rng,
-                )?;
-                let edit = subdivide_faces(&mut model, &chosen)?;
-                optim.apply_edit(&edit)?;
+                let chosen =
+                    select_faces_to_split(model, &max_weight, Some(&splittable), policy, &mut rng)?;
+                let edit = subdivide_faces(model, &chosen)?;
+                optim.follow_rows(&edit.keep, edit.appended)?;
                 stats.follow(&edit);
             }
         }
@@ -610,21 +687,17 @@ pub fn train_component_with_hook(
 
         let (slot, new_epoch) = order.next(&mut rng);
         if new_epoch && it > 0 {
-            stats.end_epoch();
-            if let Some(device) = device.as_mut() {
-                device.end_epoch();
-            }
+            state.stats.end_epoch();
+            runner.end_epoch();
             // The first complete statistics of the connected mesh: drop what never shows.
-            if cleanup_pending && stats.complete() && s.connectivity_cleanup_threshold > 0.0 {
+            if cleanup_pending && state.stats.complete() && s.connectivity_cleanup_threshold > 0.0 {
                 cleanup_pending = false;
-                if let Some(device) = device.as_mut() {
-                    device.pull(&mut model, &mut optim, data)?;
-                    device.host_edited();
-                    if let Some((current, previous)) = device.face_weights()? {
-                        stats.set_arrays(current, previous);
-                    }
-                    stats_edited = true;
-                }
+                runner.sync(&mut state)?;
+                let TrainingState {
+                    model,
+                    optim,
+                    stats,
+                } = &mut state;
                 let keep: Vec<bool> = stats
                     .max_weight()
                     .iter()
@@ -632,9 +705,10 @@ pub fn train_component_with_hook(
                     .collect();
                 let removed = keep.iter().filter(|k| !**k).count();
                 if removed > 0 && removed < keep.len() {
-                    let edit = prune_faces(&mut model, &keep)?;
-                    optim.apply_edit(&edit)?;
+                    let edit = prune_faces(model, &keep)?;
+                    optim.follow_rows(&edit.keep, edit.appended)?;
                     stats.follow(&edit);
+                    runner.edited();
                     notes.push(format!(
                         "cleanup at {it}: {removed} faces never above weight {} removed, {} remain",
                         s.connectivity_cleanup_threshold,
@@ -643,9 +717,7 @@ pub fn train_component_with_hook(
                 }
             }
         }
-        let mut step_view = None;
-        let mut step_loss = None;
-        let b = if settings.background_randomization {
+        let background = if settings.background_randomization {
             [
                 rng.random::<f32>(),
                 rng.random::<f32>(),
@@ -654,80 +726,44 @@ pub fn train_component_with_hook(
         } else {
             settings.fixed_background
         };
-        let render = render_settings(&model, settings);
-        match device.as_mut() {
-            Some(device) => {
-                if edits_model || stats_edited {
-                    let (current, previous) = stats.arrays();
-                    device.set_face_weights(current.to_vec(), previous.to_vec())?;
-                    stats_edited = false;
-                }
-                device.step(&model, &optim, it + 1, slot, b, render)?
-            }
-            None => {
-                let view = train[slot];
-                let loss = host
-                    .step(
-                        &mut model,
-                        &mut optim,
-                        data,
-                        view,
-                        b,
-                        &render,
-                        if it >= s.point_depth_start {
-                            depth_weight
-                        } else {
-                            0.0
-                        },
-                        // Not while the cleanup after the connectivity step is pending: the
-                        // prior would decide which faces never show (at 320×240 the cleanup
-                        // then took upper walls with it; −2.5 dB).
-                        if it >= s.depth_smoothness_start
-                            && !(cleanup_pending && s.connectivity_cleanup_threshold > 0.0)
-                        {
-                            smoothness_weight
-                        } else {
-                            0.0
-                        },
-                        &mut stats,
-                    )
-                    .with_context(|| {
-                        format!(
-                            "training of {:?} diverged at iteration {} (view {:?}; parameters \
-                             overflowed, lower the learning rates)",
-                            data.name,
-                            it + 1,
-                            data.views[view].name
-                        )
-                    })?;
-                window_loss += loss;
-                step_view = Some(view);
-                step_loss = Some(loss);
-            }
-        }
+        let view = train[slot];
+        let input = StepInput {
+            view,
+            background,
+            render: render_settings(&state.model, settings),
+            point_depth_weight: if it >= s.point_depth_start {
+                depth_weight
+            } else {
+                0.0
+            },
+            // Not while the cleanup after the connectivity step is pending: the
+            // prior would decide which faces never show (at 320×240 the cleanup
+            // then took upper walls with it; −2.5 dB).
+            smoothness_weight: if it >= s.depth_smoothness_start
+                && !(cleanup_pending && s.connectivity_cleanup_threshold > 0.0)
+            {
+                smoothness_weight
+            } else {
+                0.0
+            },
+        };
+        runner.step(&mut state, it + 1, &input)?;
         it += 1;
+        let arrived = runner.losses(false)?;
+        let step_loss = arrived.last().filter(|l| l.iteration == it).map(|l| l.loss);
+        log.arrive(arrived);
         if it % log_every == 0 || it == s.iterations {
-            if let Some(device) = device.as_mut() {
-                window_loss += device.losses(data)?.iter().map(|&l| l as f64).sum::<f64>();
-            }
-            let window = (it - 1) % log_every + 1;
-            steps.push(StepRecord {
-                iteration: it,
-                wall_seconds: clock(&started),
-                loss: window_loss / window as f64,
-                faces: model.face_count(),
-            });
-            window_loss = 0.0;
+            log.point(it, clock(&started), state.model.face_count());
         }
-        if let Some(device) = device.as_mut().filter(|_| hook.wants_model()) {
-            device.pull(&mut model, &mut optim, data)?;
+        if hook.wants_model() {
+            runner.sync(&mut state)?;
         }
         let shown = Step {
             iteration: it,
             total: s.iterations,
-            view: step_view,
+            view: Some(view),
             loss: step_loss,
-            model: (device.is_none() || hook.wants_model()).then_some(&model),
+            model: (hook.wants_model() || runner.model_is_current()).then_some(&state.model),
         };
         if !hook.after_step(&shown) {
             bail!(
@@ -739,30 +775,22 @@ pub fn train_component_with_hook(
         let selectable =
             settings.checkpoint == Checkpoint::Best && it > eval_from && it % s.eval_every == 0;
         if selectable || it == s.iterations {
-            let render = render_settings(&model, settings);
-            let score = match device.as_mut() {
-                Some(device) => device.evaluate(&model, &optim, data, &held_out, render)?,
-                None => host.evaluate(&model, data, &held_out, &render)?,
-            };
+            let render = render_settings(&state.model, settings);
+            let score = runner.evaluate(Subject::Training(&state), &held_out, &render)?;
             evals.push(EvalRecord {
                 iteration: it,
                 wall_seconds: clock(&started),
                 loss: score.loss,
                 psnr: score.psnr,
-                faces: model.face_count(),
+                faces: state.model.face_count(),
             });
             if best.as_ref().is_none_or(|b| score.loss < b.score) {
-                if let Some(device) = device.as_mut() {
-                    device.pull(&mut model, &mut optim, data)?;
-                    if let Some((current, previous)) = device.face_weights()? {
-                        stats.set_arrays(current, previous);
-                    }
-                }
+                runner.sync(&mut state)?;
                 best = Some(Snapshot {
                     score: score.loss,
                     iteration: it,
-                    model: model.clone(),
-                    face_weights: stats.complete().then(|| stats.max_weight()),
+                    model: state.model.clone(),
+                    face_weights: state.stats.complete().then(|| state.stats.max_weight()),
                 });
             }
             if let Some(Snapshot {
@@ -786,12 +814,8 @@ pub fn train_component_with_hook(
             && it < s.iterations
             && last_save.elapsed().as_secs_f64() >= settings.save_seconds
         {
-            if let Some(device) = device.as_mut() {
-                device.pull(&mut model, &mut optim, data)?;
-                if let Some((current, previous)) = device.face_weights()? {
-                    stats.set_arrays(current, previous);
-                }
-            }
+            runner.sync(&mut state)?;
+            log.arrive(runner.losses(true)?);
             TrainerState {
                 progress: Progress {
                     identity: identity.clone(),
@@ -799,26 +823,27 @@ pub fn train_component_with_hook(
                     rng: rng.clone(),
                     order: order.order.clone(),
                     order_next: order.next,
-                    stats_epochs: stats.epochs(),
+                    stats_epochs: state.stats.epochs(),
                     best: best
                         .as_ref()
                         .map(|b| (b.score, b.iteration, b.face_weights.is_some())),
-                    steps: steps.clone(),
+                    steps: log.records.clone(),
                     evals: evals.clone(),
                     notes: notes.clone(),
                     cleanup_pending,
                     elapsed: clock(&started),
-                    adam: optim
+                    adam: state
+                        .optim
                         .adam
                         .groups
                         .iter()
                         .map(|g| (g.lr, g.lr_rest, g.split, g.steps))
                         .collect(),
-                    rendered: host.rendered(),
+                    rendered: runner.rendered(),
                 },
-                model: model.clone(),
-                adam: optim.adam.clone(),
-                stats: stats.clone(),
+                model: state.model.clone(),
+                adam: state.optim.adam.clone(),
+                stats: state.stats.clone(),
                 best: best
                     .as_ref()
                     .map(|b| (b.model.clone(), b.face_weights.clone())),
@@ -828,22 +853,22 @@ pub fn train_component_with_hook(
             last_save = Instant::now();
         }
     }
-    if let Some(device) = device.as_mut() {
-        device.pull(&mut model, &mut optim, data)?;
-        if let Some((current, previous)) = device.face_weights()? {
-            stats.set_arrays(current, previous);
-        }
-    }
-    let current_weights = stats.complete().then(|| stats.max_weight());
+    runner.sync(&mut state)?;
+    log.arrive(runner.losses(true)?);
+    let current_weights = state.stats.complete().then(|| state.stats.max_weight());
     let (best_iteration, mut model, weights) = match (best, settings.checkpoint) {
         (Some(b), Checkpoint::Best) => (b.iteration, b.model, b.face_weights),
-        (Some(b), Checkpoint::Last) => (b.iteration, model, current_weights),
-        (None, _) => (it, model, current_weights),
+        (Some(b), Checkpoint::Last) => (b.iteration, state.model, current_weights),
+        (None, _) => (it, state.model, current_weights),
     };
     // Final prune: faces that never reach a blending weight above the threshold in any training view.
     let max_weight = match weights {
         Some(w) => w,
-        None => host.face_max_weight(&model, data, &train, &render_settings(&model, settings))?,
+        None => runner.face_max_weight(
+            Subject::Other(&model),
+            &train,
+            &render_settings(&model, settings),
+        )?,
     };
     let keep: Vec<bool> = max_weight
         .iter()
@@ -864,20 +889,8 @@ pub fn train_component_with_hook(
         ));
     }
     let render = render_settings(&model, settings);
-    // The returned model is reported on the held-out test views, whichever views chose it.
-    let report_views = evaluation_views(data);
-    let final_score = match device.as_mut() {
-        Some(device) if report_views == held_out => {
-            let score = device.evaluate_model(&model, data, &held_out, render)?;
-            notes.push(device.summary());
-            score
-        }
-        Some(device) => {
-            notes.push(device.summary());
-            host.evaluate(&model, data, &report_views, &render)?
-        }
-        None => host.evaluate(&model, data, &report_views, &render)?,
-    };
+    let final_score = runner.evaluate(Subject::Other(&model), &report_views, &render)?;
+    notes.extend(runner.summary());
     let log = TrainingLog {
         component: data.name.clone(),
         kind: match data.kind {
@@ -900,12 +913,9 @@ pub fn train_component_with_hook(
         wall_seconds: clock(&started),
         final_psnr: final_score.psnr,
         final_faces: model.face_count(),
-        rendered_fraction: match &device {
-            Some(device) => device.rendered_fraction(),
-            None => host.rendered_fraction(),
-        },
+        rendered_fraction: runner.rendered_fraction(),
         scored_on: Some(scored_on.to_string()),
-        steps,
+        steps: log.records,
         evals,
         notes: notes.clone(),
     };
@@ -916,6 +926,7 @@ pub fn train_component_with_hook(
         best_score: final_score.loss,
         notes,
         log,
+        steps_ran_on: runner.place(),
     })
 }
 

@@ -18,12 +18,12 @@ use objectsplat_core::Points;
 use objectsplat_raster::{CpuBackend, RenderBackend};
 use objectsplat_train::trainer::{ComponentData, TrainSettings, held_out_eval, train_component};
 
-/// The post-connectivity cleanup is off, and prunes come once per epoch or less
-/// (so they use the running statistics, not a fresh render): on the plate at
-/// σ = 1 the device's per-face weights let the cleanup remove 445 faces where
-/// the host's remove 435 (2026-11-24), and render-based prunes differ the same
-/// way, discrete decisions that move held-out PSNR by 0.2 dB. This test holds the
-/// gradients and Adam to parity, not those threshold decisions.
+/// Prunes come once per epoch or less (so they use the running statistics,
+/// not a fresh render). The post-connectivity cleanup is on. It once judged
+/// faces on the host's stale copy of the statistics (the device's were fetched
+/// and then dropped before the decision): on the plate at σ = 1 the device run
+/// removed 445 faces where the host removed 435; with the device's own
+/// statistics both remove the same faces.
 fn settings(seed: u64, sigma_end: f64) -> TrainSettings {
     common::short_run_settings(
         200,
@@ -31,7 +31,6 @@ fn settings(seed: u64, sigma_end: f64) -> TrainSettings {
         serde_json::json!({
             "patience": 200,
             "sigma_end": sigma_end,
-            "connectivity_cleanup_threshold": 0.0,
             "prune_every": 20,
         }),
     )
@@ -53,14 +52,29 @@ fn plate() -> Plate {
 }
 
 /// Held-out PSNR after training on `backend`, scored by the CPU backend so that
-/// only the training differs.
-fn trained_psnr(backend: &dyn RenderBackend<f32>, plate: &Plate, settings: &TrainSettings) -> f64 {
+/// only the training differs, and the run's cleanup note.
+fn trained(
+    backend: &dyn RenderBackend<f32>,
+    plate: &Plate,
+    settings: &TrainSettings,
+) -> (f64, String) {
     let report =
         train_component(backend, &plate.data, &plate.points, settings, |_, _| true).unwrap();
     assert_eq!(report.log.backend, backend.name());
-    held_out_eval(&CpuBackend::new(2), &report.model, &plate.data, settings)
+    let cleanup = report
+        .notes
+        .iter()
+        .find(|n| n.starts_with("cleanup"))
+        .cloned()
+        .unwrap_or_default();
+    let psnr = held_out_eval(&CpuBackend::new(2), &report.model, &plate.data, settings)
         .unwrap()
-        .psnr
+        .psnr;
+    (psnr, cleanup)
+}
+
+fn trained_psnr(backend: &dyn RenderBackend<f32>, plate: &Plate, settings: &TrainSettings) -> f64 {
+    trained(backend, plate, settings).0
 }
 
 #[test]
@@ -76,13 +90,20 @@ fn with_a_constant_window_wgpu_training_matches_the_cpu_within_0_02_db() {
     // runs are held to the gradients, Adam, pruning and connectivity. A systematic
     // difference shows in every run, so one of three must agree.
     settings.schedule.densify_until = 0;
-    let on_cpu = trained_psnr(&CpuBackend::new(2), &plate, &settings);
+    let (on_cpu, cpu_cleanup) = trained(&CpuBackend::new(2), &plate, &settings);
+    assert!(
+        cpu_cleanup.contains("removed"),
+        "the cleanup must run: {cpu_cleanup:?}"
+    );
     let mut seen = Vec::new();
     for _ in 0..3 {
-        let on_gpu = trained_psnr(&gpu, &plate, &settings);
-        eprintln!("held-out PSNR, σ = 1: cpu {on_cpu:.4} dB, wgpu {on_gpu:.4} dB");
+        let (on_gpu, gpu_cleanup) = trained(&gpu, &plate, &settings);
+        eprintln!(
+            "held-out PSNR, σ = 1: cpu {on_cpu:.4} dB, wgpu {on_gpu:.4} dB; \
+             {cpu_cleanup:?} vs {gpu_cleanup:?}"
+        );
         seen.push(on_gpu);
-        if (on_cpu - on_gpu).abs() <= 0.02 {
+        if (on_cpu - on_gpu).abs() <= 0.02 && gpu_cleanup == cpu_cleanup {
             return;
         }
     }

@@ -17,15 +17,14 @@
 use objectsplat_core::Camera;
 use objectsplat_core::glam::DVec3;
 use objectsplat_gpu::{AdapterChoice, GpuContext};
+use objectsplat_optim::{LearningRates, Optim};
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::{CROP_MARGIN, DEFAULT_LAMBDA_DSSIM, Dims, photometric};
 use objectsplat_raster::{
     CpuBackend, Model, OutputGrads, RenderBackend, RenderSettings, SH_COEFFS,
 };
 use objectsplat_wgpu::WgpuBackend;
-use objectsplat_wgpu::training::{
-    AdamSettings, DeviceTrainer, LearningRates, OptimizerState, Step, TrainingView,
-};
+use objectsplat_wgpu::training::{DepthWeights, DeviceTrainer, Step, Trained, TrainingView};
 use std::time::{Duration, Instant};
 
 /// A xorshift64 generator of uniform numbers in [0, 1): scenes without files.
@@ -143,7 +142,7 @@ fn rate(budget: Duration, mut step: impl FnMut() -> anyhow::Result<()>) -> anyho
 
 /// Adam on the host, as the trainer runs it when iterations do not stay on a device.
 fn host_adam(values: &mut [f32], grads: &[f32], m: &mut [f32], v: &mut [f32], lr: f64, t: i32) {
-    let adam = AdamSettings::default();
+    let adam = objectsplat_optim::Adam::new();
     let (bc1, bc2) = (1.0 - adam.beta1.powi(t), 1.0 - adam.beta2.powi(t));
     for i in 0..values.len() {
         let g = grads[i] as f64;
@@ -223,12 +222,12 @@ fn device_training_rate(
     budget: Duration,
 ) -> anyhow::Result<f64> {
     let pixels = (camera.width * camera.height) as usize;
-    let view = TrainingView {
-        camera: *camera,
-        target: target.to_vec(),
-        weights: vec![1.0; pixels],
-        from_background: vec![false; pixels],
-    };
+    let view = TrainingView::photometric(
+        *camera,
+        target.to_vec(),
+        vec![1.0; pixels],
+        vec![false; pixels],
+    );
     device_view_rate(gpu, model, view, Region::Full, budget)
 }
 
@@ -240,8 +239,9 @@ fn device_view_rate(
     region: Region,
     budget: Duration,
 ) -> anyhow::Result<f64> {
-    let mut trainer = DeviceTrainer::new(gpu, &[view], AdamSettings::default())?;
-    trainer.load(model, &OptimizerState::zeros(model.vertex_count()))?;
+    let mut trainer = DeviceTrainer::new(gpu, &[view])?;
+    let optim = Optim::new(RATES, model.vertex_count())?;
+    trainer.load(model, Trained::all_of(model), Some(&optim))?;
     let step = Step {
         view: 0,
         background: [0.3; 3],
@@ -251,6 +251,8 @@ fn device_view_rate(
         },
         learning_rates: RATES,
         lambda_dssim: DEFAULT_LAMBDA_DSSIM,
+        sh_degree: model.sh_degree,
+        depth: DepthWeights::default(),
     };
     let mut steps = 0;
     let r = rate(budget, || {
@@ -281,12 +283,12 @@ fn small_object(count: usize, w: u32, h: u32) -> (Model<f32>, TrainingView) {
     }
     let own = |x: u32, y: u32| x.abs_diff(w / 2) < 40 && y.abs_diff(h / 2) < 40;
     let pixels = (w * h) as usize;
-    let mut view = TrainingView {
-        camera: bench_camera(w, h),
-        target: vec![0.0; pixels * 3],
-        weights: vec![1.0; pixels],
-        from_background: vec![true; pixels],
-    };
+    let mut view = TrainingView::photometric(
+        bench_camera(w, h),
+        vec![0.0; pixels * 3],
+        vec![1.0; pixels],
+        vec![true; pixels],
+    );
     for p in 0..pixels {
         let (x, y) = (p as u32 % w, p as u32 / w);
         if own(x, y) {

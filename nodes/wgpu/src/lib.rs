@@ -5,9 +5,19 @@
 //!   (u32 key, u32 value) pairs.
 //! - [`raster`]: [`WgpuBackend`], `RenderBackend<f32>` with the CPU backend's
 //!   culling, ordering, compositing and gradients.
-//! - [`training`]: [`DeviceTrainer`], training iterations (render, loss,
-//!   backward, Adam) that keep parameters and images on the device.
+//! - [`training`]: [`DeviceTrainer`], training iterations (render, loss, the
+//!   geometric terms, backward, Adam) that keep parameters and images on the
+//!   device, a trained model rendered with frozen occluders.
 //! - [`backend_for`]: picks a backend by name for the train/render nodes.
+
+/// `[(field name, byte offset)]` of a `#[repr(C)]` mirror of a WGSL struct,
+/// for `objectsplat_gpu::check_mirrors_wgsl`.
+#[cfg(test)]
+macro_rules! same_names {
+    ($t:ty; $($f:ident),*) => { [$((stringify!($f), std::mem::offset_of!($t, $f))),*] };
+}
+#[cfg(test)]
+pub(crate) use same_names;
 
 pub mod atomics;
 pub mod kernels;

@@ -156,7 +156,7 @@ pub fn raster_sources(
 /// The uniform block every raster kernel reads (`RasterParams` in raster_common.wgsl).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
-struct RasterParams {
+pub(crate) struct RasterParams {
     rot: [[f32; 4]; 3],
     center: [f32; 4],
     fx: f32,
@@ -190,7 +190,7 @@ struct RasterParams {
     margin: u32,
     region_mode: u32,
     uniform_background: u32,
-    _pad: u32,
+    sigma_from: u32,
     background_color: [f32; 4],
 }
 
@@ -229,17 +229,51 @@ impl std::fmt::Debug for WgpuBackend {
 }
 
 /// A model's parameters on the device, in the kernels' layout: positions
-/// (3 per vertex), SH (16×3 per vertex), opacity logits, face indices.
-/// The buffers may be larger than the model (pooled); the counts say how much is used.
+/// (3 per vertex), SH (16×3 per vertex), opacity logits, face indices, and the
+/// window sharpness σ of the faces from `sigma_from` on (the others take the
+/// render's σ). The buffers may be larger than the model (pooled); the counts
+/// say how much is used.
 #[derive(Clone)]
 pub(crate) struct ModelBuffers {
     pub positions: wgpu::Buffer,
     pub sh: wgpu::Buffer,
     pub opacity_logits: wgpu::Buffer,
     pub face_indices: wgpu::Buffer,
+    pub face_sigma: wgpu::Buffer,
     pub vertex_count: usize,
     pub face_count: usize,
+    pub sigma_from: usize,
     pub opacity_floor: f32,
+}
+
+impl ModelBuffers {
+    /// The same buffers drawing only the first `faces` faces (a trained
+    /// model without the frozen occluders appended to it).
+    pub fn first_faces(&self, faces: usize) -> ModelBuffers {
+        ModelBuffers {
+            face_count: faces.min(self.face_count),
+            ..self.clone()
+        }
+    }
+}
+
+/// A model's per-face σ for the device: `(σ of every face from `sigma_from`
+/// on (indexed by face, the earlier entries unused), sigma_from)`. Faces
+/// before `first_own` take the render's σ; a model without per-face σ has
+/// none of its own.
+fn face_sigma_of(model: &Model<f32>, first_own: usize) -> (Vec<f32>, usize) {
+    if model.face_sigma.is_empty() {
+        // A storage binding may not be empty.
+        return (vec![0.0], model.face_count());
+    }
+    let from = first_own.min(model.face_count());
+    let sigma = model
+        .face_sigma
+        .iter()
+        .enumerate()
+        .map(|(f, &s)| if f < from { 0.0 } else { s as f32 })
+        .collect();
+    (sigma, from)
 }
 
 /// Words of the frame record that come back to the host (frame_record.wgsl's
@@ -472,6 +506,29 @@ impl GradPool {
     }
 }
 
+/// Pooled device buffers of a model's parameters ([`ModelBuffers`]' layout).
+pub(crate) struct ModelPool {
+    positions: Pooled,
+    sh: Pooled,
+    opacity_logits: Pooled,
+    face_indices: Pooled,
+    face_sigma: Pooled,
+}
+
+impl ModelPool {
+    /// Minimal buffers; `created` counts them.
+    pub fn new(ctx: &GpuContext, created: &mut u64) -> Self {
+        let mut pooled = |label| Pooled::new(ctx, label, created);
+        ModelPool {
+            positions: pooled("positions"),
+            sh: pooled("sh"),
+            opacity_logits: pooled("opacity logits"),
+            face_indices: pooled("face indices"),
+            face_sigma: pooled("face sigma"),
+        }
+    }
+}
+
 impl WgpuBackend {
     /// Compiles the kernels on `ctx` with [`KernelConfig::for_context`].
     pub fn new(ctx: Arc<GpuContext>) -> Result<Self> {
@@ -560,30 +617,23 @@ impl WgpuBackend {
         self.check_binding_size("SH coefficients", (nv * SH_COEFFS * 3 * 4) as u64)
     }
 
-    /// Uploads a validated model's parameters into new buffers.
+    /// Uploads a validated model's parameters into new buffers (its per-face
+    /// σ for every face when it has one).
     pub(crate) fn upload_model(&self, model: &Model<f32>) -> Result<ModelBuffers> {
-        self.check_model(model)?;
-        let ctx = &self.ctx;
-        let positions: Vec<f32> = model.vertices.iter().flatten().copied().collect();
-        let face_idx: Vec<u32> = model.faces.iter().flatten().copied().collect();
-        let sh: Vec<f32> = model.sh.iter().flatten().flatten().copied().collect();
-        Ok(ModelBuffers {
-            positions: storage_from(ctx, "positions", &positions),
-            sh: storage_from(ctx, "sh", &sh),
-            opacity_logits: storage_from(ctx, "opacity logits", &model.opacity_logits),
-            face_indices: storage_from(ctx, "face indices", &face_idx),
-            vertex_count: model.vertex_count(),
-            face_count: model.face_count(),
-            opacity_floor: model.opacity_floor as f32,
-        })
+        let mut created = 0;
+        let mut pool = ModelPool::new(&self.ctx, &mut created);
+        self.upload_model_into(model, 0, &mut pool, &mut created)
     }
 
     /// Writes a validated model's parameters into pooled buffers (grown when
-    /// too small) and describes them; `created` counts new buffers.
+    /// too small) and describes them; `created` counts new buffers. Per-face σ
+    /// applies from face `first_own_sigma` on (the faces before it are trained
+    /// and take each render's σ).
     pub(crate) fn upload_model_into(
         &self,
         model: &Model<f32>,
-        pool: &mut [Pooled; 4],
+        first_own_sigma: usize,
+        pool: &mut ModelPool,
         created: &mut u64,
     ) -> Result<ModelBuffers> {
         self.check_model(model)?;
@@ -591,18 +641,28 @@ impl WgpuBackend {
         let positions: Vec<f32> = model.vertices.iter().flatten().copied().collect();
         let face_idx: Vec<u32> = model.faces.iter().flatten().copied().collect();
         let sh: Vec<f32> = model.sh.iter().flatten().flatten().copied().collect();
-        let [p, s, o, f] = pool;
+        let (face_sigma, sigma_from) = face_sigma_of(model, first_own_sigma);
+        let ModelPool {
+            positions: p,
+            sh: s,
+            opacity_logits: o,
+            face_indices: f,
+            face_sigma: fs,
+        } = pool;
         p.write(ctx, &positions, created);
         s.write(ctx, &sh, created);
         o.write(ctx, &model.opacity_logits, created);
         f.write(ctx, &face_idx, created);
+        fs.write(ctx, &face_sigma, created);
         Ok(ModelBuffers {
             positions: p.buffer().clone(),
             sh: s.buffer().clone(),
             opacity_logits: o.buffer().clone(),
             face_indices: f.buffer().clone(),
+            face_sigma: fs.buffer().clone(),
             vertex_count: model.vertex_count(),
             face_count: model.face_count(),
+            sigma_from,
             opacity_floor: model.opacity_floor as f32,
         })
     }
@@ -680,7 +740,7 @@ impl WgpuBackend {
             margin,
             region_mode,
             uniform_background,
-            _pad: 0,
+            sigma_from: model.sigma_from.min(u32::MAX as usize) as u32,
             background_color,
         })
     }
@@ -719,6 +779,7 @@ impl WgpuBackend {
                 (7, pool.order_keys.buffer()),
                 (8, pool.order_faces.buffer()),
                 (17, &pool.frame),
+                (18, &model.face_sigma),
             ],
             groups_for(nf, THREADS_1D),
         );
@@ -945,7 +1006,7 @@ impl WgpuBackend {
         camera: &Camera,
         settings: &RenderSettings,
         background: [f32; 3],
-    ) -> Result<()> {
+    ) -> Result<RasterParams> {
         let ctx = rec.ctx();
         let mut params = self.raster_params(
             model,
@@ -962,7 +1023,34 @@ impl WgpuBackend {
         self.encode_preprocess(rec, pool, model, &params);
         params.entry_count = pool.entry_capacity() as u32;
         self.encode_composite(rec, pool, &params, true, tiles);
-        Ok(())
+        Ok(params)
+    }
+
+    /// The tile entries a render of `model` from `camera` needs (one
+    /// preprocessing pass and a readback of its count), to size the entry
+    /// buffers of renders recorded without a readback ([`WgpuBackend::encode_render`]).
+    pub(crate) fn measure_entries(
+        &self,
+        pool: &mut RasterPool,
+        uniforms: &mut UniformArena,
+        model: &ModelBuffers,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> Result<usize> {
+        let ctx = &*self.ctx;
+        let params =
+            self.raster_params(model, camera, settings, BackgroundSource::Uniform([0.0; 3]))?;
+        pool.last = None;
+        pool.ensure_model(ctx, model.vertex_count, model.face_count);
+        let mut rec = Recorder::new(ctx, uniforms);
+        self.encode_preprocess(&mut rec, pool, model, &params);
+        rec.enc
+            .copy_buffer_to_buffer(&pool.frame, 0, &pool.staging, 0, FRAME_BYTES);
+        rec.submit();
+        let frame: Vec<u32> = bytemuck::pod_collect_to_vec(&map_and_copy(ctx, &pool.staging, 4)?);
+        pool.syncs += 1;
+        ctx.check_errors("measuring a render's tile entries")?;
+        Ok(frame[0] as usize)
     }
 
     /// Reads a forward pass's image and face statistics back to the host.
@@ -1112,11 +1200,41 @@ impl WgpuBackend {
         let Some(rendered) = pool.last() else {
             bail!("backward pass before a forward pass that read its region back");
         };
-        let p = &rendered.params;
-        let model = &rendered.model;
-        let pixels = rendered.region.pixels();
-        let (nv, nf) = (model.vertex_count, model.face_count);
         let ctx = &*self.ctx;
+        let mut rec = Recorder::new(ctx, uniforms);
+        self.encode_backward(
+            &mut rec,
+            pool,
+            grads,
+            &rendered.params,
+            &rendered.model,
+            BackwardCover {
+                pixels: rendered.region.pixels(),
+                tile_groups: region_tiles(rendered.region),
+            },
+            upstream,
+        );
+        rec.submit();
+        ctx.check_errors("the wgpu backward pass")
+    }
+
+    /// Records the backward pass of the render in `pool` (of `model` with
+    /// `p`) from `upstream`, over `cover`'s tiles: the region's, or every
+    /// tile of the image for a render recorded without a readback.
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn encode_backward(
+        &self,
+        rec: &mut Recorder<'_>,
+        pool: &RasterPool,
+        grads: &mut GradPool,
+        p: &RasterParams,
+        model: &ModelBuffers,
+        cover: BackwardCover,
+        upstream: &wgpu::Buffer,
+    ) {
+        let pixels = cover.pixels;
+        let (nv, nf) = (model.vertex_count, model.face_count);
+        let ctx = rec.ctx();
         let k = &self.kernels;
         let c = &mut grads.created;
         grads.background.ensure(ctx, (pixels * 3 * 4) as u64, c);
@@ -1127,7 +1245,6 @@ impl WgpuBackend {
         grads.positions.ensure(ctx, (nv * 3 * 4) as u64, c);
         grads.sh.ensure(ctx, (nv * SH_COEFFS * 3 * 4) as u64, c);
         grads.opacity_logits.ensure(ctx, (nv * 4) as u64, c);
-        let mut rec = Recorder::new(ctx, uniforms);
         if face_bytes > 0 {
             rec.enc
                 .clear_buffer(grads.face_grads.buffer(), 0, Some(face_bytes));
@@ -1150,7 +1267,7 @@ impl WgpuBackend {
                 (8, grads.face_grads.buffer()),
                 (9, &pool.frame),
             ],
-            region_tiles(rendered.region),
+            cover.tile_groups,
         );
         rec.dispatch(
             &k.face_backward,
@@ -1177,8 +1294,23 @@ impl WgpuBackend {
             ],
             groups_for(nv, THREADS_1D),
         );
-        rec.submit();
-        ctx.check_errors("the wgpu backward pass")
+    }
+}
+
+/// What a backward pass covers: pixels of its buffers and tiles dispatched.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct BackwardCover {
+    pub pixels: usize,
+    pub tile_groups: u32,
+}
+
+impl BackwardCover {
+    /// Every tile of a `width`×`height` image (tiles outside the rendered region return at once).
+    pub fn whole_image(width: u32, height: u32) -> Self {
+        BackwardCover {
+            pixels: width as usize * height as usize,
+            tile_groups: width.div_ceil(TILE) * height.div_ceil(TILE),
+        }
     }
 }
 
@@ -1275,7 +1407,7 @@ mod tests {
             margin,
             region_mode,
             uniform_background,
-            _pad,
+            sigma_from,
             background_color
         ));
         check_mirrors_wgsl(

@@ -119,7 +119,7 @@ fn backward(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) grou
             if (!fr.clamped) {
                 // α = o·G^σ.
                 part[P_OPACITY] += d_alpha * fr.intensity;
-                let d_g = d_alpha * faces[fi].opacity * params.sigma * fr.intensity / fr.g;
+                let d_g = d_alpha * faces[fi].opacity * faces[fi].sigma * fr.intensity / fr.g;
                 let k = fr.kstar;
                 d_lambda[k] += d_g * faces[fi].scale[k];
                 part[P_SCALE + k] += d_g * fr.lambda[k];

@@ -43,7 +43,10 @@ struct RasterParams {
     region_mode: u32,
     // 1: every pixel's background is `background_color` (no per-pixel buffer).
     uniform_background: u32,
-    _pad: u32,
+    // Faces from this index on take their window sharpness from `face_sigma`
+    // (a model with per-face σ, or frozen occluders after the trained faces);
+    // the faces before it take `sigma`.
+    sigma_from: u32,
     background_color: vec4<f32>,
 }
 
@@ -83,7 +86,8 @@ struct Face {
     visible: u32,
     // Tile of the pixel box's top-left corner.
     tile_key: u32,
-    _pad: u32,
+    // The window sharpness σ of `α = o·G^σ`.
+    sigma: f32,
 }
 
 const TILE: u32 = 16u;
@@ -120,7 +124,7 @@ struct HotFace {
     l0: vec4<f32>,
     l1: vec4<f32>,
     l2: vec4<f32>,
-    // origin x, origin y, opacity.
+    // origin x, origin y, opacity, σ.
     o: vec4<f32>,
     // Inclusive pixel box x0, y0, x1, y1.
     pixels: vec4<u32>,
@@ -131,7 +135,7 @@ fn hot_face(fi: u32) -> HotFace {
     h.l0 = vec4<f32>(faces[fi].lam[0], faces[fi].lam[1], faces[fi].lam[2], faces[fi].scale[0]);
     h.l1 = vec4<f32>(faces[fi].lam[3], faces[fi].lam[4], faces[fi].lam[5], faces[fi].scale[1]);
     h.l2 = vec4<f32>(faces[fi].lam[6], faces[fi].lam[7], faces[fi].lam[8], faces[fi].scale[2]);
-    h.o = vec4<f32>(faces[fi].origin_x, faces[fi].origin_y, faces[fi].opacity, 0.0);
+    h.o = vec4<f32>(faces[fi].origin_x, faces[fi].origin_y, faces[fi].opacity, faces[fi].sigma);
     h.pixels = vec4<u32>(faces[fi].pixels[0], faces[fi].pixels[1], faces[fi].pixels[2], faces[fi].pixels[3]);
     return h;
 }
@@ -164,7 +168,7 @@ fn evaluate(h: HotFace, px: f32, py: f32) -> Fragment {
     if (!(gmin > 0.0)) {
         return out;
     }
-    let intensity = pow(gmin, params.sigma);
+    let intensity = pow(gmin, h.o.w);
     let raw = h.o.z * intensity;
     let clamped = raw > params.alpha_max;
     var alpha = raw;

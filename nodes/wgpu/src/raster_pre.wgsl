@@ -26,6 +26,8 @@
 @group(0) @binding(15) var<storage, read_write> sorted_faces: array<u32>;
 @group(0) @binding(16) var<storage, read_write> tile_ranges_out: array<u32>;
 @group(0) @binding(17) var<storage, read_write> frame: array<atomic<u32>>;
+// Per face from `params.sigma_from` on: its window sharpness (see RasterParams).
+@group(0) @binding(18) var<storage, read> face_sigma: array<f32>;
 
 fn sigmoid(x: f32) -> f32 {
     // Written so that neither branch overflows exp.
@@ -211,6 +213,10 @@ fn face_pre(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) grou
     f.depth = centroid.z;
     f.pixels = array<u32, 4>(u32(x0), u32(y0), u32(x1), u32(y1));
     f.argmin_corner = argmin;
+    f.sigma = params.sigma;
+    if (fi >= params.sigma_from) {
+        f.sigma = face_sigma[fi];
+    }
     f.visible = 1u;
     f.tile_key = (u32(y0) / TILE) * params.tiles_x + u32(x0) / TILE;
     faces[fi] = f;

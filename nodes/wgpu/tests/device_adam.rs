@@ -4,15 +4,21 @@
 //! non-finite instead of carrying on silently.
 mod support;
 
+use objectsplat_optim::{AdamGroup, LearningRates};
 use objectsplat_raster::{CpuBackend, Model, OutputGrads, RenderBackend};
-use objectsplat_wgpu::training::{
-    AdamSettings, LearningRates, Moments, OptimizerState, Step, TrainingView,
-};
+use objectsplat_wgpu::training::{Step, TrainingView};
 use support::{
-    Rng, backend, cpu_loss, flat_view, loaded_trainer, parity_scenes, relative_difference, step_at,
+    Rng, backend, cpu_loss, flat_view, fresh_optim, loaded_trainer, parity_scenes,
+    relative_difference, step_at,
 };
 
-/// Written out, not `AdamSettings::default()`: the checks below use these numbers.
+/// Adam's reference settings written out, not read from objectsplat-optim:
+/// the checks below use these numbers (and check the optimizer holds them).
+struct AdamSettings {
+    beta1: f64,
+    beta2: f64,
+    eps: f64,
+}
 const ADAM: AdamSettings = AdamSettings {
     beta1: 0.9,
     beta2: 0.999,
@@ -38,14 +44,15 @@ fn check_update(
     name: &str,
     before: &[f32],
     after: &[f32],
-    state: &Moments,
+    state: &AdamGroup,
     lr: impl Fn(usize) -> f64,
 ) {
     let t = state.steps as i32;
+    let (first, second) = (state.first_moment(), state.second_moment());
     let (bc1, bc2) = (1.0 - ADAM.beta1.powi(t), 1.0 - ADAM.beta2.powi(t));
     let mut worst = 0.0f64;
     for i in 0..before.len() {
-        let (m, v) = (state.first[i] as f64, state.second[i] as f64);
+        let (m, v) = (first[i] as f64, second[i] as f64);
         let want = before[i] as f64 - lr(i) * (m / bc1) / ((v / bc2).sqrt() + ADAM.eps);
         let err = (after[i] as f64 - want).abs() / (lr(i) * 1e-4 + 1e-6 * want.abs());
         worst = worst.max(err);
@@ -65,23 +72,22 @@ fn device_adam_follows_the_formula_on_the_cpu_gradient() {
         .map(|_| rng.uniform(0.0, 1.0) as f32)
         .collect();
     let weights = vec![1.0f32; pixels];
-    let view = TrainingView {
-        camera,
-        target,
-        weights,
-        from_background: vec![false; pixels],
-    };
+    let view = TrainingView::photometric(camera, target, weights, vec![false; pixels]);
     let background = [0.3f32, 0.1, 0.7];
     let step = Step {
         background,
         learning_rates: RATES,
         ..step_at(&scene, 0.0)
     };
-    let nv = scene.model.vertex_count();
-    let mut trainer = loaded_trainer(&gpu, std::slice::from_ref(&view), ADAM, &scene.model);
+    let mut trainer = loaded_trainer(&gpu, std::slice::from_ref(&view), &scene.model);
 
     let mut model = scene.model.clone();
-    let mut previous = OptimizerState::zeros(nv);
+    let mut optim = fresh_optim(&model);
+    assert_eq!(
+        (optim.adam.beta1, optim.adam.beta2, optim.adam.eps),
+        (ADAM.beta1, ADAM.beta2, ADAM.eps)
+    );
+    let mut previous = optim.clone();
     for t in 1..=3u64 {
         // The CPU's gradient of the CPU loss at the current parameters.
         // No pixel is the background's: the loss compares with the target itself.
@@ -102,24 +108,18 @@ fn device_adam_follows_the_formula_on_the_cpu_gradient() {
 
         trainer.step(&step).unwrap();
         let before = flat(&model);
-        let state = trainer.store(&mut model).unwrap();
+        trainer.store(&mut model, &mut optim).unwrap();
         let after = flat(&model);
-        let tensors = [
-            ("positions", &state.positions, &previous.positions),
-            ("sh", &state.sh, &previous.sh),
-            (
-                "opacity logits",
-                &state.opacity_logits,
-                &previous.opacity_logits,
-            ),
-        ];
-        for (k, (name, now, before_state)) in tensors.into_iter().enumerate() {
+        let names = ["positions", "sh", "opacity logits"];
+        let tensors = names.into_iter().zip(optim.groups()).zip(previous.groups());
+        for (k, ((name, now), before_state)) in tensors.enumerate() {
             assert_eq!(now.steps, t, "{name}");
+            let (first, first_before) = (now.first_moment(), before_state.first_moment());
             // The device's gradient, recovered from m_t = β1·m_{t−1} + (1 − β1)·g.
-            let device_grad: Vec<f32> = (0..now.first.len())
+            let device_grad: Vec<f32> = (0..first.len())
                 .map(|i| {
-                    ((now.first[i] as f64 - ADAM.beta1 * before_state.first[i] as f64)
-                        / (1.0 - ADAM.beta1)) as f32
+                    ((first[i] as f64 - ADAM.beta1 * first_before[i] as f64) / (1.0 - ADAM.beta1))
+                        as f32
                 })
                 .collect();
             let d = relative_difference(&device_grad, &cpu_grads[k], 1e-12);
@@ -128,8 +128,9 @@ fn device_adam_follows_the_formula_on_the_cpu_gradient() {
             // v_t = β2·v_{t−1} + (1 − β2)·g² with the same g.
             for (i, &g) in device_grad.iter().enumerate() {
                 let g = g as f64;
-                let want = ADAM.beta2 * before_state.second[i] as f64 + (1.0 - ADAM.beta2) * g * g;
-                let got = now.second[i] as f64;
+                let want = ADAM.beta2 * before_state.second_moment()[i] as f64
+                    + (1.0 - ADAM.beta2) * g * g;
+                let got = now.second_moment()[i] as f64;
                 assert!(
                     (got - want).abs() <= 1e-4 * want.abs() + 1e-30,
                     "step {t}: {name} second moment {i}: {got} vs {want}"
@@ -143,7 +144,7 @@ fn device_adam_follows_the_formula_on_the_cpu_gradient() {
             };
             check_update(name, &before[k], &after[k], now, lr);
         }
-        previous = state;
+        previous = optim.clone();
     }
     let results = trainer.results().unwrap();
     assert_eq!(results.len(), 3);
@@ -157,7 +158,7 @@ fn overflowing_parameters_are_flagged_not_hidden() {
     let Some(gpu) = backend() else { return };
     let scene = parity_scenes().swap_remove(0);
     let view = flat_view(&scene, 1.0);
-    let mut trainer = loaded_trainer(&gpu, &[view], ADAM, &scene.model);
+    let mut trainer = loaded_trainer(&gpu, &[view], &scene.model);
     // The first update moves every value by about the learning rate; the second
     // (|m̂/√v̂| ≈ 0.67 even where the gradient has vanished) passes f32's 3.4e38.
     for _ in 0..3 {

@@ -10,7 +10,7 @@ use glam::DVec3;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::DEFAULT_LAMBDA_DSSIM;
 use objectsplat_raster::{CpuBackend, RenderBackend, RenderSettings};
-use objectsplat_wgpu::training::{AdamSettings, OptimizerState, Step, TrainingView};
+use objectsplat_wgpu::training::{Step, Trained, TrainingView};
 use support::{
     CpuLoss, FROZEN, Scene, backend, cpu_loss, facing_origin, footprint, loaded_trainer,
     object_view, small_object_scene,
@@ -78,7 +78,7 @@ fn settings(scene: &Scene, region: Region) -> RenderSettings {
 fn device_evaluation_matches_the_cpu_with_one_readback() {
     let Some(gpu) = backend() else { return };
     let (scene, views) = scene_and_views();
-    let mut trainer = loaded_trainer(&gpu, &views, AdamSettings::default(), &scene.model);
+    let mut trainer = loaded_trainer(&gpu, &views, &scene.model);
     let want: Vec<(f64, f64)> = views.iter().map(|v| cpu_score(&scene, v)).collect();
     let weights: Vec<f64> = views
         .iter()
@@ -125,7 +125,7 @@ fn face_weights_are_running_maxima_of_the_training_renders() {
     let Some(gpu) = backend() else { return };
     let (scene, views) = scene_and_views();
     let nf = scene.model.face_count();
-    let mut trainer = loaded_trainer(&gpu, &views, AdamSettings::default(), &scene.model);
+    let mut trainer = loaded_trainer(&gpu, &views, &scene.model);
     // Per view, the render's per-face maxima through the RenderBackend interface.
     let rendered: Vec<Vec<f32>> = views
         .iter()
@@ -150,7 +150,7 @@ fn face_weights_are_running_maxima_of_the_training_renders() {
         background: [0.4, 0.2, 0.9],
         render: settings(&scene, footprint()),
         learning_rates: FROZEN,
-        lambda_dssim: DEFAULT_LAMBDA_DSSIM,
+        ..support::step_at(&scene, 0.0)
     };
     let bits = |v: &[f32]| -> Vec<u32> { v.iter().map(|x| x.to_bits()).collect() };
     let zeros = vec![0.0f32; nf];
@@ -188,7 +188,8 @@ fn face_weights_are_running_maxima_of_the_training_renders() {
     trainer
         .load(
             &scene.model,
-            &OptimizerState::zeros(scene.model.vertex_count()),
+            Trained::all_of(&scene.model),
+            Some(&support::fresh_optim(&scene.model)),
         )
         .unwrap();
     assert_eq!(trainer.face_weights().unwrap(), (zeros.clone(), zeros));

@@ -4,10 +4,11 @@
 //! step's background colour. Learning rates of 0 leave the parameters as they were.
 mod support;
 
-use objectsplat_wgpu::training::{AdamSettings, DeviceTrainer, OptimizerState, Step, TrainingView};
+use objectsplat_optim::Optim;
+use objectsplat_wgpu::training::{DeviceTrainer, Step, Trained, TrainingView};
 use support::{
-    FROZEN, Rng, backend, cpu_loss, flat_view, loaded_trainer, parity_scenes, relative_difference,
-    step_at,
+    FROZEN, Rng, backend, cpu_loss, flat_view, fresh_optim, loaded_trainer, parity_scenes,
+    relative_difference, step_at,
 };
 
 #[test]
@@ -26,14 +27,9 @@ fn device_loss_and_image_gradient_match_the_cpu_loss() {
             .map(|_| rng.uniform(0.0, 1.0) as f32)
             .collect();
         let background = [0.25f32, 0.6, 0.9];
-        let view = TrainingView {
-            camera,
-            target,
-            weights,
-            from_background,
-        };
+        let view = TrainingView::photometric(camera, target, weights, from_background);
         let views = std::slice::from_ref(&view);
-        let mut trainer = loaded_trainer(&gpu, views, AdamSettings::default(), &scene.model);
+        let mut trainer = loaded_trainer(&gpu, views, &scene.model);
         trainer
             .step(&Step {
                 background,
@@ -61,7 +57,9 @@ fn device_loss_and_image_gradient_match_the_cpu_loss() {
         );
 
         let mut stored = scene.model.clone();
-        trainer.store(&mut stored).unwrap();
+        trainer
+            .store(&mut stored, &mut fresh_optim(&scene.model))
+            .unwrap();
         assert_eq!(
             stored, scene.model,
             "{}: a step at learning rate 0 moved the model",
@@ -75,7 +73,7 @@ fn a_view_without_supervised_pixels_gives_zero_loss_and_moves_nothing() {
     let Some(gpu) = backend() else { return };
     let scene = parity_scenes().swap_remove(0);
     let view = flat_view(&scene, 0.0);
-    let mut trainer = loaded_trainer(&gpu, &[view], AdamSettings::default(), &scene.model);
+    let mut trainer = loaded_trainer(&gpu, &[view], &scene.model);
     for _ in 0..2 {
         trainer.step(&step_at(&scene, 0.1)).unwrap();
     }
@@ -93,9 +91,10 @@ fn a_view_without_supervised_pixels_gives_zero_loss_and_moves_nothing() {
             .all(|&g| g == 0.0)
     );
     let mut stored = scene.model.clone();
-    let state = trainer.store(&mut stored).unwrap();
+    let mut optim = fresh_optim(&scene.model);
+    trainer.store(&mut stored, &mut optim).unwrap();
     assert_eq!(stored, scene.model);
-    assert_eq!(state.positions.steps, 2);
+    assert_eq!(optim.groups().map(|g| g.steps), [2; 3]);
 }
 
 #[test]
@@ -114,24 +113,26 @@ fn bad_views_and_steps_are_errors_not_panics() {
         (nan, "not finite"),
         (negative, "weight 3"),
     ] {
-        let err = DeviceTrainer::new(&gpu, &[view], AdamSettings::default())
-            .err()
-            .unwrap();
+        let err = DeviceTrainer::new(&gpu, &[view]).err().unwrap();
         assert!(format!("{err:#}").contains(expect), "{err:#}");
     }
-    assert!(DeviceTrainer::new(&gpu, &[], AdamSettings::default()).is_err());
-    let mut trainer = DeviceTrainer::new(&gpu, &[good], AdamSettings::default()).unwrap();
+    assert!(DeviceTrainer::new(&gpu, &[]).is_err());
+    let mut trainer = DeviceTrainer::new(&gpu, &[good]).unwrap();
     let step = step_at(&scene, 0.0);
     let err = trainer.step(&step).unwrap_err();
     assert!(
         format!("{err:#}").contains("before a model was loaded"),
         "{err:#}"
     );
+    let trained = Trained::all_of(&scene.model);
+    trainer.load(&scene.model, trained, None).unwrap();
+    let err = trainer.step(&step).unwrap_err();
+    assert!(
+        format!("{err:#}").contains("without optimizer state"),
+        "{err:#}"
+    );
     trainer
-        .load(
-            &scene.model,
-            &OptimizerState::zeros(scene.model.vertex_count()),
-        )
+        .load(&scene.model, trained, Some(&fresh_optim(&scene.model)))
         .unwrap();
     let err = trainer
         .step(&Step {
@@ -147,11 +148,20 @@ fn bad_views_and_steps_are_errors_not_panics() {
         })
         .unwrap_err();
     assert!(format!("{err:#}").contains("not finite"), "{err:#}");
+    let wrong = Optim::new(FROZEN, scene.model.vertex_count() + 1).unwrap();
+    let err = trainer
+        .load(&scene.model, trained, Some(&wrong))
+        .unwrap_err();
+    assert!(format!("{err:#}").contains("Adam state"), "{err:#}");
     let err = trainer
         .load(
             &scene.model,
-            &OptimizerState::zeros(scene.model.vertex_count() + 1),
+            Trained {
+                faces: scene.model.face_count() + 1,
+                ..trained
+            },
+            None,
         )
         .unwrap_err();
-    assert!(format!("{err:#}").contains("moments"), "{err:#}");
+    assert!(format!("{err:#}").contains("trained"), "{err:#}");
 }

@@ -8,21 +8,15 @@ use objectsplat_wgpu::raster::raster_sources;
 fn every_shader_validates() {
     validate_wgsl("scan.wgsl", objectsplat_wgpu::scan::SCAN_WGSL).unwrap();
     validate_wgsl("sort.wgsl", objectsplat_wgpu::sort::SORT_WGSL).unwrap();
-    validate_wgsl(
-        "train_loss.wgsl",
-        objectsplat_wgpu::training::TRAIN_LOSS_WGSL,
-    )
-    .unwrap();
-    validate_wgsl(
-        "train_adam.wgsl",
-        objectsplat_wgpu::training::TRAIN_ADAM_WGSL,
-    )
-    .unwrap();
-    validate_wgsl(
-        "train_faces.wgsl",
-        objectsplat_wgpu::training::TRAIN_FACES_WGSL,
-    )
-    .unwrap();
+    use objectsplat_wgpu::training::{ADAM_WGSL, DEPTH_WGSL, FACES_WGSL, LOSS_WGSL};
+    for (name, source) in [
+        ("training/loss.wgsl", LOSS_WGSL),
+        ("training/adam.wgsl", ADAM_WGSL),
+        ("training/faces.wgsl", FACES_WGSL),
+        ("training/depth.wgsl", DEPTH_WGSL),
+    ] {
+        validate_wgsl(name, source).unwrap();
+    }
     for mode in [FloatAtomics::Native, FloatAtomics::CompareExchange] {
         for threads in [32, 64, 128, 256] {
             for (name, source) in raster_sources(mode, threads, threads) {

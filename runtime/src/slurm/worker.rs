@@ -110,6 +110,7 @@ pub fn run_action(spec_path: &Path, build_plan: impl FnOnce(&ActionSpec) -> Resu
         let store = Store::open(&spec.cache)?;
         let opts = RunOptions {
             jobs: threads,
+            threads_per_job: None,
             out_dir: None,
             observer: observer.clone(),
         };

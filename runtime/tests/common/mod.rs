@@ -361,6 +361,7 @@ pub fn execute(plan: &Plan, cache: &Path, out: Option<&Path>, jobs: usize) -> Ru
         &store,
         &RunOptions {
             jobs,
+            threads_per_job: None,
             out_dir: out.map(Path::to_path_buf),
             observer: Arc::new(Silent),
         },

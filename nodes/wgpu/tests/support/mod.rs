@@ -234,6 +234,19 @@ pub fn parity_scenes() -> Vec<Scene> {
     );
     soft.settings.sigma = 0.4;
     scenes.push(soft);
+
+    // A σ per face (a composed scene's members, frozen occluders): from the
+    // sharp end of the schedule to a soft window, none equal to the render's σ.
+    let mut m = random_soup(&mut rng, 180, 2, (0.1, 0.6));
+    m.face_sigma = (0..m.face_count())
+        .map(|f| [1e-4, 0.05, 0.3, 0.7, 1.0][f % 5])
+        .collect();
+    scenes.push(scene(
+        "per-face window sharpness",
+        m,
+        camera(96, 72),
+        &mut rng,
+    ));
     scenes
 }
 
@@ -259,18 +272,19 @@ pub fn relative_difference(a: &[f32], b: &[f32], floor: f64) -> f64 {
     diff.sqrt() / norm.sqrt().max(floor)
 }
 
+use objectsplat_optim::LearningRates;
 use objectsplat_raster::loss::DEFAULT_LAMBDA_DSSIM;
-use objectsplat_wgpu::training::{LearningRates, Step, TrainingView};
+use objectsplat_wgpu::training::{DepthWeights, Step, TrainingView};
 
 /// One training view of `scene`: a flat grey target, every pixel at `weight`.
 pub fn flat_view(scene: &Scene, weight: f32) -> TrainingView {
     let pixels = (scene.camera.width * scene.camera.height) as usize;
-    TrainingView {
-        camera: scene.camera,
-        target: vec![0.5; pixels * 3],
-        weights: vec![weight; pixels],
-        from_background: vec![false; pixels],
-    }
+    TrainingView::photometric(
+        scene.camera,
+        vec![0.5; pixels * 3],
+        vec![weight; pixels],
+        vec![false; pixels],
+    )
 }
 
 /// A step on view 0 over a black background, every tensor at learning rate `lr`.
@@ -286,6 +300,8 @@ pub fn step_at(scene: &Scene, lr: f64) -> Step {
             opacity: lr,
         },
         lambda_dssim: DEFAULT_LAMBDA_DSSIM,
+        sh_degree: scene.settings.sh_degree,
+        depth: DepthWeights::default(),
     }
 }
 
@@ -315,14 +331,14 @@ pub fn object_view(scene: &Scene, own: PixelRect, seed: u64) -> TrainingView {
     let mut rng = Rng(seed);
     let (w, h) = (scene.camera.width, scene.camera.height);
     let pixels = (w * h) as usize;
-    let mut view = TrainingView {
-        camera: scene.camera,
-        target: (0..pixels * 3)
+    let mut view = TrainingView::photometric(
+        scene.camera,
+        (0..pixels * 3)
             .map(|_| rng.uniform(0.0, 1.0) as f32)
             .collect(),
-        weights: vec![1.0; pixels],
-        from_background: vec![true; pixels],
-    };
+        vec![1.0; pixels],
+        vec![true; pixels],
+    );
     for p in 0..pixels {
         let (x, y) = (p as u32 % w, p as u32 / w);
         if x >= own.x0 && x < own.x1 && y >= own.y0 && y < own.y1 {
@@ -342,26 +358,31 @@ pub fn footprint() -> Region {
     }
 }
 
+use objectsplat_optim::Optim;
 use objectsplat_raster::loss::{LossGrad, photometric};
 use objectsplat_raster::{CpuBackend, OutputGrads, RenderBackend, RenderOutput, SavedForward};
 use objectsplat_wgpu::WgpuBackend;
-use objectsplat_wgpu::training::{AdamSettings, DeviceTrainer, OptimizerState};
+use objectsplat_wgpu::training::{DeviceTrainer, Trained};
 
 /// The wgpu backend on the shared context, or `None` after printing why the test is skipped.
 pub fn backend() -> Option<WgpuBackend> {
     context().map(|ctx| WgpuBackend::new(ctx).unwrap())
 }
 
-/// A trainer on `views` holding `model`, its optimizer state all zeros.
+/// Adam at the reference settings with zero moments for `model`.
+pub fn fresh_optim(model: &Model<f32>) -> Optim {
+    Optim::new(FROZEN, model.vertex_count()).unwrap()
+}
+
+/// A trainer on `views` holding `model` (all of it trained), its optimizer state all zeros.
 pub fn loaded_trainer(
     gpu: &WgpuBackend,
     views: &[TrainingView],
-    adam: AdamSettings,
     model: &Model<f32>,
 ) -> DeviceTrainer {
-    let mut trainer = DeviceTrainer::new(gpu, views, adam).unwrap();
+    let mut trainer = DeviceTrainer::new(gpu, views).unwrap();
     trainer
-        .load(model, &OptimizerState::zeros(model.vertex_count()))
+        .load(model, Trained::all_of(model), Some(&fresh_optim(model)))
         .unwrap();
     trainer
 }

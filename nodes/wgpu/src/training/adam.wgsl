@@ -3,8 +3,11 @@
 // p ← p − lr·(m/bc1)/(√(v/bc2) + ε), with the bias corrections bc1, bc2
 // computed on the host. Rows of `row_width` values take `lr_first` for their
 // first `split` values and `lr_rest` for the others (SH: DC vs higher bands).
-// A non-finite gradient leaves its value untouched and raises `grad_bit` in
-// the step's status; a non-finite result raises `grad_bit << 1`.
+// Only the first `active` values of a row move (SH bands above the trained
+// model's degree stay as they are, as on the host, even where a composite with
+// occluders renders them). A non-finite gradient leaves its value untouched
+// and raises `grad_bit` in the step's status; a non-finite result raises
+// `grad_bit << 1`. A step whose render overflowed (STATUS_OVERFLOW) moves nothing.
 
 struct AdamParams {
     count: u32,
@@ -22,8 +25,8 @@ struct AdamParams {
     bias1: f32,
     bias2: f32,
     slot: u32,
-    pad0: u32,
-    pad1: u32,
+    active_width: u32,
+    _pad: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: AdamParams;
@@ -35,8 +38,11 @@ struct AdamParams {
 
 @compute @workgroup_size(256)
 fn adam_step(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>, @builtin(local_invocation_index) lid: u32) {
-    let i = (wid.y * groups.x + wid.x) * 256u + lid;
-    if (i >= params.count) {
+    let i = thread_index(wid, groups, lid);
+    if (i >= params.count || i % params.row_width >= params.active_width) {
+        return;
+    }
+    if ((atomicLoad(&status[params.slot]) & STATUS_OVERFLOW) != 0u) {
         return;
     }
     let g = grads[i];

@@ -35,6 +35,12 @@ struct LossParams {
     l1_weight: f32,
     ssim_weight: f32,
     supervised: u32,
+    // Tile entries the render's buffers hold: a render that needed more
+    // raises STATUS_OVERFLOW (u32 max: the buffers were sized to the render).
+    entry_capacity: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
     // The 11 Gaussian taps (σ = 1.5, normalised), four per vector.
     taps: array<vec4<f32>, 3>,
 }
@@ -44,22 +50,21 @@ const MAP_COUNT: u32 = 9u;
 const IMAGE_STRIDE: u32 = 6u;
 const C1: f32 = 0.0001;
 const C2: f32 = 0.0009;
-const STATUS_RENDER: u32 = 1u;
-const STATUS_LOSS: u32 = 2u;
 
 @group(0) @binding(0) var<uniform> params: LossParams;
 // The region's render, stride 6.
 @group(0) @binding(1) var<storage, read> image: array<f32>;
 // Per pixel of the view: target colour and weight (0 = not supervised).
 @group(0) @binding(2) var<storage, read> targets: array<vec4<f32>>;
-// Per pixel of the view: 1 where the target is the step's background colour.
-@group(0) @binding(3) var<storage, read> from_background: array<u32>;
+// Per pixel of the view: FLAG_BACKGROUND where the target is the step's
+// background colour (and FLAG_OWN on the component's own pixels).
+@group(0) @binding(3) var<storage, read> flags: array<u32>;
 @group(0) @binding(4) var<storage, read_write> rows: array<f32>;
 @group(0) @binding(5) var<storage, read_write> maps: array<f32>;
 @group(0) @binding(6) var<storage, read_write> upstream: array<f32>;
 // Per workgroup: Σ u·|x − y|, Σ u·(1 − S), Σ w·(x − y)² (supervised pixels).
 @group(0) @binding(7) var<storage, read_write> partials: array<vec4<f32>>;
-// Per slot: loss and weighted squared error (f32 bits), the render's tile entries, 0.
+// Per slot: loss and weighted squared error (f32 bits), the render's tile entries and region pixels.
 @group(0) @binding(8) var<storage, read_write> results: array<vec4<u32>>;
 @group(0) @binding(9) var<storage, read_write> status: array<atomic<u32>>;
 @group(0) @binding(10) var<storage, read> frame: array<u32>;
@@ -96,7 +101,7 @@ fn view_pixel(r: Region, x: u32, y: u32) -> u32 {
 }
 
 fn target_color(q: u32) -> vec3<f32> {
-    if (from_background[q] != 0u) {
+    if ((flags[q] & FLAG_BACKGROUND) != 0u) {
         return params.background.xyz;
     }
     return targets[q].xyz;
@@ -311,7 +316,7 @@ fn loss_grad(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) gro
 
 // One workgroup: the loss from the per-workgroup sums, in a fixed order (so
 // the value does not depend on scheduling), with the weighted squared error
-// and the render's entry count.
+// and the render's entry count and region pixels.
 @compute @workgroup_size(256)
 fn loss_total(@builtin(local_invocation_index) lid: u32) {
     var acc = vec4<f32>(0.0);
@@ -324,7 +329,11 @@ fn loss_total(@builtin(local_invocation_index) lid: u32) {
         if (params.supervised != 0u) {
             value = params.l1_weight * sums[0].x + params.ssim_weight * sums[0].y;
         }
-        results[params.slot] = vec4<u32>(bitcast<u32>(value), bitcast<u32>(sums[0].z), frame[FRAME_ENTRIES], 0u);
+        let pixels = (frame[FRAME_X1] - frame[FRAME_X0]) * (frame[FRAME_Y1] - frame[FRAME_Y0]);
+        results[params.slot] = vec4<u32>(bitcast<u32>(value), bitcast<u32>(sums[0].z), frame[FRAME_ENTRIES], pixels);
+        if (frame[FRAME_ENTRIES] > params.entry_capacity) {
+            atomicOr(&status[params.slot], STATUS_OVERFLOW);
+        }
         if (!is_finite(value)) {
             atomicOr(&status[params.slot], STATUS_LOSS);
         }
