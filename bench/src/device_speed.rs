@@ -36,6 +36,10 @@ pub struct DeviceSpeedArgs {
     /// Iteration budget of every component (`last` checkpoint: all of it runs).
     #[arg(long, default_value_t = 300)]
     iterations: u64,
+    /// Iteration budget on the cpu backend (default: --iterations), for frame
+    /// sizes where the CPU would take too long; the events come as often either way.
+    #[arg(long)]
+    cpu_iterations: Option<u64>,
     /// Iterations between schedule events (densify, prune, opacity floor, evaluation).
     #[arg(long, default_value_t = 500)]
     event_every: u64,
@@ -46,7 +50,8 @@ pub struct DeviceSpeedArgs {
     #[arg(long, default_value_t = 7)]
     scene: u64,
     /// Also time the demo graph's `objects` and `train` nodes on each backend
-    /// with this iteration budget (0: skip).
+    /// with this iteration budget, run as a user would (every core, items in
+    /// parallel); 0: skip.
     #[arg(long, default_value_t = 0)]
     demo_iterations: u64,
     /// Folder holding demo.ron.
@@ -95,7 +100,8 @@ struct RunRow {
 
 fn graph_text(size: (u32, u32), args: &DeviceSpeedArgs, backend: &str) -> String {
     let (width, height) = size;
-    let (scene, views, iterations) = (args.scene, args.views, args.iterations);
+    let (scene, views) = (args.scene, args.views);
+    let iterations = budget(args, backend);
     let e = args.event_every;
     let train = format!(
         "iterations: {iterations}, seed: 0, checkpoint: \"last\", backend: \"{backend}\", \
@@ -120,6 +126,14 @@ fn graph_text(size: (u32, u32), args: &DeviceSpeedArgs, backend: &str) -> String
 )
 "#
     )
+}
+
+/// The iteration budget of `backend`'s runs.
+fn budget(args: &DeviceSpeedArgs, backend: &str) -> u64 {
+    match (backend, args.cpu_iterations) {
+        ("cpu", Some(n)) => n,
+        _ => args.iterations,
+    }
 }
 
 /// Which kind of component an item of the synthetic room is.
@@ -195,15 +209,22 @@ impl GpuMemoryPoller {
     }
 }
 
+/// How a bench run schedules its items.
+enum Jobs {
+    /// One item at a time on this many threads.
+    OneAtATime(usize),
+    /// As many items at once as there are cores (`objectsplat run`'s default).
+    Default,
+}
+
 /// Runs `graph` with `binary` on the cache `cache` (shared by the runs of one
-/// scene: only the train nodes differ), one job at a time on `threads`
-/// threads, with the GPU visible (unlike the CPU benches).
+/// scene: only the train nodes differ), with the GPU visible (unlike the CPU benches).
 fn run(
     binary: &Path,
     graph: &Path,
     cache: &Path,
     dir: &Path,
-    threads: usize,
+    jobs: Jobs,
     sets: &[String],
 ) -> Result<Value> {
     if dir.exists() {
@@ -219,10 +240,13 @@ fn run(
         .arg(cache)
         .arg("--out")
         .arg(dir.join("out"))
-        .args(["-j", "1", "--threads"])
-        .arg(threads.to_string())
         .arg("--json")
         .arg(&json);
+    if let Jobs::OneAtATime(threads) = jobs {
+        command
+            .args(["-j", "1", "--threads"])
+            .arg(threads.to_string());
+    }
     for set in sets {
         command.arg("--set").arg(set);
     }
@@ -280,6 +304,7 @@ pub fn device_speed(args: &DeviceSpeedArgs) -> Result<()> {
     let sizes = args
         .sizes
         .iter()
+        .filter(|s| !s.is_empty())
         .map(|s| parse_size(s).map(|wh| (s.clone(), wh)))
         .collect::<Result<Vec<_>>>()?;
     let threads = args
@@ -297,7 +322,14 @@ pub fn device_speed(args: &DeviceSpeedArgs) -> Result<()> {
             let run_dir = args.out.join("runs").join(format!("{backend}-{size}"));
             let cache = args.out.join("cache").join(size);
             let poller = GpuMemoryPoller::start();
-            let report = run(&binary, &graph, &cache, &run_dir, threads, &[])?;
+            let report = run(
+                &binary,
+                &graph,
+                &cache,
+                &run_dir,
+                Jobs::OneAtATime(threads),
+                &[],
+            )?;
             let peak_gpu_mib = poller.map(GpuMemoryPoller::finish);
             let mut seconds = Vec::new();
             for id in ["objects", "background", "holistic"] {
@@ -360,7 +392,7 @@ pub fn device_speed(args: &DeviceSpeedArgs) -> Result<()> {
                 &graph,
                 &args.out.join("cache").join("demo"),
                 &args.out.join("runs").join(format!("demo-{backend}")),
-                threads,
+                Jobs::Default,
                 &sets,
             )?;
             let secs = |id: &str| node(&report, id).and_then(|n| n["seconds"].as_f64());
@@ -410,12 +442,20 @@ fn markdown(
     let mut md = String::new();
     writeln!(
         md,
-        "Synthetic room (seed {}), {} views, dense split, {} iterations per component with a \
+        "Synthetic room (seed {}), {} views, dense split, {} iterations per component{} with a \
          schedule event every {} (densify, prune, opacity floor, evaluation), checkpoint `last`, \
          one item at a time ({} CPU threads); objects, then the background behind them (depth \
          loss and planar prior on), and the holistic model. it/s: iterations over the training \
          loop's wall time (events, evaluations and the final prune included); small objects averaged.\n",
-        args.scene, args.views, args.iterations, args.event_every, threads
+        args.scene,
+        args.views,
+        args.iterations,
+        match args.cpu_iterations {
+            Some(n) if n != args.iterations => format!(" ({n} on the cpu backend)"),
+            _ => String::new(),
+        },
+        args.event_every,
+        threads
     )?;
     let backends = &args.backends;
     write!(md, "| size | kind |")?;
@@ -432,7 +472,7 @@ fn markdown(
         "---:|---:|".repeat(backends.len()),
         if backends.len() == 2 { "---:|" } else { "" }
     )?;
-    for size in &args.sizes {
+    for size in args.sizes.iter().filter(|s| !s.is_empty()) {
         for kind in KINDS {
             let mean = |b: &str| -> Option<(f64, bool)> {
                 let rows: Vec<&ItemRow> = items
@@ -491,7 +531,7 @@ fn markdown(
     if !demo.is_empty() {
         writeln!(
             md,
-            "\n`graphs/demo.ron` with {} iterations per component:\n\n| backend | objects s | train (background) s |\n|---|---:|---:|",
+            "\n`graphs/demo.ron` with {} iterations per component, every core, items in parallel:\n\n| backend | objects s | train (background) s |\n|---|---:|---:|",
             args.demo_iterations
         )?;
         for (b, o, t) in demo {
