@@ -6,10 +6,10 @@
 //! (owned by an object) are filled; ignored pixels are left alone. Every such frame
 //! gets a fill image `<frame stem>.png` (unchanged where there was nothing to fill).
 
-use crate::component_io::ComponentDir;
 use crate::external::{ExternalCommand, FillRequest, composite};
 use crate::inpaint::{Method, Options, Raster, inpaint};
 use anyhow::{Context, Result, bail};
+use objectsplat_core::ComponentFolder;
 use objectsplat_core::component::OTHER;
 use objectsplat_core::frames::frame_stem;
 use objectsplat_core::image::{read_rgb8_sized, write_rgb8};
@@ -45,9 +45,9 @@ pub fn inpaint_background(
     out: &Path,
     scratch: &Path,
 ) -> Result<BackgroundReport> {
-    let components: Vec<ComponentDir> = items
+    let components: Vec<ComponentFolder> = items
         .iter()
-        .map(|(name, dir)| ComponentDir::read(name, dir))
+        .map(|(name, dir)| ComponentFolder::read_item(name, dir))
         .collect::<Result<_>>()?;
     let Some(background) = components
         .iter()

@@ -5,7 +5,6 @@
 //! completed surfaces and inpainted backgrounds are kept out of reported metrics.
 
 pub mod background;
-pub mod component_io;
 pub mod external;
 pub mod fill_holes;
 pub mod inpaint;

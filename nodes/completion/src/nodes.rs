@@ -5,10 +5,11 @@ use crate::background::{FillSource, inpaint_background};
 use crate::external::ExternalCommand;
 use crate::fill_holes::{Connectivity, fill_holes};
 use crate::inpaint::{Options, Raster, Sample, inpaint};
-use crate::surface::{SurfaceParams, complete_surfaces};
+use crate::surface::{ScenePoints, SurfaceParams, complete_surfaces};
 use crate::surface_mesh::{SurfaceMeshParams, complete_scene_surfaces};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::artifact::{IMAGE_PNG, MASK_PNG};
+use objectsplat_core::visibility::Visibility;
 use objectsplat_core::{Frames, Points};
 use objectsplat_runtime::{
     Context, Node, NodeSpec, Outcome, ParamType, Params, Registry, node_ports,
@@ -39,6 +40,11 @@ pub fn register(reg: &mut Registry) {
 fn optional_points(dir: Option<&Path>) -> Result<Option<Points>> {
     dir.map(|dir| Points::read_ply(&dir.join(objectsplat_core::artifact::POINTS_PLY)))
         .transpose()
+}
+
+/// The scene's point visibility, when the optional `visibility` input is wired.
+fn optional_visibility(dir: Option<&Path>) -> Result<Option<Visibility>> {
+    dir.map(Visibility::read).transpose()
 }
 
 fn connectivity(n: i64) -> Result<Connectivity> {
@@ -245,6 +251,9 @@ node_ports! {
         frames: input "Frames",
         /// scene points for the planarity test (optional)
         points: optional "Points",
+        /// which points every frame sees (point_visibility's): a point counts only where it is
+        /// seen, not through the surface it is behind (optional)
+        visibility: optional "Visibility",
         /// all components; completed surfaces gain pixels, targets/ and completion.json
         components_out: output "[Component]" as "components",
     }
@@ -270,9 +279,14 @@ impl Node for SurfaceCompletionNode {
         // Validates the capture even though the components carry their own frames.
         Frames::read(&ports.frames)?;
         let points = optional_points(ports.points.as_deref())?;
+        let visibility = optional_visibility(ports.visibility.as_deref())?;
+        let scene_points = points
+            .as_ref()
+            .map(|p| ScenePoints::new(p, visibility.as_ref()))
+            .transpose()?;
         let items = ports.components;
         ctx.progress(0, 1, "completing support surfaces");
-        let report = complete_surfaces(&items, points.as_ref(), &params, &ports.components_out)?;
+        let report = complete_surfaces(&items, scene_points, &params, &ports.components_out)?;
         for s in &report.surfaces {
             ctx.note(
                 &format!("surface {}", s.component),
@@ -309,6 +323,8 @@ node_ports! {
         frames: input "Frames",
         /// scene points; those on a surface's pixels join its plane fit
         points: optional "Points",
+        /// which points every frame sees (point_visibility's): only those seen count (optional)
+        visibility: optional "Visibility",
         /// the scene with completed surfaces (model.json metadata surface_completion_3d records each patch)
         scene_out: output "Scene" as "scene",
     }
@@ -328,10 +344,15 @@ impl Node for CompleteSurfacesNode {
         // Validates the capture; the components carry their own frames.
         Frames::read(&ports.frames)?;
         let points = optional_points(ports.points.as_deref())?;
+        let visibility = optional_visibility(ports.visibility.as_deref())?;
+        let scene_points = points
+            .as_ref()
+            .map(|p| ScenePoints::new(p, visibility.as_ref()))
+            .transpose()?;
         let mut scene = objectsplat_scene::load_scene(&ports.scene)?;
         let items = ports.components;
         ctx.progress(0, 1, "completing support surfaces in 3D");
-        let report = complete_scene_surfaces(&mut scene, &items, points.as_ref(), &params)?;
+        let report = complete_scene_surfaces(&mut scene, &items, scene_points, &params)?;
         for s in &report.surfaces {
             ctx.note(&format!("surface {}", s.component), &s.reason);
             if s.completed {

@@ -18,15 +18,15 @@
 //! samples), and the adopted pixels get those colours as training targets
 //! (`targets/<stem>.png`: the frame with the hole inpainted).
 
-use crate::component_io::{self, ComponentDir};
 use crate::fill_holes::{Connectivity, fill_holes};
 use crate::inpaint::{Method, Options, Raster, inpaint};
 use crate::plane::fit_plane;
-use anyhow::{Context, Result};
+use anyhow::{Context, Result, bail};
 use glam::DVec3;
 use objectsplat_core::component::{self, OTHER, OWN};
 use objectsplat_core::image::read_rgb8_sized;
-use objectsplat_core::{ComponentKind, Frame, Points};
+use objectsplat_core::visibility::Visibility;
+use objectsplat_core::{ComponentFolder, ComponentKind, Frame, Points};
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 
@@ -194,26 +194,68 @@ pub fn label_matches(label: &str, labels: &[String]) -> bool {
     })
 }
 
+/// The scene's points, and when known which frames see which of them.
+#[derive(Debug, Clone, Copy)]
+pub struct ScenePoints<'a> {
+    pub points: &'a Points,
+    /// From `point_visibility`: a point counts in a frame only where that
+    /// frame sees it (not hidden behind nearer points). Without it every
+    /// point projecting into the frame counts, the floor seen past a table
+    /// top among them.
+    pub visibility: Option<&'a Visibility>,
+}
+
+impl<'a> ScenePoints<'a> {
+    pub fn new(points: &'a Points, visibility: Option<&'a Visibility>) -> Result<Self> {
+        if let Some(v) = visibility {
+            v.check_points(points)?;
+        }
+        Ok(ScenePoints { points, visibility })
+    }
+}
+
 /// Points that project into the surface's own pixels in at least half the frames
 /// that see them, and in at least two frames (or the only frame the surface has).
-pub(crate) fn surface_points(surface: &ComponentDir, points: &Points) -> Result<Vec<DVec3>> {
+pub(crate) fn surface_points(
+    surface: &ComponentFolder,
+    scene: ScenePoints<'_>,
+) -> Result<Vec<DVec3>> {
+    let points = scene.points;
     let frames = &surface.frames.frames;
     let mut seen = vec![0u32; points.positions.len()];
     let mut on_surface = vec![0u32; points.positions.len()];
     for frame in frames {
         let mask = surface.load_mask(frame)?;
-        let camera = frame.camera();
-        for (i, p) in points.positions.iter().enumerate() {
-            let world = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
-            let Some((u, v, _)) = camera.project(world) else {
-                continue;
-            };
-            if u < 0.0 || v < 0.0 || u >= frame.width as f64 || v >= frame.height as f64 {
-                continue;
-            }
+        let mut count = |i: usize, pixel: usize| {
             seen[i] += 1;
-            // Pixel (i, j) covers [i, i+1) × [j, j+1) in the COLMAP convention.
-            on_surface[i] += u32::from(mask[v as usize * frame.width as usize + u as usize] == OWN);
+            on_surface[i] += u32::from(mask[pixel] == OWN);
+        };
+        match scene.visibility {
+            Some(vis) => {
+                let Some(visible) = vis.of_frame(&frame.name) else {
+                    bail!(
+                        "the visibility has no frame {:?}: it was computed for another capture",
+                        frame.name
+                    );
+                };
+                for s in visible {
+                    count(s.point as usize, s.pixel as usize);
+                }
+            }
+            None => {
+                let camera = frame.camera();
+                for (i, p) in points.positions.iter().enumerate() {
+                    let world = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+                    let Some((u, v, _)) = camera.project(world) else {
+                        continue;
+                    };
+                    if u < 0.0 || v < 0.0 || u >= frame.width as f64 || v >= frame.height as f64 {
+                        continue;
+                    }
+                    // Pixel (i, j) covers [i, i+1) × [j, j+1) in the COLMAP convention.
+                    count(i, v as usize * frame.width as usize + u as usize);
+                }
+            }
         }
     }
     let needed = if frames.len() == 1 { 1 } else { 2 };
@@ -227,9 +269,9 @@ pub(crate) fn surface_points(surface: &ComponentDir, points: &Points) -> Result<
 }
 
 fn judge(
-    surface: &ComponentDir,
+    surface: &ComponentFolder,
     label: &str,
-    points: Option<&Points>,
+    points: Option<ScenePoints<'_>>,
     params: &SurfaceParams,
 ) -> Result<SurfaceOutcome> {
     let mut outcome = SurfaceOutcome {
@@ -280,13 +322,13 @@ fn judge(
 /// When the report says `skipped`, nothing was written.
 pub fn complete_surfaces(
     items: &[(String, PathBuf)],
-    points: Option<&Points>,
+    points: Option<ScenePoints<'_>>,
     params: &SurfaceParams,
     out: &Path,
 ) -> Result<CompletionReport> {
-    let components: Vec<ComponentDir> = items
+    let components: Vec<ComponentFolder> = items
         .iter()
-        .map(|(name, dir)| ComponentDir::read(name, dir))
+        .map(|(name, dir)| ComponentFolder::read_item(name, dir))
         .collect::<Result<_>>()?;
     let mut surfaces = Vec::new();
     for c in &components {
@@ -354,7 +396,7 @@ pub fn complete_surfaces(
     }
 
     for c in &components {
-        component_io::copy_tree(&c.dir, &out.join(&c.name))?;
+        objectsplat_core::files::share_tree(&c.dir, &out.join(&c.name))?;
     }
     for (index, frames_done) in &completed {
         let c = &components[*index];
@@ -375,8 +417,8 @@ pub fn complete_surfaces(
 }
 
 fn complete_one(
-    surface: &ComponentDir,
-    components: &[ComponentDir],
+    surface: &ComponentFolder,
+    components: &[ComponentFolder],
     frame: &Frame,
     params: &SurfaceParams,
 ) -> Result<Option<FrameCompletion>> {

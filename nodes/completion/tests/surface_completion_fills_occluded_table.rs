@@ -9,9 +9,10 @@ mod common;
 
 use common::{CUP_RGB, H, Owner, TABLE_RGB, W, owner};
 use objectsplat_completion::nodes::SurfaceCompletionNode;
-use objectsplat_completion::surface::{SurfaceParams, complete_surfaces};
+use objectsplat_completion::surface::{ScenePoints, SurfaceParams, complete_surfaces};
 use objectsplat_core::component::OWN;
 use objectsplat_core::glam::DVec3;
+use objectsplat_core::visibility::Visibility;
 use objectsplat_core::{Frames, Points};
 use objectsplat_runtime::Outcome;
 
@@ -113,8 +114,14 @@ fn node_completes_the_table_with_default_params() {
 }
 
 /// Points on the tabletop seen from the scene camera: one per table pixel of
-/// frame 0, at the depth where its ray meets the plane z = `height(x, y)`.
+/// frame 0, where its ray meets the plane z = 0 (moved along the ray by up to
+/// `bump` of the distance).
 fn table_points(bump: f64) -> Points {
+    points_on_rays_to(0.0, bump)
+}
+
+/// [`table_points`] on the plane z = `height` instead.
+fn points_on_rays_to(height: f64, bump: f64) -> Points {
     let camera = common::camera();
     let frames = Frames::read(&common::build("table").frames).unwrap();
     let frame = &frames.frames[0];
@@ -129,7 +136,7 @@ fn table_points(bump: f64) -> Points {
                 (y as f64 + 0.5 - frame.cy) / frame.fy,
                 1.0,
             );
-        let s = -centre.z / ray.z;
+        let s = (height - centre.z) / ray.z;
         // A bump moves the point along its own ray, so it still projects to the same pixel.
         let wobble = 1.0 + bump * ((x * 7 + y * 3) % 5) as f64 / 4.0;
         let p = centre + ray * s * wobble;
@@ -146,7 +153,8 @@ fn planarity_accepts_a_flat_table_and_rejects_a_bumpy_one() {
     let params = SurfaceParams::default();
     let complete = |bump: f64, out: &str| {
         let points = table_points(bump);
-        complete_surfaces(&items, Some(&points), &params, &scene.root.path().join(out)).unwrap()
+        let points = ScenePoints::new(&points, None).unwrap();
+        complete_surfaces(&items, Some(points), &params, &scene.root.path().join(out)).unwrap()
     };
     let flat = complete(0.0, "a");
     assert_eq!(flat.skipped, None);
@@ -162,4 +170,39 @@ fn planarity_accepts_a_flat_table_and_rejects_a_bumpy_one() {
         !scene.root.path().join("b").exists(),
         "a skipped run writes nothing"
     );
+}
+
+/// The floor seen past the table top (the same rays, 75 cm further) projects
+/// onto the table's pixels: counting every point that projects there, half of
+/// the table's "points" are the floor's and the flat top is rejected; with the
+/// scene's visibility the floor points behind the top are not seen there, and
+/// the top is accepted.
+#[test]
+fn a_flat_table_seen_over_the_floor_is_accepted_with_the_scene_visibility() {
+    let scene = common::build("table");
+    let items = common::items(&scene.components);
+    let params = SurfaceParams::default();
+    let mut points = table_points(0.0);
+    let floor = points_on_rays_to(-0.75, 0.0);
+    points.positions.extend(floor.positions);
+    points.colors.extend(floor.colors);
+    let frames = Frames::read(&scene.frames).unwrap();
+    let visibility = Visibility::compute(&points, &frames.frames, 2).unwrap();
+    let run = |visibility: Option<&Visibility>, out: &str| {
+        let points = ScenePoints::new(&points, visibility).unwrap();
+        complete_surfaces(&items, Some(points), &params, &scene.root.path().join(out)).unwrap()
+    };
+    let blind = run(None, "blind");
+    assert!(!blind.surfaces[0].accepted, "{:?}", blind.surfaces[0]);
+    assert!(blind.skipped.unwrap().contains("not planar"));
+    let seeing = run(Some(&visibility), "seeing");
+    assert_eq!(seeing.skipped, None, "{:?}", seeing.surfaces[0]);
+    assert!(
+        seeing.surfaces[0].plane_inlier_fraction.unwrap() > 0.99,
+        "{:?}",
+        seeing.surfaces[0]
+    );
+    // A visibility of other points is refused, not silently misapplied.
+    let other = Visibility::compute(&table_points(0.0), &frames.frames, 1).unwrap();
+    assert!(ScenePoints::new(&points, Some(&other)).is_err());
 }

@@ -13,6 +13,8 @@ pub const MASK_PNG: &str = "mask.png";
 pub const FRAMES_JSON: &str = "frames.json";
 /// The Points artifact's one file.
 pub const POINTS_PLY: &str = "points.ply";
+/// The Visibility artifact's one file.
+pub const VISIBILITY_BIN: &str = "visibility.bin";
 /// The Mesh artifact's geometry.
 pub const MESH_PLY: &str = "mesh.ply";
 /// Object id → label, beside Masks and annotated Meshes.
@@ -94,6 +96,15 @@ pub const TYPES: &[ArtifactType] = &[
         defining_file: Some(POINTS_PLY),
         doc: "`points.ply` — binary little-endian PLY, vertex `x,y,z` (float) + \
               `red,green,blue` (uchar)",
+    },
+    ArtifactType {
+        name: "Visibility",
+        defining_file: Some(VISIBILITY_BIN),
+        doc: "`visibility.bin` — per frame, the scene points it sees (in front, inside the \
+              image, not hidden behind nearer points): little-endian binary, magic \
+              `OSVIS01\\0`, u64 point count, f64 neighbour spacing, u32 frames, then per \
+              frame a u32-length name, a u32 count and (u32 point, u32 pixel, f32 depth) \
+              entries",
     },
     ArtifactType {
         name: "Mesh",

@@ -13,8 +13,9 @@
 //!   pixels instead of the frame image (set by surface completion for filled pixels).
 
 use crate::artifact::{COMPONENT_JSON, COMPONENT_MASKS_DIR, COMPONENT_TARGETS_DIR};
-use crate::frames::{Frame, frame_stem};
-use crate::image::{read_gray8, write_gray8, write_rgb8};
+use crate::frames::{Frame, Frames, frame_stem};
+use crate::image::{read_gray8, read_rgb8_sized, write_gray8, write_rgb8};
+use crate::label_runs::LabelRuns;
 use anyhow::{Context, Result};
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -71,6 +72,62 @@ impl ComponentInfo {
         let path = dir.join(COMPONENT_JSON);
         std::fs::write(&path, serde_json::to_string_pretty(self)?)
             .with_context(|| format!("{}: cannot write", path.display()))
+    }
+}
+
+/// A Component folder as its one reader sees it: its description and frames,
+/// read once; masks, images and replacement targets read per frame on demand.
+#[derive(Debug, Clone)]
+pub struct ComponentFolder {
+    /// Its item's name in a `[Component]` collection (the component's name).
+    pub name: String,
+    pub dir: PathBuf,
+    pub info: ComponentInfo,
+    pub frames: Frames,
+}
+
+impl ComponentFolder {
+    pub fn read(dir: &Path) -> Result<ComponentFolder> {
+        let info = ComponentInfo::read(dir)?;
+        Ok(ComponentFolder {
+            name: info.name.clone(),
+            dir: dir.to_path_buf(),
+            info,
+            frames: Frames::read(dir)?,
+        })
+    }
+
+    /// A folder read as item `name` of a collection.
+    pub fn read_item(name: &str, dir: &Path) -> Result<ComponentFolder> {
+        Ok(ComponentFolder {
+            name: name.to_string(),
+            ..Self::read(dir)?
+        })
+    }
+
+    pub fn has_frame(&self, name: &str) -> bool {
+        self.frames.frames.iter().any(|f| f.name == name)
+    }
+
+    /// The component's OWN/OTHER/IGNORE mask in `frame`, checked against the frame size.
+    pub fn load_mask(&self, frame: &Frame) -> Result<Vec<u8>> {
+        read_mask(&self.dir, frame)
+    }
+
+    /// [`ComponentFolder::load_mask`] as runs.
+    pub fn load_labels(&self, frame: &Frame) -> Result<LabelRuns> {
+        let mask = self.load_mask(frame)?;
+        LabelRuns::from_plane(frame.width, frame.height, &mask)
+            .with_context(|| mask_path(&self.dir, frame).display().to_string())
+    }
+
+    /// The replacement target colours of `frame` (8-bit RGB), if completion wrote any.
+    pub fn load_replacement_target(&self, frame: &Frame) -> Result<Option<Vec<u8>>> {
+        let path = target_path(&self.dir, frame);
+        if !path.exists() {
+            return Ok(None);
+        }
+        read_rgb8_sized(&path, frame.width, frame.height).map(Some)
     }
 }
 

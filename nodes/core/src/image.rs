@@ -77,6 +77,141 @@ pub fn read_rgb8(path: &Path) -> Result<(u32, u32, Vec<u8>)> {
     Ok((rgb.width(), rgb.height(), rgb.into_raw()))
 }
 
+/// The RGB colours of an image inside a window `[x0, x1) × [y0, y1)` of it:
+/// 8-bit samples when the file is 8-bit (so a frame costs 3 bytes a pixel, and
+/// [`RgbWindow::get`] gives exactly what [`Image::load`] would: `v / 255`),
+/// f32 otherwise.
+#[derive(Debug, Clone, PartialEq)]
+pub struct RgbWindow {
+    pub x0: u32,
+    pub y0: u32,
+    pub x1: u32,
+    pub y1: u32,
+    samples: Samples,
+}
+
+#[derive(Debug, Clone, PartialEq)]
+enum Samples {
+    U8(Vec<u8>),
+    F32(Vec<f32>),
+}
+
+impl RgbWindow {
+    /// An empty window (no pixel).
+    pub fn empty() -> Self {
+        RgbWindow {
+            x0: 0,
+            y0: 0,
+            x1: 0,
+            y1: 0,
+            samples: Samples::U8(Vec::new()),
+        }
+    }
+
+    /// The window `[x0, x1) × [y0, y1)` of the image at `path`, which must be
+    /// `width`×`height`; grey is replicated and alpha dropped, as [`Image::to_rgb`] does.
+    pub fn load(path: &Path, width: u32, height: u32, window: [u32; 4]) -> Result<Self> {
+        let img =
+            image::open(path).with_context(|| format!("{}: cannot read image", path.display()))?;
+        if (img.width(), img.height()) != (width, height) {
+            bail!(
+                "{}: image is {}×{} but its frame is {width}×{height}",
+                path.display(),
+                img.width(),
+                img.height()
+            );
+        }
+        use image::DynamicImage as D;
+        Ok(match img {
+            D::ImageLuma8(_) | D::ImageLumaA8(_) | D::ImageRgb8(_) | D::ImageRgba8(_) => {
+                Self::from_rgb8(width, &img.to_rgb8().into_raw(), window)
+            }
+            other => Self::from_rgb_f32(width, &Image::from_dynamic(other).to_rgb().data, window),
+        })
+    }
+
+    /// The window of a `width`-wide 8-bit RGB image.
+    pub fn from_rgb8(width: u32, rgb: &[u8], window: [u32; 4]) -> Self {
+        let [x0, y0, x1, y1] = window;
+        let mut samples = Vec::with_capacity(3 * ((x1 - x0) * (y1 - y0)) as usize);
+        for y in y0..y1 {
+            let row = 3 * (y * width) as usize;
+            samples.extend_from_slice(&rgb[row + 3 * x0 as usize..row + 3 * x1 as usize]);
+        }
+        RgbWindow {
+            x0,
+            y0,
+            x1,
+            y1,
+            samples: Samples::U8(samples),
+        }
+    }
+
+    /// The window of a `width`-wide float RGB image.
+    pub fn from_rgb_f32(width: u32, rgb: &[f32], window: [u32; 4]) -> Self {
+        let [x0, y0, x1, y1] = window;
+        let mut samples = Vec::with_capacity(3 * ((x1 - x0) * (y1 - y0)) as usize);
+        for y in y0..y1 {
+            let row = 3 * (y * width) as usize;
+            samples.extend_from_slice(&rgb[row + 3 * x0 as usize..row + 3 * x1 as usize]);
+        }
+        RgbWindow {
+            x0,
+            y0,
+            x1,
+            y1,
+            samples: Samples::F32(samples),
+        }
+    }
+
+    pub fn contains(&self, x: u32, y: u32) -> bool {
+        x >= self.x0 && x < self.x1 && y >= self.y0 && y < self.y1
+    }
+
+    fn index(&self, x: u32, y: u32) -> usize {
+        3 * ((y - self.y0) * (self.x1 - self.x0) + (x - self.x0)) as usize
+    }
+
+    /// The colour at frame pixel `(x, y)`, which must lie in the window.
+    #[inline]
+    pub fn get(&self, x: u32, y: u32) -> [f32; 3] {
+        let i = self.index(x, y);
+        match &self.samples {
+            Samples::U8(s) => [0, 1, 2].map(|c| s[i + c] as f32 / 255.0),
+            Samples::F32(s) => [s[i], s[i + 1], s[i + 2]],
+        }
+    }
+
+    /// Replaces the colour at frame pixel `(x, y)` (in the window) by an 8-bit one.
+    pub fn set_rgb8(&mut self, x: u32, y: u32, rgb: [u8; 3]) {
+        let i = self.index(x, y);
+        match &mut self.samples {
+            Samples::U8(s) => s[i..i + 3].copy_from_slice(&rgb),
+            Samples::F32(s) => {
+                for c in 0..3 {
+                    s[i + c] = rgb[c] as f32 / 255.0;
+                }
+            }
+        }
+    }
+
+    /// The first sample that is not finite (8-bit ones always are).
+    pub fn first_non_finite(&self) -> Option<usize> {
+        match &self.samples {
+            Samples::U8(_) => None,
+            Samples::F32(s) => s.iter().position(|v| !v.is_finite()),
+        }
+    }
+
+    /// Bytes held (for memory reports).
+    pub fn bytes(&self) -> usize {
+        match &self.samples {
+            Samples::U8(s) => s.len(),
+            Samples::F32(s) => 4 * s.len(),
+        }
+    }
+}
+
 /// A row-major, channel-interleaved float image.
 #[derive(Debug, Clone, PartialEq)]
 pub struct Image {
@@ -190,8 +325,22 @@ impl Image {
 
     /// Saves as an 8-bit PNG (values clamped to [0, 1] and rounded).
     pub fn save_png8(&self, path: &Path) -> Result<()> {
-        let raw = self.quantize(255.0, |v| v as u8);
+        let raw = self.to_8bit();
         write_png(path, &raw, self.width, self.height, self.png_color(false)?)
+    }
+
+    /// The samples as an 8-bit PNG stores them (clamped to [0, 1], rounded).
+    pub fn to_8bit(&self) -> Vec<u8> {
+        self.quantize(255.0, |v| v as u8)
+    }
+
+    /// [`Image::to_8bit`] of the RGB part ([`Image::to_rgb`]).
+    pub fn to_rgb8(&self) -> Vec<u8> {
+        if self.channels == 3 {
+            self.to_8bit()
+        } else {
+            self.to_rgb().to_8bit()
+        }
     }
 
     /// Saves as a 16-bit PNG.

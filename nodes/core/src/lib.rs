@@ -7,19 +7,23 @@
 pub mod artifact;
 pub mod camera;
 pub mod component;
+pub mod files;
 pub mod frames;
 pub mod geometry;
 pub mod image;
+pub mod label_runs;
 pub mod masks;
 pub mod mesh_io;
 pub mod ply;
+pub mod visibility;
 
 pub use camera::Camera;
-pub use component::{ComponentInfo, ComponentKind};
+pub use component::{ComponentFolder, ComponentInfo, ComponentKind};
 pub use frames::{Frame, Frames, Split, SplitPolicy};
 pub use geometry::{Mesh, Points};
 pub use glam;
-pub use image::Image;
+pub use image::{Image, RgbWindow};
+pub use label_runs::LabelRuns;
 pub use masks::{IdMap, ObjectLabels};
 pub use mesh_io::{read_mesh_artifact, write_mesh_artifact};
 pub use ply::Ply;

@@ -1,4 +1,4 @@
-//! The `gt_masks` and `partition` nodes.
+//! The `gt_masks`, `partition` and `point_visibility` nodes.
 //!
 //! The artifact types they speak (Frames, Mesh, Masks, Component) are registered by the
 //! catalogue crate; [`register`] adds only the node kinds.
@@ -11,17 +11,19 @@ use anyhow::{Result, anyhow, bail};
 use objectsplat_core::artifact::{FRAMES_JSON, MESH_PLY, OBJECTS_JSON};
 use objectsplat_core::frames::frame_stem;
 use objectsplat_core::masks::{NO_OBJECT, UNOWNED};
+use objectsplat_core::visibility::Visibility;
 use objectsplat_core::{Frames, read_mesh_artifact};
 use objectsplat_gpu::{AdapterChoice, GpuContext};
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, node_ports};
 use std::collections::BTreeSet;
 use std::sync::Arc;
 
-/// Adds `gt_masks` and `partition` to `reg` (its types must be registered already).
+/// Adds `gt_masks`, `partition` and `point_visibility` to `reg` (its types must be registered already).
 pub fn register(reg: &mut Registry) {
     for node in [
         Arc::new(GtMasksNode) as Arc<dyn Node>,
         Arc::new(PartitionNode),
+        Arc::new(PointVisibilityNode),
     ] {
         // The kinds are distinct constants; a clash is a programming error the registry tests catch.
         reg.add_node(node).expect("mask node kinds are unique");
@@ -253,6 +255,53 @@ impl Node for PartitionNode {
                 d.object_id, d.label, d.reason
             ));
         }
+        Ok(Outcome::Done)
+    }
+}
+
+pub struct PointVisibilityNode;
+
+node_ports! {
+    struct PointVisibilityNodePorts {
+        /// the capture
+        frames: input "Frames",
+        /// the scene's sparse points
+        points: input "Points",
+        /// per frame, the points it sees
+        visibility: output "Visibility",
+    }
+}
+
+impl Node for PointVisibilityNode {
+    fn spec(&self) -> NodeSpec {
+        NodeSpec::new("point_visibility", "1")
+            .doc(
+                "Which sparse points every frame sees — in front of it, inside the image, not hidden behind \
+                 nearer points (each point splatted at the points' neighbour spacing) — computed once per scene \
+                 for the stages that assign points to a surface (train's point selection, surface_completion's \
+                 and complete_surfaces' plane fits), the frames spread over the run's threads.",
+            )
+            .ports::<PointVisibilityNodePorts>()
+    }
+
+    fn run(&self, ctx: &mut Context) -> Result<Outcome> {
+        let ports: PointVisibilityNodePorts = ctx.ports_as()?;
+        let frames = Frames::read(&ports.frames)?;
+        let points = objectsplat_core::Points::read_ply(
+            &ports.points.join(objectsplat_core::artifact::POINTS_PLY),
+        )?;
+        let visibility = Visibility::compute(&points, &frames.frames, ctx.threads())?;
+        let seen: usize = visibility.frames.iter().map(|(_, s)| s.len()).sum();
+        ctx.note(
+            "visible",
+            format!(
+                "{:.0} of {} points per frame on average, over {} frames",
+                seen as f64 / frames.frames.len().max(1) as f64,
+                points.positions.len(),
+                frames.frames.len()
+            ),
+        );
+        visibility.write(&ports.visibility)?;
         Ok(Outcome::Done)
     }
 }

@@ -289,13 +289,8 @@ pub fn write_partition(
             let frame = &frames.frames[f];
             let src = frames.image_path(frame);
             let dst = dir.join(&image_names[f]);
-            std::fs::copy(&src, &dst).with_context(|| {
-                format!(
-                    "{}: cannot copy frame image to {}",
-                    src.display(),
-                    dst.display()
-                )
-            })?;
+            objectsplat_core::files::link_or_copy(&src, &dst)
+                .context("sharing a frame image into its component")?;
             listed.push(Frame {
                 image: image_names[f].clone(),
                 ..frame.clone()

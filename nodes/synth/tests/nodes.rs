@@ -35,14 +35,26 @@ fn component_dirs(dir: &Path) -> Vec<String> {
 }
 
 #[test]
-fn register_adds_the_three_kinds() {
+fn register_adds_the_four_kinds() {
     let mut reg = Registry::new();
-    for t in ["Frames", "Mesh", "Points", "Masks", "Component"] {
+    for t in [
+        "Frames",
+        "Mesh",
+        "Points",
+        "Masks",
+        "Component",
+        "Visibility",
+    ] {
         reg.add_type(t, "test");
     }
     objectsplat_synth::register(&mut reg);
     objectsplat_masks::register(&mut reg);
-    for kind in ["synthetic_scene", "gt_masks", "partition"] {
+    for kind in [
+        "synthetic_scene",
+        "gt_masks",
+        "partition",
+        "point_visibility",
+    ] {
         assert!(reg.get(kind).is_some(), "{kind}");
     }
 }

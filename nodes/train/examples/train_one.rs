@@ -6,7 +6,6 @@ use anyhow::{Context, Result};
 use objectsplat_core::Points;
 use objectsplat_raster::CpuBackend;
 use objectsplat_train::Schedule;
-use objectsplat_train::init::ComponentMasks;
 use objectsplat_train::trainer::{Checkpoint, ComponentData, TrainSettings, train_component};
 use std::path::PathBuf;
 
@@ -21,10 +20,9 @@ fn main() -> Result<()> {
         _ => Checkpoint::Last,
     };
     let threads: usize = args.get(4).map_or(Ok(1), |t| t.parse())?;
-    let masks = ComponentMasks::read(&dir)?;
-    let mut data = ComponentData::read(&dir)?;
+    let mut data = ComponentData::read(&dir, threads)?;
     // As the train node's default min_object_points.
-    let (points, seeded) = objectsplat_train::hull::initial_points(&masks, &data, &points, 300, 0)?;
+    let (points, seeded) = objectsplat_train::hull::initial_points(&data, &points, 300, 0)?;
     data.depth_points = points.positions[..points.positions.len() - seeded].to_vec();
     // Schedule overrides as a JSON object in $SCHEDULE, e.g. '{"lr_sh_dc": 0.03}'.
     let overrides: serde_json::Map<String, serde_json::Value> = match std::env::var("SCHEDULE") {
@@ -73,7 +71,7 @@ fn main() -> Result<()> {
             let mut both =
                 objectsplat_core::Image::from_fn(2 * img.width, img.height, 3, |x, y, c| {
                     if x < img.width {
-                        v.target[3 * (y * img.width + x) as usize + c as usize]
+                        v.target_at(x, y)[c as usize]
                     } else {
                         img.data[3 * (y * img.width + x - img.width) as usize + c as usize]
                     }

@@ -96,24 +96,28 @@ impl<'a> DeviceSteps<'a> {
         } else {
             PointDepth::default()
         };
-        let uploads: Vec<TrainingView> = views
-            .iter()
-            .map(|&i| {
-                let view = &data.views[i];
-                let (target, weights, from_background) = supervision_parts(view, data.rule());
-                TrainingView {
-                    camera: view.camera,
-                    target,
-                    weights,
-                    from_background,
-                    own: view.labels.iter().map(|&l| l == OWN).collect(),
-                    points: points.of_view(i).to_vec(),
-                }
+        // One view's whole-frame planes at a time on the host.
+        let upload = |k: usize| {
+            let i = views[k];
+            let view = &data.views[i];
+            let (target, weights, from_background) = supervision_parts(view, data.rule());
+            Ok(TrainingView {
+                camera: view.camera,
+                target,
+                weights,
+                from_background,
+                own: view
+                    .labels
+                    .to_plane()
+                    .into_iter()
+                    .map(|l| l == OWN)
+                    .collect(),
+                points: points.of_view(i).to_vec(),
             })
-            .collect();
+        };
         Ok(DeviceSteps {
             data,
-            trainer: DeviceTrainer::new(backend, &uploads)?,
+            trainer: DeviceTrainer::streamed(backend, views.len(), upload)?,
             composite: data.occluders.as_ref().map(Composite::new).transpose()?,
             newest: Newest::Host,
             in_flight: VecDeque::new(),
@@ -482,16 +486,12 @@ mod tests {
                             OTHER
                         }
                     })
+                    .collect::<Vec<u8>>();
+                let target: Vec<f32> = (0..w * h * 3)
+                    .map(|_| rng.uniform(0.0, 1.0) as f32)
                     .collect();
-                View {
-                    name: format!("v{k}"),
-                    camera,
-                    target: (0..w * h * 3)
-                        .map(|_| rng.uniform(0.0, 1.0) as f32)
-                        .collect(),
-                    labels,
-                    split: if k == 3 { Split::Test } else { Split::Train },
-                }
+                let split = if k == 3 { Split::Test } else { Split::Train };
+                View::from_planes(&format!("v{k}"), camera, &target, &labels, split).unwrap()
             })
             .collect();
         let occluders = behind.then(|| {
@@ -759,10 +759,9 @@ mod tests {
                 ..RenderOutput::default()
             };
             let labels = &data.views[0].labels;
-            let frame_width = out.width as usize;
             let own = |i: usize| {
                 let (x, y) = (region.x0 as usize + i % rw, region.y0 as usize + i / rw);
-                labels[y * frame_width + x] == OWN
+                labels.get(x as u32, y as u32) == OWN
             };
             // The host's terms on the device's render.
             let loss_and_gradient = |alpha: &[f32], depth: &[f32]| {

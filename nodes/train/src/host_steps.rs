@@ -123,6 +123,8 @@ pub(crate) struct HostSteps<'a> {
     loss: PhotometricLoss<f32>,
     target: Vec<f32>,
     weights: Vec<f32>,
+    /// A row of labels (scratch of `fill_region`).
+    labels: Vec<u8>,
     /// Per view of the component data.
     summaries: Vec<ViewSummary>,
     /// Render only each view's footprint (the default); off renders whole frames.
@@ -158,6 +160,7 @@ impl<'a> HostSteps<'a> {
             loss: PhotometricLoss::new(),
             target: Vec::new(),
             weights: Vec::new(),
+            labels: Vec::new(),
             summaries: data
                 .views
                 .iter()
@@ -226,6 +229,7 @@ impl<'a> HostSteps<'a> {
             region,
             &mut self.target,
             &mut self.weights,
+            &mut self.labels,
         );
         let summary = self.summaries[view];
         let norm = Normalization {
@@ -314,7 +318,6 @@ impl<'a> HostSteps<'a> {
                 let region = out.region;
                 let region_width = region.width() as usize;
                 let labels = &data.views[view].labels;
-                let frame_width = camera.width as usize;
                 depth_smoothness::add_gradient(
                     &DepthImage {
                         width: region_width,
@@ -327,7 +330,7 @@ impl<'a> HostSteps<'a> {
                             region.x0 as usize + i % region_width,
                             region.y0 as usize + i / region_width,
                         );
-                        labels[y * frame_width + x] == OWN
+                        labels.get(x as u32, y as u32) == OWN
                     },
                     smoothness_weight,
                     &mut self.d_depth,

@@ -8,12 +8,12 @@
 //! bounds it; points on that hull's surface, coloured from the views, start it
 //! off as a shape instead of a few shards.
 
-use crate::init::ComponentMasks;
 use crate::supervision::ComponentData;
 use anyhow::Result;
 use glam::DVec3;
 use objectsplat_core::ComponentKind;
 use objectsplat_core::component::OTHER;
+use objectsplat_core::visibility::Visibility;
 use objectsplat_core::{Points, Split};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -75,7 +75,7 @@ fn carve(data: &ComponentData, bounds: Bounds, n: usize) -> Carved {
                         continue;
                     }
                     seen += 1;
-                    if v.labels[w as usize * cam.width as usize + u as usize] == OTHER {
+                    if v.labels.get(u as u32, w as u32) == OTHER {
                         inside = false;
                         break;
                     }
@@ -153,10 +153,10 @@ pub fn visual_hull_points(
                 if !(u >= 0.0 && w >= 0.0 && u < cam.width as f64 && w < cam.height as f64) {
                     return None;
                 }
-                let q = w as usize * cam.width as usize + u as usize;
-                (v.labels[q] == objectsplat_core::component::OWN).then(|| {
-                    let c = &v.target[3 * q..3 * q + 3];
-                    [c[0], c[1], c[2]].map(|x| (x.clamp(0.0, 1.0) * 255.0).round() as u8)
+                let (x, y) = (u as u32, w as u32);
+                (v.labels.get(x, y) == objectsplat_core::component::OWN).then(|| {
+                    v.target_at(x, y)
+                        .map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)
                 })
             });
         if let Some(colour) = colour {
@@ -171,13 +171,13 @@ pub fn visual_hull_points(
 /// with fewer than `min_object_points` of them, points on the visual hull of its
 /// masks up to that count. Also returns how many came from the hull.
 pub fn initial_points(
-    masks: &ComponentMasks,
     data: &ComponentData,
     all_points: &Points,
+    visibility: Option<&Visibility>,
     min_object_points: usize,
     seed: u64,
 ) -> Result<(Points, usize)> {
-    let mut points = masks.owned_points(all_points);
+    let mut points = data.owned_points(all_points, visibility)?;
     let mut seeded = 0;
     if data.kind == ComponentKind::Object && points.positions.len() < min_object_points {
         // Narrow baselines leave a hull long along the viewing direction: where the
@@ -202,7 +202,7 @@ pub fn initial_points(
     }
     if points.positions.is_empty() {
         // Fails naming the component.
-        masks.component_points(all_points)?;
+        data.component_points(all_points, visibility)?;
     }
     Ok((points, seeded))
 }

@@ -5,14 +5,12 @@ use anyhow::{Context, Result, bail};
 use glam::{DQuat, DVec3};
 use kiddo::ImmutableKdTree;
 use kiddo::SquaredEuclidean;
-use objectsplat_core::component::{self, IGNORE, OWN};
-use objectsplat_core::{ComponentInfo, Frames, Points, Split};
+use objectsplat_core::Points;
 use objectsplat_raster::Model;
 use objectsplat_raster::model::{SH_COEFFS, inverse_sigmoid};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use std::num::NonZero;
-use std::path::Path;
 
 /// `Y_0^0`: SH DC coefficient ↔ colour offset from 0.5.
 pub const SH_C0: f64 = 0.282_094_791_773_878_14;
@@ -149,99 +147,4 @@ pub fn init_model(points: &Points, settings: &InitSettings) -> Result<Model<f32>
     }
     model.validate().context("initialized model")?;
     Ok(model)
-}
-
-/// Per-frame ownership masks of a component, loaded from `masks/<stem>.png`.
-pub struct ComponentMasks {
-    pub info: ComponentInfo,
-    pub frames: Frames,
-    /// One 8-bit mask per frame of `frames`, row-major.
-    pub masks: Vec<Vec<u8>>,
-}
-
-impl ComponentMasks {
-    pub fn read(dir: &Path) -> Result<ComponentMasks> {
-        let info = ComponentInfo::read(dir)?;
-        let frames = Frames::read(dir)?;
-        let masks = frames
-            .frames
-            .iter()
-            .map(|f| component::read_mask(dir, f))
-            .collect::<Result<Vec<_>>>()?;
-        Ok(ComponentMasks {
-            info,
-            frames,
-            masks,
-        })
-    }
-
-    /// Indices of the points that project inside this component's OWN pixels in
-    /// a strict majority of the training views that see them (in front of the
-    /// camera, inside the image, not hidden behind other points — see
-    /// [`crate::visibility`] — and not on an IGNORE pixel).
-    pub fn select_points(&self, points: &Points) -> Vec<usize> {
-        let world: Vec<DVec3> = points
-            .positions
-            .iter()
-            .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
-            .collect();
-        let spacing = crate::visibility::neighbour_spacing(&world);
-        let (mut visible, mut own) = (vec![0usize; world.len()], vec![0usize; world.len()]);
-        for (frame, mask) in self.frames.frames.iter().zip(&self.masks) {
-            if frame.split != Split::Train {
-                continue;
-            }
-            let seen = crate::visibility::visible_pixels(&world, spacing, &frame.camera());
-            for (i, pixel) in seen.into_iter().enumerate() {
-                let Some((pixel, _)) = pixel else {
-                    continue;
-                };
-                let label = mask[pixel as usize];
-                if label == IGNORE {
-                    continue;
-                }
-                visible[i] += 1;
-                if label == OWN {
-                    own[i] += 1;
-                }
-            }
-        }
-        (0..world.len())
-            .filter(|&i| visible[i] > 0 && 2 * own[i] > visible[i])
-            .collect()
-    }
-
-    /// Pixels this component owns across its training frames.
-    pub fn owned_training_pixels(&self) -> usize {
-        self.frames
-            .frames
-            .iter()
-            .zip(&self.masks)
-            .filter(|(f, _)| f.split == objectsplat_core::Split::Train)
-            .map(|(_, m)| m.iter().filter(|&&v| v == OWN).count())
-            .sum()
-    }
-
-    /// This component's points, or an error naming the component when none qualifies.
-    pub fn component_points(&self, points: &Points) -> Result<Points> {
-        let chosen = self.owned_points(points);
-        if chosen.positions.is_empty() {
-            bail!(
-                "component {:?}: none of the {} sparse points projects inside its own mask in most \
-                 training views where it is visible, so there is nothing to initialize from",
-                self.info.name,
-                points.positions.len()
-            );
-        }
-        Ok(chosen)
-    }
-
-    /// The points [`Self::select_points`] picks, possibly none.
-    pub fn owned_points(&self, points: &Points) -> Points {
-        let chosen = self.select_points(points);
-        Points {
-            positions: chosen.iter().map(|&i| points.positions[i]).collect(),
-            colors: chosen.iter().map(|&i| points.colors[i]).collect(),
-        }
-    }
 }

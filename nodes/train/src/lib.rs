@@ -33,6 +33,5 @@ pub use schedule::Schedule;
 pub mod node;
 pub mod supervision;
 pub mod trainer;
-pub mod visibility;
 
 pub use node::register;

@@ -1,13 +1,13 @@
 //! The `train` node: one component (fanned out over `[Component]` in graphs)
 //! and the sparse points → a trained Model.
 
-use crate::init::ComponentMasks;
 use crate::schedule::Schedule;
 use crate::trainer::{Checkpoint, ComponentData, SelectOn, TrainSettings, train_component};
 use anyhow::Context as _;
 use anyhow::{Result, bail};
 use objectsplat_core::artifact::POINTS_PLY;
-use objectsplat_core::{ComponentInfo, ComponentKind, Points};
+use objectsplat_core::visibility::Visibility;
+use objectsplat_core::{ComponentFolder, ComponentKind, Points};
 use objectsplat_raster::save_model;
 use objectsplat_raster::{Model, load_model};
 use objectsplat_runtime::{
@@ -15,7 +15,6 @@ use objectsplat_runtime::{
 };
 use serde_json::{Map, Number, Value};
 use std::collections::BTreeMap;
-use std::path::Path;
 use std::sync::Arc;
 
 /// Numbers from the graph as JSON: whole numbers as integers (iteration counts
@@ -36,22 +35,26 @@ fn schedule_overrides(given: &BTreeMap<String, f64>) -> Result<Map<String, Value
     Ok(map)
 }
 
-/// Copies a folder tree (a Model folder passed through).
-fn copy_folder(from: &Path, to: &Path) -> Result<()> {
-    std::fs::create_dir_all(to).with_context(|| format!("cannot create {}", to.display()))?;
-    for entry in
-        std::fs::read_dir(from).with_context(|| format!("cannot list {}", from.display()))?
-    {
-        let entry = entry?;
-        let target = to.join(entry.file_name());
-        if entry.file_type()?.is_dir() {
-            copy_folder(&entry.path(), &target)?;
-        } else {
-            std::fs::copy(entry.path(), &target)
-                .with_context(|| format!("cannot copy {}", entry.path().display()))?;
-        }
+/// The views' memory and, where the system says, the process's peak resident
+/// memory so far (shared with the items running beside this one).
+fn memory_note(data: &ComponentData) -> String {
+    let views = format!(
+        "{:.1} MB in {} views",
+        data.bytes() as f64 / 1e6,
+        data.views.len()
+    );
+    match peak_resident_bytes() {
+        Some(peak) => format!("{views}; process peak {:.2} GB", peak as f64 / 1e9),
+        None => views,
     }
-    Ok(())
+}
+
+/// The process's peak resident set (`VmHWM` in /proc/self/status), on Linux.
+fn peak_resident_bytes() -> Option<u64> {
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let line = status.lines().find(|l| l.starts_with("VmHWM:"))?;
+    let kb: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kb * 1024)
 }
 
 pub fn register(reg: &mut Registry) {
@@ -108,6 +111,8 @@ node_ports! {
         component: input "Component",
         /// sparse SfM points of the scene
         points: input "Points",
+        /// which points every frame sees (point_visibility's); computed here when not wired
+        visibility: optional "Visibility",
         /// trained objects (another train node's models): the background is trained behind
         /// them, frozen, so every pixel is supervised by the composite; items of kinds not
         /// trained here (`components`) are passed through from it by name
@@ -163,8 +168,9 @@ impl Node for TrainNode {
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let p: TrainParams = ctx.params_as()?;
         let ports: TrainNodePorts = ctx.ports_as()?;
-        let component_dir = ports.component;
-        let info = ComponentInfo::read(&component_dir)?;
+        // The one read of the Component folder's description and frames.
+        let folder = ComponentFolder::read(&ports.component)?;
+        let info = &folder.info;
         let wanted = match p.components.as_str() {
             "objects" => info.kind == ComponentKind::Object,
             "background" => info.kind == ComponentKind::Background,
@@ -175,7 +181,7 @@ impl Node for TrainNode {
             let item = ctx.item().unwrap_or(&info.name).to_string();
             return match occluders.iter().find(|(name, _)| *name == item) {
                 Some((_, dir)) => {
-                    copy_folder(dir, &ports.model)?;
+                    objectsplat_core::files::share_tree(dir, &ports.model)?;
                     ctx.note("passed through", "from `occluders`");
                     Ok(Outcome::Done)
                 }
@@ -206,20 +212,24 @@ impl Node for TrainNode {
         ctx.note("backend", why);
         let points_path = ports.points.join(POINTS_PLY);
         let all_points = Points::read_ply(&points_path)?;
-        let masks = ComponentMasks::read(&component_dir)?;
+        let mut data = ComponentData::from_folder(folder, ctx.threads())?;
         // Nothing to fit: an empty component, or one no training view sees.
-        if masks.owned_training_pixels() == 0 {
+        if data.owned_training_pixels() == 0 {
             return Ok(Outcome::Skipped(format!(
                 "component {:?} owns no pixel in any training view",
-                masks.info.name
+                data.name
             )));
         }
         let min_object_points = p.min_object_points as usize;
-        let mut data = ComponentData::read(&component_dir)?;
+        let visibility = ports
+            .visibility
+            .as_deref()
+            .map(Visibility::read)
+            .transpose()?;
         let (points, seeded) = crate::hull::initial_points(
-            &masks,
             &data,
             &all_points,
+            visibility.as_ref(),
             min_object_points,
             seed as u64,
         )?;
@@ -299,6 +309,7 @@ impl Node for TrainNode {
             );
         }
         ctx.note("faces", report.model.face_count());
+        ctx.note("memory", memory_note(&data));
         for n in &report.notes {
             ctx.note("schedule", n);
         }

@@ -26,9 +26,9 @@
 //! (small objects faded away) instead of moving.
 
 use crate::supervision::ComponentData;
-use crate::visibility::{neighbour_spacing, visible_pixels};
 use glam::DVec3;
 use objectsplat_core::component::OWN;
+use objectsplat_core::visibility::{neighbour_spacing, visible_pixels};
 use objectsplat_raster::RenderOutput;
 use std::collections::HashMap;
 
@@ -139,7 +139,7 @@ fn visible_points(
         .into_iter()
         .flatten()
     {
-        if view.labels[pixel as usize] != OWN {
+        if view.label(pixel as usize) != OWN {
             continue;
         }
         let d = kept.entry(pixel).or_insert(z as f32);

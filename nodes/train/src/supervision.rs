@@ -10,21 +10,75 @@
 //! supervised by the composite, so nothing of the background may hang in
 //! front of an object.
 
-use anyhow::{Result, bail};
-use objectsplat_core::component::{OTHER, OWN};
-use objectsplat_core::{Camera, ComponentKind, Image, Split};
+use anyhow::{Context, Result, bail};
+use objectsplat_core::component::{IGNORE, OTHER, OWN};
+use objectsplat_core::visibility::{Visibility, neighbour_spacing, visible_pixels};
+use objectsplat_core::{
+    Camera, ComponentFolder, ComponentKind, LabelRuns, Points, RgbWindow, Split,
+};
 use objectsplat_raster::backend::PixelRect;
 use std::path::Path;
 
-/// One supervised view of a component.
+/// One supervised view of a component, held compactly: the mask as runs per
+/// row, the target colours (8-bit when the frame is) only over the window
+/// where they can matter — an object's own pixels (elsewhere its target is
+/// the background colour), a background's whole frame.
 pub struct View {
     pub name: String,
     pub camera: Camera,
-    /// Target colours, H×W×3 (the frame image, or the component's replacement targets).
-    pub target: Vec<f32>,
+    /// Target colours (the frame image, or the component's replacement
+    /// targets on its own pixels) over their window.
+    pub target: RgbWindow,
     /// Per-pixel ownership label (OWN / OTHER / IGNORE).
-    pub labels: Vec<u8>,
+    pub labels: LabelRuns,
     pub split: Split,
+}
+
+impl View {
+    /// A view from whole-frame planes (RGB targets, labels): tests and tools.
+    pub fn from_planes(
+        name: &str,
+        camera: Camera,
+        target: &[f32],
+        labels: &[u8],
+        split: Split,
+    ) -> Result<View> {
+        let (w, h) = (camera.width, camera.height);
+        if target.len() != 3 * labels.len() {
+            bail!(
+                "view {name:?}: {} target values for {} labels",
+                target.len(),
+                labels.len()
+            );
+        }
+        Ok(View {
+            name: name.to_string(),
+            camera,
+            target: RgbWindow::from_rgb_f32(w, target, [0, 0, w, h]),
+            labels: LabelRuns::from_plane(w, h, labels)?,
+            split,
+        })
+    }
+
+    /// The label of pixel `p` (row-major index in the frame).
+    pub fn label(&self, p: usize) -> u8 {
+        self.labels.at(p)
+    }
+
+    /// The target colour of pixel `(x, y)`; the window holds every pixel
+    /// whose target is not the background colour.
+    pub fn target_at(&self, x: u32, y: u32) -> [f32; 3] {
+        if self.target.contains(x, y) {
+            self.target.get(x, y)
+        } else {
+            [0.0; 3]
+        }
+    }
+
+    /// Bytes this view holds (for memory reports).
+    pub fn bytes(&self) -> usize {
+        self.target.bytes() + self.labels.bytes()
+    }
 }
 
 /// What a component is trained on.
@@ -41,46 +95,35 @@ pub struct ComponentData {
 }
 
 impl ComponentData {
-    /// Reads a Component folder: frames, images, masks and optional replacement targets.
-    pub fn read(dir: &Path) -> Result<ComponentData> {
-        let masks = crate::init::ComponentMasks::read(dir)?;
-        let mut views = Vec::new();
-        for (frame, labels) in masks.frames.frames.iter().zip(&masks.masks) {
-            let mut target = masks.frames.load_rgb(frame)?.data;
-            let replacement = objectsplat_core::component::target_path(dir, frame);
-            if replacement.exists() {
-                let img = Image::load(&replacement)?.to_rgb();
-                if img.width != frame.width || img.height != frame.height {
-                    bail!(
-                        "{}: target is {}×{} but the frame is {}×{}",
-                        replacement.display(),
-                        img.width,
-                        img.height,
-                        frame.width,
-                        frame.height
-                    );
-                }
-                for (p, &l) in labels.iter().enumerate() {
-                    if l == OWN {
-                        target[3 * p..3 * p + 3].copy_from_slice(&img.data[3 * p..3 * p + 3]);
+    /// Reads a Component folder once — its description, frames, masks, images
+    /// and replacement targets — decoding the frames on up to `threads` threads.
+    pub fn read(dir: &Path, threads: usize) -> Result<ComponentData> {
+        Self::from_folder(ComponentFolder::read(dir)?, threads)
+    }
+
+    /// [`ComponentData::read`] of a folder whose description and frames were read.
+    pub fn from_folder(folder: ComponentFolder, threads: usize) -> Result<ComponentData> {
+        let frames = &folder.frames.frames;
+        let threads = threads.clamp(1, frames.len().max(1));
+        let mut views: Vec<Option<Result<View>>> = (0..frames.len()).map(|_| None).collect();
+        std::thread::scope(|scope| {
+            let per = frames.len().div_ceil(threads).max(1);
+            for (chunk, out) in frames.chunks(per).zip(views.chunks_mut(per)) {
+                let folder = &folder;
+                scope.spawn(move || {
+                    for (frame, slot) in chunk.iter().zip(out) {
+                        *slot = Some(read_view(folder, frame));
                     }
-                }
+                });
             }
-            if let Some(i) = target.iter().position(|v| !v.is_finite()) {
-                bail!("frame {:?}: target value {i} is not finite", frame.name);
-            }
-            views.push(View {
-                name: frame.name.clone(),
-                camera: frame.camera(),
-                target,
-                labels: labels.clone(),
-                split: frame.split,
-            });
-        }
+        });
         Ok(ComponentData {
-            name: masks.info.name.clone(),
-            kind: masks.info.kind,
-            views,
+            name: folder.info.name.clone(),
+            kind: folder.info.kind,
+            views: views
+                .into_iter()
+                .map(|v| v.unwrap_or_else(|| bail!("a frame was not read")))
+                .collect::<Result<Vec<_>>>()?,
             occluders: None,
             depth_points: Vec::new(),
         })
@@ -93,6 +136,149 @@ impl ComponentData {
             behind_occluders: self.occluders.is_some(),
         }
     }
+
+    /// Bytes the views hold (for memory reports).
+    pub fn bytes(&self) -> usize {
+        self.views.iter().map(View::bytes).sum()
+    }
+
+    /// Pixels this component owns across its training views.
+    pub fn owned_training_pixels(&self) -> usize {
+        self.views
+            .iter()
+            .filter(|v| v.split == Split::Train)
+            .map(|v| v.labels.count(OWN))
+            .sum()
+    }
+
+    /// Indices of the points that project inside this component's OWN pixels in
+    /// a strict majority of the training views that see them (in front of the
+    /// camera, inside the image, not hidden behind other points — see
+    /// `objectsplat_core::visibility`, computed here unless the scene's
+    /// `visibility` is given — and not on an IGNORE pixel).
+    pub fn select_points(
+        &self,
+        points: &Points,
+        visibility: Option<&Visibility>,
+    ) -> Result<Vec<usize>> {
+        let (mut visible, mut own) = (
+            vec![0usize; points.positions.len()],
+            vec![0usize; points.positions.len()],
+        );
+        let mut count = |view: &View, point: usize, pixel: u32| {
+            let label = view.label(pixel as usize);
+            if label != IGNORE {
+                visible[point] += 1;
+                own[point] += usize::from(label == OWN);
+            }
+        };
+        let training = self.views.iter().filter(|v| v.split == Split::Train);
+        match visibility {
+            Some(vis) => {
+                vis.check_points(points)?;
+                for view in training {
+                    let Some(seen) = vis.of_frame(&view.name) else {
+                        bail!(
+                            "the visibility has no frame {:?}: it was computed for another capture",
+                            view.name
+                        );
+                    };
+                    for s in seen {
+                        count(view, s.point as usize, s.pixel);
+                    }
+                }
+            }
+            None => {
+                let world: Vec<glam::DVec3> = points
+                    .positions
+                    .iter()
+                    .map(|p| glam::DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
+                    .collect();
+                let spacing = neighbour_spacing(&world);
+                for view in training {
+                    for (i, seen) in visible_pixels(&world, spacing, &view.camera)
+                        .into_iter()
+                        .enumerate()
+                    {
+                        if let Some((pixel, _)) = seen {
+                            count(view, i, pixel);
+                        }
+                    }
+                }
+            }
+        }
+        Ok((0..points.positions.len())
+            .filter(|&i| visible[i] > 0 && 2 * own[i] > visible[i])
+            .collect())
+    }
+
+    /// The points [`Self::select_points`] picks, possibly none.
+    pub fn owned_points(&self, points: &Points, visibility: Option<&Visibility>) -> Result<Points> {
+        let chosen = self.select_points(points, visibility)?;
+        Ok(Points {
+            positions: chosen.iter().map(|&i| points.positions[i]).collect(),
+            colors: chosen.iter().map(|&i| points.colors[i]).collect(),
+        })
+    }
+
+    /// This component's points, or an error naming the component when none qualifies.
+    pub fn component_points(
+        &self,
+        points: &Points,
+        visibility: Option<&Visibility>,
+    ) -> Result<Points> {
+        let chosen = self.owned_points(points, visibility)?;
+        if chosen.positions.is_empty() {
+            bail!(
+                "component {:?}: none of the {} sparse points projects inside its own mask in most \
+                 training views where it is visible, so there is nothing to initialize from",
+                self.name,
+                points.positions.len()
+            );
+        }
+        Ok(chosen)
+    }
+}
+
+/// One frame of a Component folder as a compact [`View`].
+fn read_view(folder: &ComponentFolder, frame: &objectsplat_core::Frame) -> Result<View> {
+    let labels = folder.load_labels(frame)?;
+    let (w, h) = (frame.width, frame.height);
+    // An object's target differs from the background colour only on its own pixels.
+    let window = match folder.info.kind {
+        ComponentKind::Object => labels.bounds(|l| l == OWN).unwrap_or([0; 4]),
+        ComponentKind::Background => [0, 0, w, h],
+    };
+    let image = folder.frames.image_path(frame);
+    let mut target =
+        RgbWindow::load(&image, w, h, window).with_context(|| format!("frame {:?}", frame.name))?;
+    if let Some(replacement) = folder.load_replacement_target(frame)? {
+        for y in window[1]..window[3] {
+            for (start, end, label) in labels.row(y) {
+                if label != OWN {
+                    continue;
+                }
+                for x in start.max(window[0])..end.min(window[2]) {
+                    let p = 3 * (y * w + x) as usize;
+                    target.set_rgb8(
+                        x,
+                        y,
+                        [replacement[p], replacement[p + 1], replacement[p + 2]],
+                    );
+                }
+            }
+        }
+    }
+    if let Some(i) = target.first_non_finite() {
+        bail!("frame {:?}: target value {i} is not finite", frame.name);
+    }
+    Ok(View {
+        name: frame.name.clone(),
+        camera: frame.camera(),
+        target,
+        labels,
+        split: frame.split,
+    })
 }
 
 /// How a component's pixels are supervised.
@@ -136,11 +322,19 @@ pub fn supervision(view: &View, kind: ComponentKind, b: [f32; 3]) -> (Vec<f32>, 
     (target, weights)
 }
 
-/// The parts of [`supervision`] that do not depend on the background colour:
-/// targets, weights, and which pixels take the background colour as target.
+/// The parts of [`supervision`] that do not depend on the background colour,
+/// over the whole frame: targets (0 where the background colour is the
+/// target), weights, and which pixels take the background colour as target.
 pub(crate) fn supervision_parts(view: &View, rule: PixelRule) -> (Vec<f32>, Vec<f32>, Vec<bool>) {
-    let (weights, from_background) = view.labels.iter().map(|&l| rule.apply(l)).unzip();
-    (view.target.clone(), weights, from_background)
+    let labels = view.labels.to_plane();
+    let w = view.camera.width as usize;
+    let (weights, from_background): (Vec<f32>, Vec<bool>) =
+        labels.iter().map(|&l| rule.apply(l)).unzip();
+    let mut target = vec![0.0f32; 3 * labels.len()];
+    for (p, _) in from_background.iter().enumerate().filter(|(_, b)| !**b) {
+        target[3 * p..3 * p + 3].copy_from_slice(&view.target_at((p % w) as u32, (p / w) as u32));
+    }
+    (target, weights, from_background)
 }
 
 /// What stays fixed about a view's supervision whatever the background colour.
@@ -154,13 +348,20 @@ pub struct ViewSummary {
 
 impl ViewSummary {
     pub fn of(view: &View, rule: PixelRule) -> ViewSummary {
-        let w = view.camera.width as usize;
         let (mut include, mut total_weight) = (PixelRect::default(), 0.0);
-        for (p, &l) in view.labels.iter().enumerate() {
-            let (weight, from_background) = rule.apply(l);
-            total_weight += weight as f64;
-            if !from_background {
-                include = include.union(PixelRect::pixel(p, w));
+        for y in 0..view.labels.height() {
+            for (start, end, label) in view.labels.row(y) {
+                let (weight, from_background) = rule.apply(label);
+                // Weights are 0 or 1: a run's sum is exact, as the per-pixel sum was.
+                total_weight += weight as f64 * (end - start) as f64;
+                if !from_background {
+                    include = include.union(PixelRect {
+                        x0: start,
+                        y0: y,
+                        x1: end,
+                        y1: y + 1,
+                    });
+                }
             }
         }
         ViewSummary {
@@ -171,7 +372,8 @@ impl ViewSummary {
 }
 
 /// Fills `target` (RGB) and `weights` for the pixels of `region` under
-/// background colour `b`, reusing the buffers; returns the region's weight sum.
+/// background colour `b`, reusing the buffers (and `labels`, a row's scratch);
+/// returns the region's weight sum.
 pub fn fill_region(
     view: &View,
     rule: PixelRule,
@@ -179,21 +381,22 @@ pub fn fill_region(
     region: PixelRect,
     target: &mut Vec<f32>,
     weights: &mut Vec<f32>,
+    labels: &mut Vec<u8>,
 ) -> f64 {
     target.clear();
     weights.clear();
-    let w = view.camera.width as usize;
     let mut sum = 0.0;
-    for y in region.y0 as usize..region.y1 as usize {
-        for x in region.x0 as usize..region.x1 as usize {
-            let p = y * w + x;
-            let (weight, from_background) = rule.apply(view.labels[p]);
+    for y in region.y0..region.y1 {
+        labels.clear();
+        view.labels.extend_row(y, region.x0, region.x1, labels);
+        for (x, &label) in (region.x0..region.x1).zip(labels.iter()) {
+            let (weight, from_background) = rule.apply(label);
             weights.push(weight);
             sum += weight as f64;
             if from_background {
                 target.extend_from_slice(&b);
             } else {
-                target.extend_from_slice(&view.target[3 * p..3 * p + 3]);
+                target.extend_from_slice(&view.target_at(x, y));
             }
         }
     }

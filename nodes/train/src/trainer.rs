@@ -952,12 +952,9 @@ mod tests {
             views: splits
                 .iter()
                 .enumerate()
-                .map(|(k, &split)| View {
-                    name: format!("v{k}"),
-                    camera,
-                    target: vec![0.0; 48],
-                    labels: vec![0; 16],
-                    split,
+                .map(|(k, &split)| {
+                    View::from_planes(&format!("v{k}"), camera, &[0.0; 48], &[0; 16], split)
+                        .unwrap()
                 })
                 .collect(),
             occluders: None,

@@ -3,7 +3,7 @@
 use glam::DVec3;
 use objectsplat_core::component::{self, IGNORE, OTHER, OWN};
 use objectsplat_core::{Camera, ComponentInfo, Frame, Frames, Points, Split};
-use objectsplat_train::init::ComponentMasks;
+use objectsplat_train::trainer::ComponentData;
 use std::path::Path;
 
 const W: u32 = 40;
@@ -28,16 +28,20 @@ fn write_component(dir: &Path, masks: &[(u8, u8, Split)]) {
             .flat_map(|_| (0..W).map(|x| if x < W / 2 { left } else { right }))
             .collect();
         component::write_mask(dir, &frame, &mask).unwrap();
+        std::fs::create_dir_all(dir.join("images")).unwrap();
+        image::RgbImage::new(W, H)
+            .save(dir.join(format!("images/{name}.png")))
+            .unwrap();
         frames.push(frame);
     }
     Frames::write_json(dir, &frames).unwrap();
 }
 
-/// [`write_component`] into a temporary folder, read back as its masks.
-fn read_component(masks: &[(u8, u8, Split)]) -> (tempfile::TempDir, ComponentMasks) {
+/// [`write_component`] into a temporary folder, read back as training data.
+fn read_component(masks: &[(u8, u8, Split)]) -> (tempfile::TempDir, ComponentData) {
     let dir = tempfile::tempdir().unwrap();
     write_component(dir.path(), masks);
-    let component = ComponentMasks::read(dir.path()).unwrap();
+    let component = ComponentData::read(dir.path(), 2).unwrap();
     (dir, component)
 }
 
@@ -69,7 +73,7 @@ fn majority_of_training_views_decides() {
         (OTHER, OWN, Split::Test),
         (OTHER, OWN, Split::Test),
     ]);
-    assert_eq!(c.info.name, "obj_3_chair");
+    assert_eq!(c.name, "obj_3_chair");
     assert_eq!(c.select_points(&points()), vec![0]);
     let chosen = c.component_points(&points()).unwrap();
     assert_eq!(chosen.colors, vec![[255, 0, 0]]);
@@ -102,9 +106,9 @@ fn a_missing_or_mis_sized_mask_names_the_file() {
     image::GrayImage::new(5, 5)
         .save(dir.path().join("masks/f0.png"))
         .unwrap();
-    let err = ComponentMasks::read(dir.path()).err().unwrap();
+    let err = ComponentData::read(dir.path(), 1).err().unwrap();
     assert!(format!("{err:#}").contains("f0.png"), "{err:#}");
     std::fs::remove_file(dir.path().join("masks/f0.png")).unwrap();
-    let err = ComponentMasks::read(dir.path()).err().unwrap();
+    let err = ComponentData::read(dir.path(), 1).err().unwrap();
     assert!(format!("{err:#}").contains("f0.png"), "{err:#}");
 }

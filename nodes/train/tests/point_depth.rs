@@ -32,17 +32,12 @@ fn data(points: Vec<[f32; 3]>, other_column: Option<u32>) -> ComponentData {
             Some(c) if p % W == c => OTHER,
             _ => OWN,
         })
-        .collect();
+        .collect::<Vec<u8>>();
+    let target = vec![0.5; (W * H * 3) as usize];
     ComponentData {
         name: "background".into(),
         kind: ComponentKind::Background,
-        views: vec![View {
-            name: "v".into(),
-            camera: camera(),
-            target: vec![0.5; (W * H * 3) as usize],
-            labels,
-            split: Split::Train,
-        }],
+        views: vec![View::from_planes("v", camera(), &target, &labels, Split::Train).unwrap()],
         occluders: None,
         depth_points: points,
     }

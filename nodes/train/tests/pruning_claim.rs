@@ -13,7 +13,6 @@ mod common;
 use objectsplat_core::Split;
 use objectsplat_core::component::OTHER;
 use objectsplat_raster::{CpuBackend, Model, RenderBackend, RenderSettings};
-use objectsplat_train::init::ComponentMasks;
 use objectsplat_train::trainer::{ComponentData, TrainSettings, train_component};
 
 /// Points on the ground plane around the plate, outside its square.
@@ -49,12 +48,11 @@ struct Outcome {
 fn train(randomize: bool) -> Outcome {
     let dir = tempfile::tempdir().unwrap();
     common::write_component(dir.path());
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let mut points = masks.component_points(&common::points()).unwrap();
+    let data = ComponentData::read(dir.path(), 2).unwrap();
+    let mut points = data.component_points(&common::points()).unwrap();
     let ring = stray_ring();
     points.positions.extend(ring.positions);
     points.colors.extend(ring.colors);
-    let data = ComponentData::read(dir.path()).unwrap();
     let settings = TrainSettings {
         background_randomization: randomize,
         ..common::short_run_settings(
@@ -80,7 +78,8 @@ fn train(randomize: bool) -> Outcome {
         .iter()
         .find(|v| v.split == Split::Test)
         .expect("the plate capture holds out one view");
-    let bg = vec![0.0f32; view.labels.len() * 3];
+    let labels = view.labels.to_plane();
+    let bg = vec![0.0f32; labels.len() * 3];
     let (out, _) = backend
         .forward(
             &model,
@@ -89,9 +88,7 @@ fn train(randomize: bool) -> Outcome {
             &bg,
         )
         .unwrap();
-    let outside: Vec<usize> = (0..view.labels.len())
-        .filter(|&p| view.labels[p] == OTHER)
-        .collect();
+    let outside: Vec<usize> = (0..labels.len()).filter(|&p| labels[p] == OTHER).collect();
     let stray_coverage =
         outside.iter().map(|&p| out.alpha[p] as f64).sum::<f64>() / outside.len() as f64;
     let strays: Vec<usize> = (0..model.face_count())

@@ -3,21 +3,20 @@
 mod common;
 
 use objectsplat_raster::CpuBackend;
-use objectsplat_train::init::{ComponentMasks, InitSettings, init_model};
+use objectsplat_train::init::{InitSettings, init_model};
 use objectsplat_train::trainer::{ComponentData, held_out_score, train_component};
 
 #[test]
 fn training_the_plate_lowers_its_held_out_loss() {
     let dir = tempfile::tempdir().unwrap();
     common::write_component(dir.path());
-    let masks = ComponentMasks::read(dir.path()).unwrap();
-    let points = masks.component_points(&common::points()).unwrap();
+    let data = ComponentData::read(dir.path(), 2).unwrap();
+    let points = data.component_points(&common::points()).unwrap();
     assert_eq!(
         points.positions.len(),
         25,
         "the grey points off the plate are not selected"
     );
-    let data = ComponentData::read(dir.path()).unwrap();
     let settings = common::short_run_settings(200, 2, serde_json::json!({}));
     let backend = CpuBackend::new(2);
     let initial = init_model(

@@ -47,15 +47,15 @@
 pub mod grid;
 pub mod triangulate;
 
-use crate::component_io::ComponentDir;
 use crate::plane::fit_plane;
-use crate::surface::{COMPLETION_JSON, RANSAC_ITERATIONS, surface_points};
+use crate::surface::{COMPLETION_JSON, RANSAC_ITERATIONS, ScenePoints, surface_points};
 use anyhow::{Context, Result, bail};
 use glam::{DMat3, DVec2, DVec3};
 use grid::{Grid, PlaneFrame};
+use objectsplat_core::ComponentFolder;
+use objectsplat_core::ComponentKind;
 use objectsplat_core::component::{self, OWN};
 use objectsplat_core::image::read_rgb8_sized;
-use objectsplat_core::{ComponentKind, Points};
 use objectsplat_raster::Model;
 use objectsplat_raster::model::inverse_sigmoid;
 use objectsplat_raster::sh::SH_DC;
@@ -136,7 +136,7 @@ pub struct SurfaceMeshReport {
 pub fn complete_scene_surfaces(
     scene: &mut Scene,
     components: &[(String, PathBuf)],
-    points: Option<&Points>,
+    points: Option<ScenePoints<'_>>,
     params: &SurfaceMeshParams,
 ) -> Result<SurfaceMeshReport> {
     check_params(params)?;
@@ -145,7 +145,7 @@ pub fn complete_scene_surfaces(
         if !dir.join(COMPLETION_JSON).is_file() {
             continue;
         }
-        let component = ComponentDir::read(name, dir)?;
+        let component = ComponentFolder::read_item(name, dir)?;
         if component.info.kind != ComponentKind::Object {
             continue;
         }
@@ -252,8 +252,8 @@ fn skip(outcome: &mut SurfaceMeshOutcome, reason: String) -> Result<SurfaceMeshO
 
 fn complete_one(
     scene: &mut Scene,
-    surface: &ComponentDir,
-    points: Option<&Points>,
+    surface: &ComponentFolder,
+    points: Option<ScenePoints<'_>>,
     params: &SurfaceMeshParams,
 ) -> Result<SurfaceMeshOutcome> {
     let mut outcome = SurfaceMeshOutcome {
@@ -496,7 +496,7 @@ fn complete_one(
 }
 
 /// Frames in which the surface owns at least one pixel.
-fn views_with_surface(surface: &ComponentDir) -> Result<usize> {
+fn views_with_surface(surface: &ComponentFolder) -> Result<usize> {
     let mut views = 0;
     for frame in &surface.frames.frames {
         if surface.load_mask(frame)?.contains(&OWN) {
@@ -563,7 +563,7 @@ fn refine_plane(
 
 /// +1 when most of the surface's frames look at the plane from the side `normal`
 /// points to, −1 otherwise.
-fn camera_side(surface: &ComponentDir, origin: DVec3, normal: DVec3) -> f64 {
+fn camera_side(surface: &ComponentFolder, origin: DVec3, normal: DVec3) -> f64 {
     let balance: i64 = surface
         .frames
         .frames
@@ -631,7 +631,7 @@ fn resting_shadow(
 /// surface's (completed) mask owns the pixel it projects to: the inpainted target
 /// where `surface_completion` wrote one, the photo elsewhere. `None`: no frame saw it.
 fn vertex_colours(
-    surface: &ComponentDir,
+    surface: &ComponentFolder,
     positions: &[DVec3],
     outcome: &mut SurfaceMeshOutcome,
 ) -> Result<Vec<Option<[f64; 3]>>> {

@@ -9,12 +9,13 @@
 mod layout;
 mod points;
 mod render;
+pub use render::Render8;
 pub mod shapes;
 pub mod texture;
 
 use anyhow::{Context, Result, bail};
 use glam::DVec3;
-use objectsplat_core::{Camera, Frame, Frames, Image, Mesh, ObjectLabels, Points, SplitPolicy};
+use objectsplat_core::{Camera, Frame, Frames, Mesh, ObjectLabels, Points, SplitPolicy};
 use std::path::Path;
 
 #[derive(Debug, Clone, PartialEq)]
@@ -115,7 +116,7 @@ impl SyntheticParams {
 #[derive(Debug, Clone)]
 pub struct SyntheticScene {
     pub frames: Vec<Frame>,
-    pub images: Vec<Image>,
+    pub images: Vec<Render8>,
     pub mesh: Mesh,
     pub labels: ObjectLabels,
     pub points: Points,
@@ -187,7 +188,12 @@ impl SyntheticScene {
                 .with_context(|| format!("{}: cannot create folder", d.display()))?;
         }
         for (frame, image) in self.frames.iter().zip(&self.images) {
-            image.save_png8(&frames_dir.join(&frame.image))?;
+            objectsplat_core::image::write_rgb8(
+                &frames_dir.join(&frame.image),
+                &image.rgb,
+                image.width,
+                image.height,
+            )?;
         }
         Frames::write_json(frames_dir, &self.frames)?;
         objectsplat_core::write_mesh_artifact(mesh_dir, &self.mesh, &self.labels)?;

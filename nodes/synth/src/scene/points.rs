@@ -3,10 +3,10 @@
 
 use super::SyntheticParams;
 use super::layout::{Room, to_u8};
+use super::render::Depth;
 use anyhow::{Result, bail};
 use glam::DVec3;
 use objectsplat_core::{Camera, Points};
-use objectsplat_masks::raster::Raster;
 use rand::{RngExt, SeedableRng};
 use rand_distr::{Distribution, Normal};
 use rand_pcg::Pcg64;
@@ -17,7 +17,7 @@ const MIN_VIEWS: usize = 2;
 pub fn sample_points(
     room: &Room,
     cameras: &[Camera],
-    views: &[(Camera, Raster)],
+    views: &[(Camera, Depth)],
     params: &SyntheticParams,
     texture_seed: u64,
 ) -> Result<Points> {
@@ -82,7 +82,7 @@ pub fn sample_points(
 }
 
 /// Whether `p` is the visible surface at its pixel in this view (depth within tolerance).
-fn visible(camera: &Camera, raster: &Raster, p: DVec3) -> bool {
+fn visible(camera: &Camera, raster: &Depth, p: DVec3) -> bool {
     let Some((u, v, z)) = camera.project(p) else {
         return false;
     };

@@ -7,12 +7,51 @@ use super::layout::Room;
 use anyhow::{Result, anyhow};
 use glam::DVec3;
 use objectsplat_core::{Camera, Image};
-use objectsplat_masks::raster::{Raster, RasterOptions, pixel_ray, rasterize, ray_triangle_plane};
+use objectsplat_masks::raster::{RasterOptions, pixel_ray, rasterize, ray_triangle_plane};
 
 pub struct Views {
-    pub images: Vec<Image>,
-    /// The supersampled camera and raster of every view (for visibility tests).
-    pub depth: Vec<(Camera, Raster)>,
+    pub images: Vec<Render8>,
+    /// The supersampled camera and depth of every view (for visibility tests).
+    pub depth: Vec<(Camera, Depth)>,
+}
+
+/// A rendered view as its 8-bit PNG holds it (3 bytes a pixel: hundreds of
+/// 1752×1168 views fit in memory).
+#[derive(Debug, Clone, PartialEq)]
+pub struct Render8 {
+    pub width: u32,
+    pub height: u32,
+    /// RGB, row-major.
+    pub rgb: Vec<u8>,
+}
+
+impl Render8 {
+    /// The image quantized as its 8-bit PNG would be.
+    fn of(image: &Image) -> Self {
+        Render8 {
+            width: image.width,
+            height: image.height,
+            rgb: image.to_rgb8(),
+        }
+    }
+}
+
+/// The inverse depth of a view's nearest surface per (supersampled) pixel:
+/// a raster without its face ids, which only the render itself needs.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Depth {
+    pub width: u32,
+    pub height: u32,
+    inv_depth: Vec<f32>,
+}
+
+impl Depth {
+    /// Camera depth of the visible surface at a pixel, if any.
+    #[inline]
+    pub fn depth_at(&self, x: u32, y: u32) -> Option<f32> {
+        let iz = self.inv_depth[(y * self.width + x) as usize];
+        (iz > 0.0).then(|| 1.0 / iz)
+    }
 }
 
 pub fn render_views(
@@ -23,7 +62,7 @@ pub fn render_views(
 ) -> Result<Views> {
     let threads = params.threads.max(1);
     let chunk = cameras.len().div_ceil(threads).max(1);
-    let results: Vec<Result<Vec<(Image, Camera, Raster)>>> = crossbeam::scope(|s| {
+    let results: Vec<Result<Vec<(Render8, Camera, Depth)>>> = crossbeam::scope(|s| {
         let handles: Vec<_> = cameras
             .chunks(chunk)
             .map(|part| {
@@ -61,7 +100,7 @@ fn render_view(
     camera: &Camera,
     supersample: u32,
     texture_seed: u64,
-) -> Result<(Image, Camera, Raster)> {
+) -> Result<(Render8, Camera, Depth)> {
     let fine = camera.scaled(camera.width * supersample, camera.height * supersample);
     let b = &room.builder;
     let options = RasterOptions {
@@ -98,5 +137,10 @@ fn render_view(
     } else {
         image
     };
-    Ok((image, fine, raster))
+    let depth = Depth {
+        width: raster.width,
+        height: raster.height,
+        inv_depth: raster.inv_depth,
+    };
+    Ok((Render8::of(&image), fine, depth))
 }

@@ -76,26 +76,21 @@ pub fn plate_sized(
     objectsplat_train::trainer::ComponentData,
     Points,
 ) {
-    let (dir, masks, data) = plate_read(w, h);
-    let points = masks.component_points(&points()).unwrap();
+    let (dir, data) = plate_read(w, h);
+    let points = data.component_points(&points()).unwrap();
     (dir, data, points)
 }
 
 /// The plate component with `w`×`h` views written to a temporary folder and read
-/// back as its masks and as training data.
+/// back as training data.
 pub fn plate_read(
     w: u32,
     h: u32,
-) -> (
-    tempfile::TempDir,
-    objectsplat_train::init::ComponentMasks,
-    objectsplat_train::trainer::ComponentData,
-) {
+) -> (tempfile::TempDir, objectsplat_train::trainer::ComponentData) {
     let dir = tempfile::tempdir().unwrap();
     write_component_sized(dir.path(), w, h);
-    let masks = objectsplat_train::init::ComponentMasks::read(dir.path()).unwrap();
-    let data = objectsplat_train::trainer::ComponentData::read(dir.path()).unwrap();
-    (dir, masks, data)
+    let data = objectsplat_train::trainer::ComponentData::read(dir.path(), 2).unwrap();
+    (dir, data)
 }
 
 /// The plate component with `w`×`h` views.

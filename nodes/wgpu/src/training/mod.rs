@@ -227,7 +227,18 @@ pub struct DeviceTrainer {
 impl DeviceTrainer {
     /// Uploads the views (training and held-out alike) and compiles the kernels.
     pub fn new(backend: &WgpuBackend, views: &[TrainingView]) -> Result<DeviceTrainer> {
-        if views.is_empty() {
+        Self::streamed(backend, views.len(), |i| Ok(views[i].clone()))
+    }
+
+    /// As [`DeviceTrainer::new`] for `count` views made one at a time by
+    /// `view(index)` and uploaded as they come, so that the host holds one
+    /// view's whole-frame planes at a time however many views there are.
+    pub fn streamed(
+        backend: &WgpuBackend,
+        count: usize,
+        mut view: impl FnMut(usize) -> Result<TrainingView>,
+    ) -> Result<DeviceTrainer> {
+        if count == 0 {
             bail!("device training needs at least one training view");
         }
         let ctx = backend.context().clone();
@@ -239,10 +250,8 @@ impl DeviceTrainer {
             depth: DepthKernels::new(&ctx),
         };
         ctx.check_errors("compiling the training kernels")?;
-        let views = views
-            .iter()
-            .enumerate()
-            .map(|(i, v)| ViewBuffers::upload(&ctx, v, i))
+        let views = (0..count)
+            .map(|i| ViewBuffers::upload(&ctx, &view(i)?, i))
             .collect::<Result<Vec<_>>>()?;
         let pixels = views.iter().map(ViewBuffers::pixels).max().unwrap_or(0); // views is not empty (checked above)
         backend.check_binding_size("SSIM planes", (pixels * ROW_MAPS * 4) as u64)?;

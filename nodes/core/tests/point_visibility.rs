@@ -3,7 +3,7 @@
 
 use glam::DVec3;
 use objectsplat_core::Camera;
-use objectsplat_train::visibility::{neighbour_spacing, visible_pixels};
+use objectsplat_core::visibility::{neighbour_spacing, visible_pixels};
 
 #[test]
 fn points_behind_a_nearer_surface_are_hidden() {
