@@ -11,6 +11,7 @@
 
 mod device_speed;
 mod quality;
+mod scale;
 mod train_speed;
 
 use anyhow::{Context, Result, bail};
@@ -45,6 +46,8 @@ enum Command {
     Quality(quality::QualityArgs),
     /// Training iterations per second per component kind on each render backend (GPU machines).
     DeviceSpeed(device_speed::DeviceSpeedArgs),
+    /// Peak memory and seconds per iteration as views and frames grow.
+    Scale(scale::ScaleArgs),
 }
 
 #[derive(clap::Args)]
@@ -158,6 +161,7 @@ fn main() -> std::process::ExitCode {
         Command::TrainSpeed(args) => train_speed::train_speed(&args),
         Command::Quality(args) => quality::quality(&args),
         Command::DeviceSpeed(args) => device_speed::device_speed(&args),
+        Command::Scale(args) => scale::scale(&args),
     };
     match result {
         Ok(()) => std::process::ExitCode::SUCCESS,

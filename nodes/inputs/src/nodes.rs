@@ -74,7 +74,7 @@ fn write_frames_output(
     views: Vec<scene::SourceView>,
     split: &SplitChoice,
 ) -> Result<WrittenFrames> {
-    scene::write_frames(out, views, split, resolution_param(ctx)?)
+    scene::write_frames(out, views, split, resolution_param(ctx)?, ctx.threads())
 }
 
 /// Report lines for the frames a source wrote: how many, how they split, what was undistorted.

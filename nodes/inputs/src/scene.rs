@@ -151,12 +151,14 @@ struct Undistortion {
     map: UndistortMap,
 }
 
-/// Writes the Frames artifact into `out`.
+/// Writes the Frames artifact into `out`, decoding, undistorting, scaling and
+/// encoding the images on up to `threads` threads.
 pub fn write_frames(
     out: &Path,
     mut views: Vec<SourceView>,
     split: &SplitChoice,
     res: Resolution,
+    threads: usize,
 ) -> Result<WrittenFrames> {
     if views.is_empty() {
         bail!("the scene has no images");
@@ -172,11 +174,10 @@ pub fn write_frames(
         bail!("two images are both named {:?}", w[0].name);
     }
     let splits = assign_splits(&views, split)?;
-    let mut frames = Vec::with_capacity(views.len());
     let mut stems = std::collections::HashSet::new();
+    // Every distinct distorted camera's undistortion, from the cameras alone.
     let mut undistortions: Vec<Undistortion> = Vec::new();
-    let mut undistorted_frames = 0;
-    for (view, split) in views.iter().zip(splits) {
+    for view in &views {
         view.camera
             .validate()
             .map_err(|e| anyhow::anyhow!("frame {:?}: {e}", view.name))?;
@@ -188,94 +189,129 @@ pub fn write_frames(
                 view.name
             );
         }
-        let img = Image::load(&view.image)?.to_rgb();
-        let full = &view.camera;
-        if (img.width, img.height) != (full.width, full.height) {
-            bail!(
-                "{}: image is {}×{} but its camera says {}×{}",
-                view.image.display(),
-                img.width,
-                img.height,
-                full.width,
-                full.height
-            );
-        }
-        let valid = match &view.valid_mask {
-            Some(mask) => Some(load_valid_mask(mask, (full.width, full.height))?),
-            None => None,
-        };
-        let (img, cam, valid) = match &view.distortion {
-            None => (img, *full, valid),
-            Some(distortion) => {
-                let source = intrinsics(full);
-                let u = match undistortions
-                    .iter()
-                    .position(|u| u.source == source && u.distortion == *distortion)
-                {
-                    Some(i) => &undistortions[i],
-                    None => {
-                        let target = undistort::undistorted_camera(&source, distortion)
-                            .with_context(|| format!("frame {:?}", view.name))?;
-                        undistortions.push(Undistortion {
-                            source,
-                            distortion: *distortion,
-                            map: UndistortMap::new(source, distortion, target),
-                        });
-                        &undistortions[undistortions.len() - 1]
-                    }
-                };
-                let at = || format!("{}", view.image.display());
-                let undistorted = u.map.apply(&img).with_context(at)?;
-                let coverage = u.map.coverage(valid.as_ref()).with_context(at)?;
-                // Output pixels the distorted image does not cover become invalid pixels.
-                let blank = coverage.data.contains(&0.0);
-                let t = u.map.target;
-                let cam = Camera {
-                    width: t.width,
-                    height: t.height,
-                    fx: t.fx,
-                    fy: t.fy,
-                    cx: t.cx,
-                    cy: t.cy,
-                    world_to_camera: full.world_to_camera,
-                };
-                undistorted_frames += 1;
-                (
-                    undistorted,
-                    cam,
-                    (valid.is_some() || blank).then_some(coverage),
-                )
+        if let Some(distortion) = &view.distortion {
+            let source = intrinsics(&view.camera);
+            if !undistortions
+                .iter()
+                .any(|u| u.source == source && u.distortion == *distortion)
+            {
+                let target = undistort::undistorted_camera(&source, distortion)
+                    .with_context(|| format!("frame {:?}", view.name))?;
+                undistortions.push(Undistortion {
+                    source,
+                    distortion: *distortion,
+                    map: UndistortMap::new(source, distortion, target),
+                });
             }
-        };
-        let (w, h) = res.target(img.width, img.height);
-        let scaled = if (w, h) == (img.width, img.height) {
-            img
-        } else {
-            img.resize_area(w, h)
-        };
-        let rel = format!("images/{stem}.png");
-        let path = out.join(&rel);
-        std::fs::create_dir_all(out.join("images"))
-            .with_context(|| format!("{}: cannot create", out.display()))?;
-        scaled.save_png8(&path)?;
-        if let Some(valid) = valid {
-            write_valid_mask(
-                &valid,
-                &out.join(VALID_DIR).join(format!("{stem}.png")),
-                (w, h),
-            )?;
         }
-        frames.push(Frame::new(view.name.clone(), rel, &cam.scaled(w, h), split));
     }
+    std::fs::create_dir_all(out.join("images"))
+        .with_context(|| format!("{}: cannot create", out.display()))?;
+    let jobs: Vec<(&SourceView, Split)> = views.iter().zip(splits).collect();
+    let threads = threads.clamp(1, jobs.len());
+    let per = jobs.len().div_ceil(threads);
+    let mut written: Vec<Option<Result<Frame>>> = (0..jobs.len()).map(|_| None).collect();
+    std::thread::scope(|scope| {
+        for (chunk, slots) in jobs.chunks(per).zip(written.chunks_mut(per)) {
+            let undistortions = &undistortions;
+            scope.spawn(move || {
+                for (&(view, split), slot) in chunk.iter().zip(slots) {
+                    *slot = Some(write_frame(out, view, split, res, undistortions));
+                }
+            });
+        }
+    });
+    let frames = written
+        .into_iter()
+        .map(|f| f.unwrap_or_else(|| bail!("a frame was not written")))
+        .collect::<Result<Vec<Frame>>>()?;
     Frames::write_json(out, &frames)?;
     Ok(WrittenFrames {
+        undistorted_frames: views.iter().filter(|v| v.distortion.is_some()).count(),
         frames,
         undistorted_cameras: undistortions
             .iter()
             .map(|u| (u.source, u.map.target))
             .collect(),
-        undistorted_frames,
     })
+}
+
+/// One view's image (and validity mask) decoded, undistorted, scaled and written.
+fn write_frame(
+    out: &Path,
+    view: &SourceView,
+    split: Split,
+    res: Resolution,
+    undistortions: &[Undistortion],
+) -> Result<Frame> {
+    let stem = frame_stem(&view.name).to_string();
+    let img = Image::load(&view.image)?.to_rgb();
+    let full = &view.camera;
+    if (img.width, img.height) != (full.width, full.height) {
+        bail!(
+            "{}: image is {}×{} but its camera says {}×{}",
+            view.image.display(),
+            img.width,
+            img.height,
+            full.width,
+            full.height
+        );
+    }
+    let valid = match &view.valid_mask {
+        Some(mask) => Some(load_valid_mask(mask, (full.width, full.height))?),
+        None => None,
+    };
+    let (img, cam, valid) = match &view.distortion {
+        None => (img, *full, valid),
+        Some(distortion) => {
+            let source = intrinsics(full);
+            let Some(u) = undistortions
+                .iter()
+                .find(|u| u.source == source && u.distortion == *distortion)
+            else {
+                bail!(
+                    "frame {:?}: its camera's undistortion was not prepared",
+                    view.name
+                );
+            };
+            let at = || format!("{}", view.image.display());
+            let undistorted = u.map.apply(&img).with_context(at)?;
+            let coverage = u.map.coverage(valid.as_ref()).with_context(at)?;
+            // Output pixels the distorted image does not cover become invalid pixels.
+            let blank = coverage.data.contains(&0.0);
+            let t = u.map.target;
+            let cam = Camera {
+                width: t.width,
+                height: t.height,
+                fx: t.fx,
+                fy: t.fy,
+                cx: t.cx,
+                cy: t.cy,
+                world_to_camera: full.world_to_camera,
+            };
+            (
+                undistorted,
+                cam,
+                (valid.is_some() || blank).then_some(coverage),
+            )
+        }
+    };
+    let (w, h) = res.target(img.width, img.height);
+    let scaled = if (w, h) == (img.width, img.height) {
+        img
+    } else {
+        img.resize_area(w, h)
+    };
+    let rel = format!("images/{stem}.png");
+    scaled.save_png8(&out.join(&rel))?;
+    if let Some(valid) = valid {
+        write_valid_mask(
+            &valid,
+            &out.join(VALID_DIR).join(format!("{stem}.png")),
+            (w, h),
+        )?;
+    }
+    Ok(Frame::new(view.name.clone(), rel, &cam.scaled(w, h), split))
 }
 
 fn intrinsics(c: &Camera) -> Intrinsics {

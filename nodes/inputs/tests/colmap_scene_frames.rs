@@ -23,6 +23,7 @@ fn frames_are_sorted_split_and_downscaled() {
         views,
         &SplitChoice::Rule(SplitPolicy::Sparse),
         Resolution::new(2, None).unwrap(),
+        2,
     )
     .unwrap();
     let frames = Frames::read(out.path()).unwrap();
@@ -116,6 +117,7 @@ fn image_of_the_wrong_size_names_the_file() {
         views,
         &SplitChoice::Rule(SplitPolicy::All),
         Resolution::FULL,
+        2,
     )
     .unwrap_err()
     .to_string();

@@ -242,7 +242,13 @@ impl Node for PartitionNode {
             min_pixels: p.min_pixels,
             holistic: p.holistic,
         };
-        let plan = partition_folders(&ports.frames, &ports.masks, &ports.components, &params)?;
+        let plan = partition_folders(
+            &ports.frames,
+            &ports.masks,
+            &ports.components,
+            &params,
+            ctx.threads(),
+        )?;
         let names: Vec<&str> = plan
             .components
             .iter()

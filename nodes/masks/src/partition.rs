@@ -246,6 +246,7 @@ pub fn partition_folders(
     masks_dir: &Path,
     out: &Path,
     params: &PartitionParams,
+    threads: usize,
 ) -> Result<Partition> {
     let frames = Frames::read(frames_dir)?;
     let (masks, labels) = if params.holistic {
@@ -263,16 +264,18 @@ pub fn partition_folders(
     };
     let plan = plan_partition(&masks, &labels, params)
         .map_err(|e| anyhow::anyhow!("{}: {e}", masks_dir.display()))?;
-    write_partition(&frames, &masks, &plan, out)?;
+    write_partition(&frames, &masks, &plan, out, threads)?;
     Ok(plan)
 }
 
-/// Writes one self-contained folder per component (see `objectsplat_core::component`).
+/// Writes one self-contained folder per component (see `objectsplat_core::component`),
+/// each component's frames on up to `threads` threads.
 pub fn write_partition(
     frames: &Frames,
     masks: &[IdMap],
     plan: &Partition,
     out: &Path,
+    threads: usize,
 ) -> Result<()> {
     if masks.len() != frames.frames.len() {
         bail!("{} masks for {} frames", masks.len(), frames.frames.len());
@@ -284,23 +287,39 @@ pub fn write_partition(
         std::fs::create_dir_all(&images_dir)
             .with_context(|| format!("{}: cannot create folder", images_dir.display()))?;
         component.info.write(&dir)?;
-        let mut listed = Vec::with_capacity(component.frames.len());
-        for &f in &component.frames {
+        let write = |f: usize| -> Result<Frame> {
             let frame = &frames.frames[f];
             let src = frames.image_path(frame);
             let dst = dir.join(&image_names[f]);
             objectsplat_core::files::link_or_copy(&src, &dst)
                 .context("sharing a frame image into its component")?;
-            listed.push(Frame {
-                image: image_names[f].clone(),
-                ..frame.clone()
-            });
             objectsplat_core::component::write_mask(
                 &dir,
                 frame,
                 &plan.component_mask(component, &masks[f]),
             )?;
-        }
+            Ok(Frame {
+                image: image_names[f].clone(),
+                ..frame.clone()
+            })
+        };
+        let per = component.frames.len().div_ceil(threads.max(1)).max(1);
+        let mut written: Vec<Option<Result<Frame>>> =
+            (0..component.frames.len()).map(|_| None).collect();
+        std::thread::scope(|scope| {
+            for (chunk, slots) in component.frames.chunks(per).zip(written.chunks_mut(per)) {
+                let write = &write;
+                scope.spawn(move || {
+                    for (&f, slot) in chunk.iter().zip(slots) {
+                        *slot = Some(write(f));
+                    }
+                });
+            }
+        });
+        let listed = written
+            .into_iter()
+            .map(|w| w.unwrap_or_else(|| bail!("a frame was not written")))
+            .collect::<Result<Vec<Frame>>>()?;
         Frames::write_json(&dir, &listed)?;
         if component.info.kind == ComponentKind::Background {
             let path = dir.join(DROPPED_JSON);

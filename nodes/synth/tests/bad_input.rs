@@ -137,9 +137,15 @@ impl PartitionInputs {
     /// What partition says when it refuses these folders.
     fn partition_error(&self) -> String {
         let out = self.tmp.path().join("out");
-        partition_folders(&self.frames, &self.masks, &out, &PartitionParams::default())
-            .unwrap_err()
-            .to_string()
+        partition_folders(
+            &self.frames,
+            &self.masks,
+            &out,
+            &PartitionParams::default(),
+            2,
+        )
+        .unwrap_err()
+        .to_string()
     }
 }
 
