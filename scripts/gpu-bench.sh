@@ -44,7 +44,7 @@ if [ $smoke = 1 ]; then
 else
   # The CPU gets fewer iterations: at 1752×1168 a CPU background runs at about 1 it/s.
   args=(--sizes "${SIZES-640x480,1752x1168}" --iterations "${ITERATIONS:-300}"
-        --cpu-iterations "${CPU_ITERATIONS:-40}" --views "${VIEWS:-24}"
+        --cpu-iterations "${CPU_ITERATIONS:-40}" --views "${VIEWS:-16}"
         --demo-iterations "${DEMO_ITERATIONS:-3000}")
 fi
 "$bin/objectsplat-bench" device-speed --binary "$bin/objectsplat" --out "$out" \
