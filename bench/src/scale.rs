@@ -209,7 +209,9 @@ pub fn scale(args: &ScaleArgs) -> Result<()> {
             .with_context(|| format!("--extra {extra:?} is not VIEWSxWIDTHxHEIGHT"))?;
         configs.push((views.parse()?, size.to_string()));
     }
-    configs.dedup();
+    // Each configuration once (the sweeps share one), in order.
+    let mut seen = std::collections::HashSet::new();
+    configs.retain(|c| seen.insert(c.clone()));
     std::fs::create_dir_all(&args.out)?;
     let mut rows = Vec::new();
     for (views, size) in configs {

@@ -2,6 +2,7 @@
 
 use glam::DVec3;
 use objectsplat_core::component::{self, IGNORE, OTHER, OWN};
+use objectsplat_core::visibility::Visibility;
 use objectsplat_core::{Camera, ComponentInfo, Frame, Frames, Points, Split};
 use objectsplat_train::trainer::ComponentData;
 use std::path::Path;
@@ -74,8 +75,8 @@ fn majority_of_training_views_decides() {
         (OTHER, OWN, Split::Test),
     ]);
     assert_eq!(c.name, "obj_3_chair");
-    assert_eq!(c.select_points(&points()), vec![0]);
-    let chosen = c.component_points(&points()).unwrap();
+    assert_eq!(c.select_points(&points(), None).unwrap(), vec![0]);
+    let chosen = c.component_points(&points(), None).unwrap();
     assert_eq!(chosen.colors, vec![[255, 0, 0]]);
 }
 
@@ -89,13 +90,13 @@ fn ignored_pixels_do_not_count_as_visible() {
         (IGNORE, OWN, Split::Train),
     ];
     let (_dir, c) = read_component(&views);
-    assert_eq!(c.select_points(&points()), vec![1]);
+    assert_eq!(c.select_points(&points(), None).unwrap(), vec![1]);
 }
 
 #[test]
 fn a_component_without_points_is_a_clear_error() {
     let (_dir, c) = read_component(&[(OTHER, OTHER, Split::Train)]);
-    let err = c.component_points(&points()).unwrap_err();
+    let err = c.component_points(&points(), None).unwrap_err();
     assert!(format!("{err}").contains("obj_3_chair"), "{err}");
 }
 
@@ -111,4 +112,29 @@ fn a_missing_or_mis_sized_mask_names_the_file() {
     std::fs::remove_file(dir.path().join("masks/f0.png")).unwrap();
     let err = ComponentData::read(dir.path(), 1).err().unwrap();
     assert!(format!("{err:#}").contains("f0.png"), "{err:#}");
+}
+
+#[test]
+fn the_scenes_visibility_selects_what_the_trainer_would_compute() {
+    let (dir, c) = read_component(&[
+        (OWN, OTHER, Split::Train),
+        (OWN, OTHER, Split::Train),
+        (OTHER, OWN, Split::Train),
+        (OTHER, OWN, Split::Test),
+    ]);
+    let frames = Frames::read(dir.path()).unwrap();
+    let visibility = Visibility::compute(&points(), &frames.frames, 2).unwrap();
+    assert_eq!(
+        c.select_points(&points(), Some(&visibility)).unwrap(),
+        c.select_points(&points(), None).unwrap()
+    );
+    // A visibility of another capture is refused, naming what does not match.
+    let other = Visibility::compute(&points(), &frames.frames[..1], 1).unwrap();
+    let err = c.select_points(&points(), Some(&other)).unwrap_err();
+    assert!(format!("{err:#}").contains("no frame"), "{err:#}");
+    let fewer = Points {
+        positions: points().positions[..2].to_vec(),
+        colors: points().colors[..2].to_vec(),
+    };
+    assert!(c.select_points(&fewer, Some(&visibility)).is_err());
 }

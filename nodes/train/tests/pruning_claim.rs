@@ -49,7 +49,7 @@ fn train(randomize: bool) -> Outcome {
     let dir = tempfile::tempdir().unwrap();
     common::write_component(dir.path());
     let data = ComponentData::read(dir.path(), 2).unwrap();
-    let mut points = data.component_points(&common::points()).unwrap();
+    let mut points = data.component_points(&common::points(), None).unwrap();
     let ring = stray_ring();
     points.positions.extend(ring.positions);
     points.colors.extend(ring.colors);

@@ -11,7 +11,7 @@ fn training_the_plate_lowers_its_held_out_loss() {
     let dir = tempfile::tempdir().unwrap();
     common::write_component(dir.path());
     let data = ComponentData::read(dir.path(), 2).unwrap();
-    let points = data.component_points(&common::points()).unwrap();
+    let points = data.component_points(&common::points(), None).unwrap();
     assert_eq!(
         points.positions.len(),
         25,

@@ -77,7 +77,7 @@ pub fn plate_sized(
     Points,
 ) {
     let (dir, data) = plate_read(w, h);
-    let points = data.component_points(&points()).unwrap();
+    let points = data.component_points(&points(), None).unwrap();
     (dir, data, points)
 }
 
