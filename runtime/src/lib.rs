@@ -10,7 +10,7 @@ pub mod graph;
 pub mod node;
 pub mod outdir;
 pub mod params;
-pub mod paths;
+pub use objectsplat_paths as paths;
 pub mod plan;
 pub mod plugin;
 pub mod ports;

@@ -163,9 +163,9 @@ impl Frames {
 }
 
 /// Refuses absolute paths and paths that climb out of their folder, on every
-/// platform's separators (the engine's one check, [`objectsplat_runtime::paths`]).
+/// platform's separators (the engine's one check, `objectsplat_paths`).
 pub fn check_relative(path: &str) -> Result<()> {
-    objectsplat_runtime::paths::normalise_relative(path)
+    objectsplat_paths::normalise_relative(path)
         .map(drop)
         .map_err(|e| anyhow::anyhow!("path {e}: it must be relative and stay inside its folder"))
 }

@@ -8,7 +8,7 @@ use anyhow::{Context, Result, bail};
 use std::path::Path;
 
 /// Writes a PNG, replacing (not modifying) a file already at `path`: an output folder may
-/// hold hard links to input artifacts (see `objectsplat_runtime`'s store), and writing
+/// hold hard links to input artifacts (see the engine's store), and writing
 /// through one would change the input.
 fn write_png(
     path: &Path,

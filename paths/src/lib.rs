@@ -11,7 +11,7 @@
 /// The `/`-separated form of a relative name that stays inside its folder.
 ///
 /// ```
-/// use objectsplat_runtime::paths::normalise_relative;
+/// use objectsplat_paths::normalise_relative;
 /// assert_eq!(normalise_relative(r".\images\frame 1.png").unwrap(), "images/frame 1.png");
 /// assert!(normalise_relative(r"a/..\..\x.png").is_err());
 /// ```
