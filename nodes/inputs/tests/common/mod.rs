@@ -40,7 +40,7 @@ pub fn float_rows(v: &Value) -> Vec<Vec<f64>> {
 /// A registry with the artifact types the input nodes use and the input nodes.
 pub fn registry() -> Registry {
     let mut reg = Registry::new();
-    for t in ["Frames", "Points", "Mesh", "Masks", "File"] {
+    for t in ["Frames", "Points", "Mesh", "Masks", "File", "Images"] {
         reg.add_type(t, "test");
     }
     objectsplat_inputs::register(&mut reg);
