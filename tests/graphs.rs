@@ -39,6 +39,7 @@ fn shipped_graphs_check() {
         "objectsplat.ron",
         "objectsplat_sam.ron",
         "ablation_no_randomization.ron",
+        "photos.ron",
     ] {
         assert!(
             checked.iter().any(|c| c == expected),
