@@ -1,5 +1,5 @@
 //! graphs/photos.ron's first two stages through `objectsplat`: a `colmap_sfm` run that
-//! fails (an unreadable photo; photos COLMAP registers none of) fails its node with the
+//! fails (an unreadable photo; featureless photos COLMAP registers none of) fails its node with the
 //! cause and leaves nothing in the cache (no action record, no stored file, no staging
 //! folder), so the next run starts it afresh; and scripts/sam2_masks.py, run where SAM 2
 //! is not installed, says so and how to set it up, before touching its output.
@@ -15,19 +15,11 @@ const GRAPH: &str = r#"// colmap_sfm on ./photos
   targets: ["sfm"],
 )"#;
 
-/// A small RGB PNG of seeded noise: nothing another one can match.
-fn noise_png(path: &Path, seed: u32) {
-    let mut state = seed.wrapping_mul(2_654_435_761).max(1);
-    let img = image::RgbImage::from_fn(96, 72, |_, _| {
-        let mut next = || {
-            state ^= state << 13;
-            state ^= state >> 17;
-            state ^= state << 5;
-            (state >> 24) as u8
-        };
-        image::Rgb([next(), next(), next()])
-    });
-    img.save(path).unwrap();
+/// A small PNG of one flat grey: no feature to match.
+fn flat_png(path: &Path, grey: u8) {
+    image::GrayImage::from_pixel(96, 72, image::Luma([grey]))
+        .save(path)
+        .unwrap();
 }
 
 /// Every file below `dir` (none when it does not exist).
@@ -71,7 +63,7 @@ fn fails_and_leaves_nothing(make: impl Fn(&Path), cause: &str) {
 fn an_unreadable_photo_fails_the_node_and_caches_nothing() {
     fails_and_leaves_nothing(
         |photos| {
-            noise_png(&photos.join("a.png"), 1);
+            flat_png(&photos.join("a.png"), 90);
             std::fs::write(photos.join("b.png"), b"\x89PNG but cut short").unwrap();
         },
         "b.png: cannot be read as an image",
@@ -89,8 +81,8 @@ fn photos_colmap_cannot_register_fail_the_node_and_cache_nothing() {
     }
     fails_and_leaves_nothing(
         |photos| {
-            for seed in 1..=3 {
-                noise_png(&photos.join(format!("noise_{seed}.png")), seed);
+            for grey in [60, 120, 180] {
+                flat_png(&photos.join(format!("grey_{grey}.png")), grey);
             }
         },
         "registered none of the 3 images",
@@ -122,7 +114,7 @@ fn the_sam2_script_says_what_is_missing() {
     let d = dir.path();
     let frames = d.join("frames");
     std::fs::create_dir_all(frames.join("images")).unwrap();
-    noise_png(&frames.join("images/a.png"), 1);
+    flat_png(&frames.join("images/a.png"), 90);
     std::fs::write(
         frames.join("frames.json"),
         r#"[{"name": "a.png", "image": "images/a.png", "width": 96, "height": 72, "fx": 80, "fy": 80,

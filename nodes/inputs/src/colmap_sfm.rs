@@ -232,7 +232,14 @@ pub fn list_images(dir: &Path) -> Result<(Vec<String>, Vec<String>)> {
             }
         );
     }
-    for name in &images {
+    check_images(dir, &images)?;
+    Ok((images, ignored))
+}
+
+/// Decodes every image `names` lists in `dir` once: an unreadable one is an error
+/// naming it.
+pub fn check_images(dir: &Path, names: &[String]) -> Result<()> {
+    for name in names {
         let path = dir.join(name);
         let decoded = image::ImageReader::open(&path)
             .and_then(|r| r.with_guessed_format())
@@ -245,7 +252,7 @@ pub fn list_images(dir: &Path) -> Result<(Vec<String>, Vec<String>)> {
             );
         }
     }
-    Ok((images, ignored))
+    Ok(())
 }
 
 fn walk(

@@ -31,7 +31,8 @@ const LISTED_NAMES: usize = 20;
 node_params! {
     /// The parameters of `colmap_sfm`.
     pub struct ColmapSfmParams {
-        /// the folder of photos (PNG or JPEG, searched recursively); or wire the `images` input
+        /// the folder of photos (PNG or JPEG, searched recursively); or wire the `images`
+        /// input; with neither, the images of the `reference` frames are posed afresh
         path: Option<String> = "None" as ParamType::optional(ParamType::Path),
         /// the camera model COLMAP fits; distorted ones are undistorted as colmap_scene does
         camera_model: String = "\"SIMPLE_RADIAL\"" as ParamType::enumeration(&CAMERA_MODELS),
@@ -50,7 +51,7 @@ node_params! {
         /// DSP-SIFT descriptors: slower, more matches on blurred or heavily compressed photos
         domain_size_pooling: bool = "false" as ParamType::Bool,
         /// SIFT's contrast threshold; below COLMAP's 0.0067 it finds more features on the
-        /// low-contrast walls and floors of rooms (docs/nodes.md: the synthetic room's
+        /// low-contrast walls and floors of rooms (docs/benchmarks.md: the synthetic room's
         /// rotation errors drop from 0.56° to 0.20°), and matching takes longer
         peak_threshold: f64 = "0.002" as ParamType::float_range(1e-5, 1.0),
         /// further COLMAP options by their COLMAP names, e.g. {"Mapper.abs_pose_min_num_inliers": 15}
@@ -70,7 +71,7 @@ node_ports! {
         /// photos made by another node (e.g. `video_frames`), instead of `path`
         images: optional "Images",
         /// known cameras to align to by a similarity (matched by frame name or stem): the
-        /// model then has their scale and orientation
+        /// model then has their scale and orientation; alone, also the photos to pose
         reference: optional "Frames",
         /// the registered photos, posed, split and downscaled (as colmap_scene writes them)
         frames: output "Frames",
@@ -183,21 +184,39 @@ impl Node for ColmapSfm {
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
         let ports: ColmapSfmPorts = ctx.ports_as()?;
         let p: ColmapSfmParams = ctx.params_as()?;
-        let images_dir = match (ports.images, &p.path) {
-            (Some(dir), None) => dir,
-            (None, Some(path)) => PathBuf::from(path),
-            (Some(_), Some(path)) => bail!(
-                "both the `images` input and `path` ({path}) give the photos; keep one of them"
-            ),
-            (None, None) => bail!(
-                "no photos: set `path` to their folder, or wire the `images` input to a node that makes them"
-            ),
-        };
         let options = p.options(ctx.threads())?;
         let split = split_param(ctx, || {
             bail!("structure from motion gives no train/test lists")
         })?;
-        let (images, ignored) = colmap_sfm::list_images(&images_dir)?;
+        let (images_dir, images, ignored) = match (ports.images, &p.path, &ports.reference) {
+            (Some(dir), None, _) => {
+                let (images, ignored) = colmap_sfm::list_images(&dir)?;
+                (dir, images, ignored)
+            }
+            (None, Some(path), _) => {
+                let dir = PathBuf::from(path);
+                let (images, ignored) = colmap_sfm::list_images(&dir)?;
+                (dir, images, ignored)
+            }
+            (Some(_), Some(path), _) => bail!(
+                "both the `images` input and `path` ({path}) give the photos; keep one of them"
+            ),
+            // Re-posing a posed capture: its own images, its poses the reference.
+            (None, None, Some(reference)) => {
+                let frames = Frames::read(reference)?;
+                let images: Vec<String> = frames
+                    .frames
+                    .iter()
+                    .map(|f| scene::portable(&f.image))
+                    .collect();
+                colmap_sfm::check_images(reference, &images)?;
+                (reference.clone(), images, Vec::new())
+            }
+            (None, None, None) => bail!(
+                "no photos: set `path` to their folder, wire the `images` input to a node that makes \
+                 them, or wire `reference` alone to pose its frames' own images"
+            ),
+        };
         let version = colmap_sfm::version(&options.program)?;
         let workdir = std::path::absolute(ctx.scratch().join("colmap"))
             .context("no absolute path for the scratch folder")?;

@@ -15,27 +15,14 @@ pub struct Similarity {
     pub translation: DVec3,
 }
 
-/// The smallest ratio of the second to the largest spread of the source points for
-/// which the rotation about their main axis is taken as determined; below it the
-/// points lie (nearly) on a line and the fit refuses.
+/// The smallest ratio of the source points' variance along their second main axis to
+/// that along their first for which the rotation about the first is taken as
+/// determined; below it the points lie (nearly) on a line and the fit refuses.
 const MIN_SPREAD_RATIO: f64 = 1e-3;
 
 impl Similarity {
-    pub const IDENTITY: Similarity = Similarity {
-        scale: 1.0,
-        rotation: DMat3::IDENTITY,
-        translation: DVec3::ZERO,
-    };
-
     pub fn apply(&self, p: DVec3) -> DVec3 {
         self.scale * (self.rotation * p) + self.translation
-    }
-
-    /// A camera's world→camera rotation and translation in the transformed world:
-    /// the same camera seeing the transformed points, its translation in the new units.
-    pub fn transform_pose(&self, rotation: DMat3, translation: DVec3) -> (DMat3, DVec3) {
-        let r = rotation * self.rotation.transpose();
-        (r, self.scale * translation - r * self.translation)
     }
 
     /// The 3×4 matrix `[scale·R | t]`, row-major (what `colmap model_transformer` reads).
@@ -182,24 +169,6 @@ mod tests {
         let target: Vec<DVec3> = source.iter().map(|p| DVec3::new(-p.x, p.y, p.z)).collect();
         let fit = Similarity::fit(&source, &target).unwrap();
         assert!((fit.rotation.determinant() - 1.0).abs() < 1e-12);
-    }
-
-    #[test]
-    fn transformed_poses_see_transformed_points_at_the_same_pixels() {
-        let s = Similarity {
-            scale: 0.25,
-            rotation: DMat3::from_quat(DQuat::from_rotation_z(0.8)),
-            translation: DVec3::new(1.0, 2.0, 3.0),
-        };
-        let (r, t) = (
-            DMat3::from_quat(DQuat::from_rotation_x(0.3)),
-            DVec3::new(0.1, -0.2, 4.0),
-        );
-        let (r2, t2) = s.transform_pose(r, t);
-        let p = DVec3::new(0.5, 0.7, -1.0);
-        let (before, after) = (r * p + t, r2 * s.apply(p) + t2);
-        // Same direction, depth scaled by the similarity's scale.
-        assert!((after - before * s.scale).length() < 1e-12);
     }
 
     #[test]

@@ -76,32 +76,58 @@ fn pose_errors(written: &Frames, truth: &Frames) -> (f64, f64) {
     (rotation, centre)
 }
 
+/// `colmap_sfm` on the room rendered from `views` cameras, aligned to them: its output
+/// folder, the run, and the written frames' worst rotation error (degrees) and centre
+/// error (fraction of the true centres' extent) against the true cameras.
+fn sfm_on_the_room(
+    dir: &Path,
+    views: usize,
+    width: u32,
+    height: u32,
+) -> (
+    std::path::PathBuf,
+    objectsplat_runtime::testing::NodeRun,
+    f64,
+    f64,
+) {
+    let truth_dir = render_room(&dir.join("room"), views, width, height);
+    let out = dir.join("sfm");
+    let started = std::time::Instant::now();
+    let run = run_node(
+        &ColmapSfm,
+        &[("reference", &truth_dir)],
+        &format!(
+            "(path: Some({}), split: \"all\")",
+            ron_path(&truth_dir.join("images"))
+        ),
+        &out,
+        None,
+    )
+    .unwrap();
+    let seconds = started.elapsed().as_secs_f64();
+    let registration = read_json(&out.join("model").join(REGISTRATION_JSON));
+    assert_eq!(registration["registered"].as_array().unwrap().len(), views);
+    assert!(registration["unregistered"].as_array().unwrap().is_empty());
+    assert!(run.warnings.is_empty(), "{:?}", run.warnings);
+    let truth = Frames::read(&truth_dir).unwrap();
+    let written = Frames::read(&out.join("frames")).unwrap();
+    assert_eq!(written.frames.len(), views);
+    let (rotation, centre) = pose_errors(&written, &truth);
+    println!(
+        "{views} views at {width}×{height}: all registered in {seconds:.1} s; rotations within \
+         {rotation:.3}°, centres within {:.3} % of their extent",
+        centre * 100.0
+    );
+    (out, run, rotation, centre)
+}
+
 #[test]
 fn synthetic_room_is_registered_and_aligned_to_its_true_cameras() {
     if !colmap_available("synthetic_room_is_registered_and_aligned_to_its_true_cameras") {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
-    let truth_dir = render_room(&dir.path().join("room"), 24, 320, 240);
-    let images = truth_dir.join("images");
-    let out = dir.path().join("sfm");
-    let run = run_node(
-        &ColmapSfm,
-        &[("reference", &truth_dir)],
-        &format!("(path: Some({}), split: \"all\")", ron_path(&images)),
-        &out,
-        None,
-    )
-    .unwrap();
-    let registration = read_json(&out.join("model").join(REGISTRATION_JSON));
-    assert_eq!(registration["registered"].as_array().unwrap().len(), 24);
-    assert!(registration["unregistered"].as_array().unwrap().is_empty());
-    assert!(run.warnings.is_empty(), "{:?}", run.warnings);
-
-    let truth = Frames::read(&truth_dir).unwrap();
-    let written = Frames::read(&out.join("frames")).unwrap();
-    assert_eq!(written.frames.len(), 24);
-    let (rotation, centre) = pose_errors(&written, &truth);
+    let (out, run, rotation, centre) = sfm_on_the_room(dir.path(), 24, 320, 240);
     // Measured 0.57° and 0.48 % (COLMAP 3.8, 2026-11-27); COLMAP is not bit-reproducible.
     assert!(rotation <= 1.0, "rotation error {rotation}°");
     assert!(centre <= 0.015, "centre error {} %", centre * 100.0);
@@ -113,6 +139,7 @@ fn synthetic_room_is_registered_and_aligned_to_its_true_cameras() {
     assert!(scale_note.starts_with("the reference's"), "{scale_note}");
 
     // colmap_scene reads the model folder it wrote into the very same frames and points.
+    let images = dir.path().join("room/frames/images");
     let again = dir.path().join("colmap_scene");
     run_node(
         &ColmapScene,
@@ -129,10 +156,25 @@ fn synthetic_room_is_registered_and_aligned_to_its_true_cameras() {
     let bytes = |p: &Path| std::fs::read(p).unwrap();
     assert!(bytes(&out.join("frames/frames.json")) == bytes(&again.join("frames/frames.json")));
     assert!(bytes(&out.join("points/points.ply")) == bytes(&again.join("points/points.ply")));
-    for f in &written.frames {
+    for f in &Frames::read(&out.join("frames")).unwrap().frames {
         let image = Path::new(&f.image);
         assert!(bytes(&out.join("frames").join(image)) == bytes(&again.join("frames").join(image)));
     }
+}
+
+/// The issue's must-hold at full size (48 views, 640×480): minutes of COLMAP on two
+/// cores, so run by hand for docs/benchmarks.md:
+/// `cargo test --release -p objectsplat-inputs --test colmap_sfm -- --ignored --nocapture`
+#[test]
+#[ignore = "minutes of COLMAP; the must-hold measurement behind docs/benchmarks.md"]
+fn synthetic_room_at_48_views_640x480_meets_the_must_hold() {
+    if !colmap_available("synthetic_room_at_48_views_640x480_meets_the_must_hold") {
+        return;
+    }
+    let dir = tempfile::tempdir().unwrap();
+    let (_, _, rotation, centre) = sfm_on_the_room(dir.path(), 48, 640, 480);
+    assert!(rotation <= 0.5, "rotation error {rotation}°");
+    assert!(centre <= 0.01, "centre error {} %", centre * 100.0);
 }
 
 /// Each image's camera centre and world→camera rotation, by name.
