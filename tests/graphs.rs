@@ -40,6 +40,7 @@ fn shipped_graphs_check() {
         "objectsplat_sam.ron",
         "ablation_no_randomization.ron",
         "photos.ron",
+        "sfm_poses_vs_true.ron",
     ] {
         assert!(
             checked.iter().any(|c| c == expected),
