@@ -9,6 +9,7 @@
 //! so an unreadable photo would otherwise just be missing from the model.
 
 use crate::colmap::{self, ColmapModel};
+use crate::installed::Tool;
 use anyhow::{Context as _, Result, bail};
 use objectsplat_command::process::{Program, tail};
 use std::collections::{BTreeMap, BTreeSet};
@@ -176,21 +177,17 @@ fn section_step(section: &str) -> Option<Step> {
 /// The installed COLMAP's version line, e.g. "COLMAP 3.8 (Commit Unknown on Unknown
 /// without CUDA)"; an error says how to install it when it is missing.
 pub fn version(program: &str) -> Result<String> {
-    let output = std::process::Command::new(program)
-        .arg("-h")
-        .stdin(std::process::Stdio::null())
-        .output();
-    let output = match output {
-        Ok(o) => o,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!(not_installed(program)),
-        Err(e) => bail!("cannot start {program:?}: {e}"),
+    let colmap = Tool {
+        name: "COLMAP",
+        package: "colmap",
+        note: " (its CPU feature extraction needs no GPU), elsewhere see COLMAP's installation guide",
     };
-    let text = String::from_utf8_lossy(&output.stdout);
+    let text = colmap.output(program, "-h")?;
     let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
     let Some(first) = lines.next().filter(|l| l.starts_with("COLMAP")) else {
         bail!(
             "{program:?} does not look like COLMAP: `{program} -h` printed {:?}",
-            tail(&output.stdout)
+            tail(text.as_bytes())
         );
     };
     let name = first.split(" -- ").next().unwrap_or(first);
@@ -198,18 +195,6 @@ pub fn version(program: &str) -> Result<String> {
         Some(build) => format!("{name} {build}"),
         None => name.to_string(),
     })
-}
-
-fn not_installed(program: &str) -> String {
-    if program.contains('/') {
-        format!("{program}: no such program; point `program` at the colmap binary")
-    } else {
-        format!(
-            "`{program}` is not installed (not found on PATH). Install COLMAP: on Debian or Ubuntu \
-             `apt-get install colmap` (CPU feature extraction works without a GPU); elsewhere see \
-             COLMAP's installation guide. Or set `program` to the colmap binary"
-        )
-    }
 }
 
 /// The images COLMAP will read in `dir`, as `/`-separated names relative to it, sorted;

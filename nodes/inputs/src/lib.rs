@@ -6,6 +6,7 @@ pub mod binio;
 pub mod colmap;
 pub mod colmap_scene;
 pub mod colmap_sfm;
+pub mod installed;
 pub mod label_png;
 pub mod masks_import;
 pub mod nerfstudio;

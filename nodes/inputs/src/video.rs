@@ -8,6 +8,7 @@
 //! video's frames from 0). Both passes keep every decoded frame (no frame-rate
 //! conversion), so an index means the same frame in both.
 
+use crate::installed::Tool;
 use anyhow::{Context as _, Result, bail};
 use objectsplat_command::process::Program;
 use std::ffi::OsString;
@@ -43,19 +44,12 @@ const COUNT_SIDE: usize = 8;
 /// The installed ffmpeg's version line, e.g. "ffmpeg version 5.1.9-0+deb12u1"; an error
 /// says how to install it when it is missing.
 pub fn version(program: &str) -> Result<String> {
-    let output = std::process::Command::new(program)
-        .arg("-version")
-        .stdin(std::process::Stdio::null())
-        .output();
-    let output = match output {
-        Ok(o) => o,
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => bail!(
-            "`{program}` is not installed (not found on PATH). Install ffmpeg: on Debian or Ubuntu \
-             `apt-get install ffmpeg`. Or set `program` to the ffmpeg binary"
-        ),
-        Err(e) => bail!("cannot start {program:?}: {e}"),
+    let ffmpeg = Tool {
+        name: "ffmpeg",
+        package: "ffmpeg",
+        note: "",
     };
-    let text = String::from_utf8_lossy(&output.stdout);
+    let text = ffmpeg.output(program, "-version")?;
     match text
         .lines()
         .next()

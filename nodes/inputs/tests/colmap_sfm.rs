@@ -13,7 +13,7 @@
 //! that needs it fails when it is missing; elsewhere it prints SKIPPED and passes.
 
 mod common;
-use common::{assert_mentions, fixture, node_error, read_json};
+use common::{assert_mentions, fixture, installed, node_error, read_json};
 use glam::{DMat3, DVec3};
 use objectsplat_core::frames::frame_stem;
 use objectsplat_core::{Camera, Frames};
@@ -28,16 +28,7 @@ use std::path::Path;
 
 /// True when colmap can be run; under CI its absence fails the test.
 fn colmap_available(test: &str) -> bool {
-    match objectsplat_inputs::colmap_sfm::version("colmap") {
-        Ok(_) => true,
-        Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => {
-            panic!("{test}: CI=true needs COLMAP (.ci/run installs it): {e}")
-        }
-        Err(e) => {
-            println!("SKIPPED {test}: {e}");
-            false
-        }
-    }
+    installed(test, objectsplat_inputs::colmap_sfm::version("colmap"))
 }
 
 /// A path as a RON string literal.

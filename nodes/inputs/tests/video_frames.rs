@@ -9,7 +9,7 @@
 //! that need it; elsewhere they print SKIPPED and pass.
 
 mod common;
-use common::{assert_mentions, node_error};
+use common::{assert_mentions, installed, node_error};
 use image::RgbImage;
 use objectsplat_inputs::sfm_nodes::VideoFrames;
 use objectsplat_runtime::testing::run_node;
@@ -21,16 +21,7 @@ const W: u32 = 64;
 const H: u32 = 48;
 
 fn ffmpeg_available(test: &str) -> bool {
-    match objectsplat_inputs::video::version("ffmpeg") {
-        Ok(_) => true,
-        Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => {
-            panic!("{test}: CI=true needs ffmpeg (.ci/run installs it): {e}")
-        }
-        Err(e) => {
-            println!("SKIPPED {test}: {e}");
-            false
-        }
-    }
+    installed(test, objectsplat_inputs::video::version("ffmpeg"))
 }
 
 fn is_sharp(k: usize) -> bool {

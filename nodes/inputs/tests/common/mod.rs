@@ -97,3 +97,19 @@ pub fn run_source(node: &dyn Node, params: &str) -> (tempfile::TempDir, NodeRun)
 pub fn has_note(notes: &[(String, String)], key: &str, prefix: &str) -> bool {
     notes.iter().any(|(k, v)| k == key && v.starts_with(prefix))
 }
+
+/// Whether an external program a test needs is there (`version`: what asking it gave).
+/// Under CI (`CI=true`, where .ci/run installs COLMAP and ffmpeg) a missing one fails the
+/// test; elsewhere the test prints SKIPPED and passes.
+pub fn installed(test: &str, version: anyhow::Result<String>) -> bool {
+    match version {
+        Ok(_) => true,
+        Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => {
+            panic!("{test}: CI=true needs it (.ci/run installs it): {e}")
+        }
+        Err(e) => {
+            println!("SKIPPED {test}: {e}");
+            false
+        }
+    }
+}
