@@ -357,8 +357,14 @@ pub fn reconstruct(
     let log = run("feature_extractor", args)?;
     let unread = unread_images(&workdir.join("feature_extractor.log"))?;
     if !unread.is_empty() {
+        let hint = if options.single_camera {
+            " (with `single_camera: true` every photo must have the same size; set it to false \
+             for photos from several cameras)"
+        } else {
+            ""
+        };
         bail!(
-            "COLMAP could not read {} image(s): {}; its log:\n{log}",
+            "COLMAP's feature extraction skipped {} image(s): {}{hint}; its log:\n{log}",
             unread.len(),
             unread.join("; ")
         );
@@ -450,8 +456,9 @@ fn extra_args(extra: &BTreeMap<String, String>, step: Step) -> Vec<OsString> {
         .collect()
 }
 
-/// The images COLMAP's feature extractor reported it could not read, with its words:
-/// it logs `Name: <file>` for each image and an `ERROR:` line below a failed one.
+/// The images COLMAP's feature extractor skipped, with its reasons (unreadable, another
+/// size than the single camera's): it logs `Name: <file>` for each image and an
+/// `ERROR:` line below a skipped one.
 fn unread_images(log: &Path) -> Result<Vec<String>> {
     let text = std::fs::read_to_string(log)
         .with_context(|| format!("{}: cannot read COLMAP's log", log.display()))?;

@@ -124,7 +124,7 @@ impl Node for ColmapSfm {
     fn spec(&self) -> NodeSpec {
         with_scene_params(
             NodeSpec::new("colmap_sfm", "1")
-                .doc("Structure from motion by COLMAP (feature extraction, exhaustive or sequential matching, incremental mapping) on a folder of photos: the registered photos as posed frames and the model's points, written exactly as colmap_scene reads a model, plus the COLMAP model itself. The largest model is kept; unregistered photos and the other models are reported. Without `reference` the scale and orientation are COLMAP's own (arbitrary); with it, a similarity fitted to the reference cameras' centres gives the model their frame. Needs `colmap` installed (Debian: apt-get install colmap); its version is part of the cache key.")
+                .doc("Structure from motion by COLMAP (feature extraction, exhaustive or sequential matching, incremental mapping) on a folder of photos: the registered photos as posed frames and the model's points, written exactly as colmap_scene reads a model, plus the COLMAP model itself. The largest model is kept; unregistered photos and the other models are reported. Without `reference` the scale and orientation are COLMAP's own (arbitrary); with it, a similarity fitted to the reference cameras' centres gives the model their frame. Needs `colmap` installed (Debian: apt-get install colmap); its version is part of the cache key. COLMAP 3.8 is not bit-for-bit reproducible (a few SIFT descriptors differ between runs), so a rerun under another key may move poses slightly.")
                 .ports::<ColmapSfmPorts>()
                 .params::<ColmapSfmParams>(),
             None,
