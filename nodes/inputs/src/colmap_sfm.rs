@@ -414,8 +414,7 @@ pub fn reconstruct(
             images.len()
         );
     };
-    // A mapper that fails after writing a model still made that model; a failure with
-    // models written is COLMAP's, reported as one.
+    // Models written by a mapper that then failed are not trusted: its error stands.
     mapped?;
     let mut models = models;
     let (model_dir, model) = models.remove(largest);
