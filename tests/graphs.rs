@@ -39,6 +39,8 @@ fn shipped_graphs_check() {
         "objectsplat.ron",
         "objectsplat_sam.ron",
         "ablation_no_randomization.ron",
+        "photos.ron",
+        "sfm_poses_vs_true.ron",
     ] {
         assert!(
             checked.iter().any(|c| c == expected),

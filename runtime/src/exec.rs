@@ -195,6 +195,10 @@ pub(crate) const MAX_FAILURE_TEXT: usize = 16 << 10;
 /// ([`crate::Node::reads`]) in a key's params text.
 const READS_SEPARATOR: &str = " + ";
 
+/// Separates the rest of a key's params text from the versions of the programs a
+/// node starts ([`crate::Node::tool_versions`], a JSON list), which come last.
+const TOOLS_SEPARATOR: &str = " + tools: ";
+
 pub(crate) fn params_key(plan: &Plan, i: usize) -> Result<String> {
     let n = &plan.nodes[i];
     let mut params = n.params.clone();
@@ -208,12 +212,17 @@ pub(crate) fn params_key(plan: &Plan, i: usize) -> Result<String> {
         .node
         .reads(&n.params)
         .with_context(|| format!("node `{}`: listing the files it reads", n.id))?;
-    if reads.is_empty() {
-        return Ok(params.canonical());
+    let mut key = params.canonical();
+    if !reads.is_empty() {
+        let fp = Store::fingerprint_reads(&reads)
+            .with_context(|| format!("node `{}`: fingerprinting the files it reads", n.id))?;
+        key = format!("{key}{READS_SEPARATOR}{fp}");
     }
-    let fp = Store::fingerprint_reads(&reads)
-        .with_context(|| format!("node `{}`: fingerprinting the files it reads", n.id))?;
-    Ok(format!("{}{READS_SEPARATOR}{fp}", params.canonical()))
+    let tools = n.reg.node.tool_versions(&n.params);
+    if !tools.is_empty() {
+        key = format!("{key}{TOOLS_SEPARATOR}{}", serde_json::Value::from(tools));
+    }
+    Ok(key)
 }
 
 pub(crate) fn compute_key(
@@ -987,8 +996,9 @@ pub(crate) fn compute_action(
     if key != spec.key {
         anyhow::bail!(
             "this is not the action the coordinator planned (key {} here, {} there): the graph file, \
-             a param, a file the node reads or the objectsplat build differs between the coordinator \
-             and this node; the cache, the graph and its inputs must be the same files on both",
+             a param, a file the node reads, a program it starts or the objectsplat build differs \
+             between the coordinator and this node; the cache, the graph and its inputs must be the \
+             same files on both, and the programs the same versions",
             short(&key),
             short(&spec.key)
         );
@@ -1240,13 +1250,14 @@ fn diff_reason(
             prev.version, spec.version
         ));
     }
-    let split = |p: &'_ str| -> (String, String) {
-        match p.split_once(READS_SEPARATOR) {
-            Some((a, b)) => (a.to_string(), b.to_string()),
-            None => (p.to_string(), String::new()),
-        }
+    // params [+ reads] [+ tools: versions], split from the end.
+    let split = |p: &'_ str| -> (String, String, String) {
+        let (rest, tools) = p.split_once(TOOLS_SEPARATOR).unwrap_or((p, ""));
+        let (params, reads) = rest.split_once(READS_SEPARATOR).unwrap_or((rest, ""));
+        (params.to_string(), reads.to_string(), tools.to_string())
     };
-    let ((prev_params, prev_reads), (now_params, now_reads)) = (split(&prev.params), split(params));
+    let (prev_params, prev_reads, prev_tools) = split(&prev.params);
+    let (now_params, now_reads, now_tools) = split(params);
     if prev_params != now_params {
         why.push(format!(
             "params changed: {}",
@@ -1255,6 +1266,20 @@ fn diff_reason(
     }
     if prev_reads != now_reads {
         why.push("a file it reads changed (an image, a script, a folder beside its inputs)".into());
+    }
+    if prev_tools != now_tools {
+        let shown = |t: &str| {
+            if t.is_empty() {
+                "none".to_string()
+            } else {
+                t.to_string()
+            }
+        };
+        why.push(format!(
+            "a program it starts changed ({} → {})",
+            shown(&prev_tools),
+            shown(&now_tools)
+        ));
     }
     for (port, d) in inputs {
         match prev.inputs.get(port) {

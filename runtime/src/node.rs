@@ -246,6 +246,16 @@ pub trait Node: Send + Sync {
         Ok(Vec::new())
     }
 
+    /// The versions of the external programs a run will start (`COLMAP 3.8 (Commit
+    /// Unknown on Unknown without CUDA)`), one line each. They enter the run's cache
+    /// key, so installing another version reruns the node (and `explain` says so)
+    /// while the node's own code version stays. Called before the cache is consulted,
+    /// on every plan: keep it cheap, and describe a missing program ("colmap: not
+    /// found") rather than fail, leaving `run` to report it.
+    fn tool_versions(&self, _params: &Params) -> Vec<String> {
+        Vec::new()
+    }
+
     /// Checks params beyond their declared types (unknown fields inside a `ron`
     /// value, values that contradict each other), before anything runs: every plan
     /// (`check`, `run`, `explain`) calls it. Point nested problems at their field

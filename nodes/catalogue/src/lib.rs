@@ -34,6 +34,8 @@ mod tests {
             "colmap_scene",
             "nerfstudio_scene",
             "scannetpp_scene",
+            "colmap_sfm",
+            "video_frames",
             "gt_masks",
             "import_masks",
             "partition",

@@ -1,10 +1,12 @@
 //! Running an external program: an argv list started directly (never through a shell),
 //! in a working folder, with stdin closed and stdout discarded. Its stderr is drained on
 //! a thread (a chatty program cannot block on a full pipe) and the last few KB are
-//! returned, or quoted in the error when the program fails. Past the timeout, or when
-//! the run is interrupted, the program is killed with every process it started (it runs
-//! in its own process group on Unix); processes it leaves behind when it exits are
-//! killed too.
+//! returned, or quoted in the error when the program fails. A program that reports on
+//! stdout too (COLMAP prints its progress and some errors there) can instead write both
+//! streams into a log file ([`Program::run_logged`]), whose tail is quoted the same way.
+//! Past the timeout, or when the run is interrupted, the program is killed with every
+//! process it started (it runs in its own process group on Unix); processes it leaves
+//! behind when it exits are killed too.
 
 use anyhow::{Context, Result, bail};
 use std::ffi::OsString;
@@ -37,6 +39,17 @@ impl Program<'_> {
     /// it wrote none). A non-zero exit, a timeout or an interruption is an error that
     /// names the program and quotes that tail.
     pub fn run(&self) -> Result<String> {
+        self.run_with(None)
+    }
+
+    /// Runs the program with its stdout and stderr both written to `log` (created or
+    /// truncated), in the order the program wrote them; returns the log's tail, which a
+    /// failure quotes instead of stderr's.
+    pub fn run_logged(&self, log: &Path) -> Result<String> {
+        self.run_with(Some(log))
+    }
+
+    fn run_with(&self, log: Option<&Path>) -> Result<String> {
         let Some((program, args)) = self.argv.split_first() else {
             bail!("the {} is empty", self.what);
         };
@@ -45,9 +58,20 @@ impl Program<'_> {
         command
             .args(args)
             .current_dir(self.workdir)
-            .stdin(Stdio::null())
-            .stdout(Stdio::null())
-            .stderr(Stdio::piped());
+            .stdin(Stdio::null());
+        match log {
+            Some(path) => {
+                let file = std::fs::File::create(path)
+                    .with_context(|| format!("{}: cannot create the log", path.display()))?;
+                let clone = file
+                    .try_clone()
+                    .with_context(|| format!("{}: cannot share the log", path.display()))?;
+                command.stdout(clone).stderr(file);
+            }
+            None => {
+                command.stdout(Stdio::null()).stderr(Stdio::piped());
+            }
+        }
         // Its own process group, so a kill reaches the processes it starts too (a shell's
         // children, a Python script's workers).
         #[cfg(unix)]
@@ -55,26 +79,31 @@ impl Program<'_> {
         let mut child = command
             .spawn()
             .with_context(|| format!("cannot start {} {name:?}", self.what))?;
-        let mut stderr_pipe = child
-            .stderr
-            .take()
-            .context("child stderr was not captured")?;
-        let (sender, receiver) = std::sync::mpsc::channel();
-        std::thread::spawn(move || {
-            let mut buf = Vec::new();
-            let _ = stderr_pipe.read_to_end(&mut buf);
-            let _ = sender.send(buf);
+        let receiver = child.stderr.take().map(|mut stderr_pipe| {
+            let (sender, receiver) = std::sync::mpsc::channel();
+            std::thread::spawn(move || {
+                let mut buf = Vec::new();
+                let _ = stderr_pipe.read_to_end(&mut buf);
+                let _ = sender.send(buf);
+            });
+            receiver
         });
         // The pipe closes when the program and every process it started have exited;
-        // grandchildren that outlive a killed program must not hang the node.
-        let collect_stderr = || {
-            receiver
+        // grandchildren that outlive a killed program must not hang the node. A log file
+        // is read as it stands once the program is gone.
+        let collect_stderr = || match (&receiver, log) {
+            (Some(receiver), _) => receiver
                 .recv_timeout(Duration::from_secs(2))
                 .map(|b| tail(&b))
                 .unwrap_or_else(|_| {
                     "(not available: processes started by the command still hold it)".into()
-                })
+                }),
+            (None, Some(path)) => std::fs::read(path)
+                .map(|b| tail(&b))
+                .unwrap_or_else(|e| format!("(the log {} cannot be read: {e})", path.display())),
+            (None, None) => "(not captured)".into(),
         };
+        let stream = if log.is_some() { "its log" } else { "stderr" };
         let started = Instant::now();
         let status = loop {
             let left = self.timeout.saturating_sub(started.elapsed());
@@ -90,13 +119,13 @@ impl Program<'_> {
                 let stderr = collect_stderr();
                 if timed_out {
                     bail!(
-                        "{} {name:?} did not finish within {:.1} s and was killed; stderr:\n{stderr}",
+                        "{} {name:?} did not finish within {:.1} s and was killed; {stream}:\n{stderr}",
                         self.what,
                         self.timeout.as_secs_f64()
                     );
                 }
                 bail!(
-                    "{} {name:?} was killed: the run was interrupted; stderr:\n{stderr}",
+                    "{} {name:?} was killed: the run was interrupted; {stream}:\n{stderr}",
                     self.what
                 );
             }
@@ -106,7 +135,7 @@ impl Program<'_> {
         let stderr = collect_stderr();
         if !status.success() {
             bail!(
-                "{} {name:?} failed ({status}); stderr:\n{stderr}",
+                "{} {name:?} failed ({status}); {stream}:\n{stderr}",
                 self.what
             );
         }

@@ -158,7 +158,7 @@ mod tests {
                 s ^= s << 13;
                 s ^= s >> 7;
                 s ^= s << 17;
-                if s % 9 == 0 {
+                if s.is_multiple_of(9) {
                     label = [0, 128, 255][(s >> 8) as usize % 3];
                 }
                 label

@@ -1,9 +1,12 @@
 //! Scene sources and mask import: COLMAP, nerfstudio and ScanNet++ captures become
-//! Frames/Points/Mesh artifacts; SAM-family masks become Masks artifacts.
+//! Frames/Points/Mesh artifacts; SAM-family masks become Masks artifacts. Photos and
+//! videos without poses are posed by COLMAP's structure from motion.
 
 pub mod binio;
 pub mod colmap;
 pub mod colmap_scene;
+pub mod colmap_sfm;
+pub mod installed;
 pub mod label_png;
 pub mod masks_import;
 pub mod nerfstudio;
@@ -12,6 +15,9 @@ pub mod npy;
 pub mod rle;
 pub mod scannetpp;
 pub mod scene;
+pub mod sfm_nodes;
+pub mod similarity;
 pub mod undistort;
+pub mod video;
 
 pub use nodes::register;

@@ -1,4 +1,5 @@
-//! Dataflow nodes: `colmap_scene`, `nerfstudio_scene`, `scannetpp_scene`, `import_masks`.
+//! Dataflow nodes: `colmap_scene`, `nerfstudio_scene`, `scannetpp_scene`, `import_masks`
+//! (and, from [`crate::sfm_nodes`], `colmap_sfm` and `video_frames`).
 //!
 //! Shared scene-source params: `split` ("sparse" | "dense" | "all", plus "lists" for
 //! sources that carry their own train/test lists), `resolution` (integer downscale
@@ -18,7 +19,7 @@ use std::sync::Arc;
 
 /// The shared scene-source params; `lists` says where `split: "lists"` takes its lists
 /// from (`None`: the source has none, so the option is not offered).
-fn with_scene_params(spec: NodeSpec, lists: Option<&str>) -> NodeSpec {
+pub(crate) fn with_scene_params(spec: NodeSpec, lists: Option<&str>) -> NodeSpec {
     let mut splits = vec!["sparse", "dense", "all"];
     let mut doc = String::from(
         "sparse: train 1 of 8 frames (sorted by name); dense: train 7 of 8; all: train on every frame",
@@ -52,7 +53,10 @@ objectsplat_runtime::node_params! {
 
 /// The split choice; `lists` names where `split: "lists"` reads its lists, or says why
 /// there are none.
-fn split_param(ctx: &Context, lists: impl FnOnce() -> Result<String>) -> Result<SplitChoice> {
+pub(crate) fn split_param(
+    ctx: &Context,
+    lists: impl FnOnce() -> Result<String>,
+) -> Result<SplitChoice> {
     Ok(match ctx.param::<String>("split")?.as_str() {
         "sparse" => SplitChoice::Rule(SplitPolicy::Sparse),
         "dense" => SplitChoice::Rule(SplitPolicy::Dense),
@@ -68,7 +72,7 @@ fn resolution_param(ctx: &Context) -> Result<Resolution> {
 }
 
 /// Writes the `frames` output into `out`, scaled by the shared resolution params.
-fn write_frames_output(
+pub(crate) fn write_frames_output(
     ctx: &Context,
     out: &Path,
     views: Vec<scene::SourceView>,
@@ -78,7 +82,7 @@ fn write_frames_output(
 }
 
 /// Report lines for the frames a source wrote: how many, how they split, what was undistorted.
-fn note_frames(ctx: &mut Context, written: &WrittenFrames) {
+pub(crate) fn note_frames(ctx: &mut Context, written: &WrittenFrames) {
     let test = written
         .frames
         .iter()
@@ -501,6 +505,8 @@ pub fn register(reg: &mut Registry) {
         Arc::new(NerfstudioScene),
         Arc::new(ScannetppScene),
         Arc::new(ImportMasks),
+        Arc::new(crate::sfm_nodes::ColmapSfm),
+        Arc::new(crate::sfm_nodes::VideoFrames),
     ] {
         reg.add_node(node).expect("input node kinds are unique");
     }

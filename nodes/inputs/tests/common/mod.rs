@@ -40,7 +40,7 @@ pub fn float_rows(v: &Value) -> Vec<Vec<f64>> {
 /// A registry with the artifact types the input nodes use and the input nodes.
 pub fn registry() -> Registry {
     let mut reg = Registry::new();
-    for t in ["Frames", "Points", "Mesh", "Masks", "File"] {
+    for t in ["Frames", "Points", "Mesh", "Masks", "File", "Images"] {
         reg.add_type(t, "test");
     }
     objectsplat_inputs::register(&mut reg);
@@ -96,4 +96,20 @@ pub fn run_source(node: &dyn Node, params: &str) -> (tempfile::TempDir, NodeRun)
 /// Whether `notes` hold `key` with a value starting with `prefix`.
 pub fn has_note(notes: &[(String, String)], key: &str, prefix: &str) -> bool {
     notes.iter().any(|(k, v)| k == key && v.starts_with(prefix))
+}
+
+/// Whether an external program a test needs is there (`version`: what asking it gave).
+/// Under CI (`CI=true`, where .ci/run installs COLMAP and ffmpeg) a missing one fails the
+/// test; elsewhere the test prints SKIPPED and passes.
+pub fn installed(test: &str, version: anyhow::Result<String>) -> bool {
+    match version {
+        Ok(_) => true,
+        Err(e) if std::env::var("CI").is_ok_and(|v| v == "true") => {
+            panic!("{test}: CI=true needs it (.ci/run installs it): {e}")
+        }
+        Err(e) => {
+            println!("SKIPPED {test}: {e}");
+            false
+        }
+    }
 }
