@@ -122,6 +122,7 @@ struct NodeState {
     pending: usize,
     items: Vec<(String, Option<ActionRecord>, ItemReport)>,
     notes: BTreeMap<String, String>,
+    measurements: BTreeMap<String, serde_json::Value>,
     warnings: Vec<String>,
     keys: BTreeMap<String, String>,
     record: Option<ActionRecord>,
@@ -550,6 +551,7 @@ fn run_pass(
                 job_id: st.ran_on.as_ref().and_then(|r| r.job_id.clone()),
                 host: st.ran_on.map(|r| r.host),
                 notes: st.notes,
+                measurements: st.measurements,
                 warnings: st.warnings,
                 outputs: st.outputs.unwrap_or_default(),
             }
@@ -592,6 +594,7 @@ fn record_item(
         st.first_job = Some(st.first_job.map_or(t, |f| f.min(t)));
     }
     let mut notes = BTreeMap::new();
+    let mut measurements = BTreeMap::new();
     let (rec, status, reason) = match result {
         Ok(rec) => {
             let status = if rec.status == "skipped" && status == Status::Ran {
@@ -606,6 +609,7 @@ fn record_item(
                 (_, r) => r.clone(),
             };
             notes.extend(rec.notes.iter().cloned());
+            measurements.clone_from(&rec.measurements);
             (Some(rec), status, reason)
         }
         Err(msg) => (None, Status::Failed, Some(msg)),
@@ -622,6 +626,7 @@ fn record_item(
                     queued_seconds: timing.queued,
                     reason,
                     notes,
+                    measurements,
                     executor: ran_on.as_ref().map(|r| r.executor.clone()),
                     job_id: ran_on.as_ref().and_then(|r| r.job_id.clone()),
                     host: ran_on.map(|r| r.host),
@@ -633,6 +638,7 @@ fn record_item(
             st.reason = reason;
             st.record = rec;
             st.notes = notes;
+            st.measurements = measurements;
             st.seconds = timing.seconds;
             st.queued = timing.queued;
             st.ran_on = ran_on;
@@ -860,6 +866,7 @@ pub(crate) fn execute_inner(
             forwarded: BTreeMap::new(),
             params: &node.params,
             notes: vec![],
+            measurements: BTreeMap::new(),
             warnings: vec![],
             threads,
             scratch,
@@ -941,6 +948,7 @@ pub(crate) fn execute_inner(
             reason,
             seconds: t0.elapsed().as_secs_f64(),
             notes: ctx.notes,
+            measurements: ctx.measurements,
             ran_on: Some(ran_on.clone()),
         };
         store.put_action(&rec)?;

@@ -303,6 +303,7 @@ pub struct Context<'a> {
     pub(crate) forwarded: BTreeMap<String, String>,
     pub(crate) params: &'a Params,
     pub(crate) notes: Vec<(String, String)>,
+    pub(crate) measurements: BTreeMap<String, serde_json::Value>,
     pub(crate) warnings: Vec<String>,
     pub(crate) threads: usize,
     pub(crate) scratch: PathBuf,
@@ -408,6 +409,19 @@ impl<'a> Context<'a> {
     /// A fact for the run report (e.g. `backend` = `cpu (no GPU adapter)`).
     pub fn note(&mut self, key: &str, value: impl fmt::Display) {
         self.notes.push((key.to_string(), value.to_string()));
+    }
+
+    /// What this run measured about itself and must not write into an output (a timing
+    /// curve, a peak memory): outputs may depend only on inputs, or a recomputed item
+    /// would change its digest and rerun everything below it. A measurement is kept with
+    /// the action record, so a cache hit reports the producing run's, and appears in the
+    /// run report (`--json`, `OUT/run.json`) under the node's or item's `measurements`;
+    /// it never enters a key or a digest. A second value under one name replaces the first.
+    pub fn measurement(&mut self, name: &str, value: impl serde::Serialize) -> Result<()> {
+        let value = serde_json::to_value(value)
+            .map_err(|e| anyhow!("measurement `{name}` is not representable as JSON: {e}"))?;
+        self.measurements.insert(name.to_string(), value);
+        Ok(())
     }
 
     pub fn warn(&mut self, message: impl fmt::Display) {
