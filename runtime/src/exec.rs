@@ -23,6 +23,9 @@ use std::time::Instant;
 
 /// Lifecycle events for displays (progress bars, logs).
 pub trait Observer: ProgressSink {
+    /// A job of node `node` missed the cache and was handed to an executor; it is later
+    /// started and finished. Jobs answered from the cache by the scheduler are not queued.
+    fn job_queued(&self, _job: &str, _node: &str) {}
     fn job_started(&self, _job: &str) {}
     /// Where a job stands when that is not progress of its own (a Slurm job queued,
     /// running on a node).
@@ -439,6 +442,7 @@ fn run_pass(
                                 }
                                 st.pending += 1;
                                 in_flight += 1;
+                                opts.observer.job_queued(&label, &node.id);
                                 let job = Job {
                                     node: i,
                                     item: item.clone(),

@@ -283,9 +283,10 @@ pub enum InputValue {
     },
 }
 
-/// Receives progress from running nodes (the CLI draws bars from it).
+/// Receives progress from running nodes (the CLI draws bars from it): `done` of `total`
+/// units of the kind of work `what` names (see [`Context::progress`]).
 pub trait ProgressSink: Send + Sync {
-    fn progress(&self, job: &str, done: u64, total: u64, message: &str);
+    fn progress(&self, job: &str, done: u64, total: u64, what: &str);
 }
 
 pub struct NoProgress;
@@ -428,8 +429,12 @@ impl<'a> Context<'a> {
         self.warnings.push(message.to_string());
     }
 
-    pub fn progress(&self, done: u64, total: u64, message: &str) {
-        self.progress.progress(&self.job, done, total, message);
+    /// `done` of `total` units of one kind of work, `what` naming the kind (`training`,
+    /// `rendering`): the terminal's whole-run line sums each kind's units over the run's
+    /// jobs to estimate what is left, so `what` stays the same for the units of one kind
+    /// (no frame or item names in it).
+    pub fn progress(&self, done: u64, total: u64, what: &str) {
+        self.progress.progress(&self.job, done, total, what);
     }
 
     /// True once the run was interrupted; long loops should return early with an error.
