@@ -1,5 +1,6 @@
 //! Terminal output: progress bars while running, the graph as text or dot, the catalogue.
 
+use crate::run_progress::RunProgress;
 use indicatif::{MultiProgress, ProgressBar, ProgressDrawTarget, ProgressStyle};
 use objectsplat_runtime::exec::Observer;
 use objectsplat_runtime::plan::Plan;
@@ -9,37 +10,72 @@ use objectsplat_runtime::{ProgressSink, Registry};
 use std::collections::HashMap;
 use std::io::IsTerminal;
 use std::sync::Mutex;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
-/// Progress bars on a terminal; one line per finished job otherwise.
+/// Progress bars on a terminal, one per running job, and below them a line for the whole
+/// run; one line per finished job otherwise.
 pub struct Display {
     multi: MultiProgress,
     bars: Mutex<HashMap<String, ProgressBar>>,
     tty: bool,
+    whole_run: Option<WholeRun>,
+}
+
+/// The line under the jobs' bars ([`RunProgress`]).
+struct WholeRun {
+    bar: ProgressBar,
+    progress: Mutex<RunProgress>,
 }
 
 impl Display {
-    pub fn new() -> Display {
+    /// `whole_run`: also draw the whole-run line (on a terminal only).
+    pub fn new(whole_run: bool) -> Display {
         let tty = std::io::stderr().is_terminal();
         let multi = MultiProgress::with_draw_target(if tty {
             ProgressDrawTarget::stderr()
         } else {
             ProgressDrawTarget::hidden()
         });
+        let whole_run = (tty && whole_run).then(|| {
+            let bar = multi.add(ProgressBar::new_spinner());
+            bar.set_style(
+                ProgressStyle::with_template("{prefix:>24} {spinner} {msg}")
+                    .unwrap_or_else(|_| ProgressStyle::default_spinner()),
+            );
+            bar.set_prefix("whole run");
+            bar.enable_steady_tick(Duration::from_millis(120));
+            WholeRun {
+                bar,
+                progress: Mutex::new(RunProgress::new(Instant::now())),
+            }
+        });
         Display {
             multi,
             bars: Mutex::new(HashMap::new()),
             tty,
+            whole_run,
         }
     }
 
     pub fn finish(&self) {
         let _ = self.multi.clear();
     }
+
+    /// Applies `event` to the whole run's progress and redraws its line.
+    fn whole_run(&self, event: impl FnOnce(&mut RunProgress, Instant)) {
+        if let Some(w) = &self.whole_run
+            && let Ok(mut progress) = w.progress.lock()
+        {
+            let now = Instant::now();
+            event(&mut progress, now);
+            w.bar.set_message(progress.line(now));
+        }
+    }
 }
 
 impl ProgressSink for Display {
-    fn progress(&self, job: &str, done: u64, total: u64, message: &str) {
+    fn progress(&self, job: &str, done: u64, total: u64, what: &str) {
+        self.whole_run(|p, now| p.progress(job, done, total, what, now));
         if let Ok(bars) = self.bars.lock()
             && let Some(bar) = bars.get(job)
         {
@@ -54,14 +90,22 @@ impl ProgressSink for Display {
                 );
             }
             bar.set_position(done);
-            bar.set_message(message.to_string());
+            bar.set_message(what.to_string());
         }
     }
 }
 
 impl Observer for Display {
+    fn job_queued(&self, job: &str, node: &str) {
+        self.whole_run(|p, _| p.queued(job, node));
+    }
+
     fn job_started(&self, job: &str) {
-        let bar = self.multi.add(ProgressBar::new_spinner());
+        // Above the whole-run line, which stays last.
+        let bar = match &self.whole_run {
+            Some(w) => self.multi.insert_before(&w.bar, ProgressBar::new_spinner()),
+            None => self.multi.add(ProgressBar::new_spinner()),
+        };
         bar.set_style(
             ProgressStyle::with_template("{prefix:>24} {spinner} {msg} {elapsed}")
                 .unwrap_or_else(|_| ProgressStyle::default_spinner()),
@@ -83,6 +127,7 @@ impl Observer for Display {
     }
 
     fn job_finished(&self, job: &str, status: Status, seconds: f64) {
+        self.whole_run(|p, _| p.finished(job));
         if let Ok(mut bars) = self.bars.lock()
             && let Some(bar) = bars.remove(job)
         {

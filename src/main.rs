@@ -7,6 +7,7 @@
 
 mod cluster;
 mod display;
+mod run_progress;
 
 use anyhow::{Context as _, Result, anyhow};
 use clap::{Parser, Subcommand};
@@ -210,7 +211,11 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
             let jobs = jobs
                 .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
                 .max(1);
-            let observer = Arc::new(display::Display::new());
+            // The whole-run line is for people at a terminal, not for CI logs or for runs
+            // whose report a program reads.
+            let in_ci =
+                std::env::var("CI").is_ok_and(|v| !["", "0", "false"].contains(&v.as_str()));
+            let observer = Arc::new(display::Display::new(!in_ci && json.is_none()));
             let report = exec::run_on(
                 &plan,
                 &store,

@@ -1,48 +1,53 @@
 //! `--executor slurm` computes what `--executor local` computes: the demo graph at a
 //! short training budget (every `train` node at 60 iterations: a few minutes on 2
-//! cores) run both ways into two caches gives the same outputs.
+//! cores) run both ways into two caches gives byte-identical outputs, every node's,
+//! nothing excluded: the trained models (with their training logs) and the report page
+//! that plots them included. No output holds a clock reading, a host or a path; the
+//! times of a run are its record, not its outputs.
 //!
-//! Not every byte can agree, and not because of the executor: a training log records
-//! wall-clock time (`training.json`'s `wall_seconds`), so two *local* runs differ there
-//! too. The nodes that carry such logs are found by kind, not by name: every `train`
-//! node (the demo trains the objects first, then the background behind them, whose
-//! models pass the objects' through) and the `report` page that plots the logs and
-//! carries the run summary. Every other node's output digests must agree; the trained
-//! models are compared byte for byte and their logs with `wall_seconds` taken out; the
-//! report page is left out, and so are the run summaries beside the outputs (`run.json`,
-//! `run.js`). Each `train` node's fan-out runs as one Slurm job array.
+//! That record is the one thing that differs: the run summary the CLI writes beside the
+//! outputs (`run.json`, `run.js`: each item's executor, host, Slurm job and seconds, and
+//! the training times each `train` item measured) is no node's output, so it is not
+//! compared; the test checks that it and OUT's lock file are all there is outside the
+//! nodes' folders.
+//! Each `train` node's fan-out runs as one Slurm job array.
 //!
 //! Needs the local cluster (`scripts/slurm-local-cluster.sh up`); CI starts it.
 
 mod support;
 
 use objectsplat_core::artifact::{MODEL_PLY, TRAINING_JSON};
+use objectsplat_raster::TRAINING_TIMES;
 use objectsplat_report::{RUN_DATA_FILE, RUN_SCRIPT_FILE};
 use objectsplat_runtime::graph::{GraphSource, parse_graph};
+use objectsplat_runtime::outdir::LOCK_FILE;
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::Path;
 use support::objectsplat::{assert_ok, file_tree, objectsplat, read_json};
 use support::plugin_build::workspace;
 use support::slurm::*;
 
-/// The run's own summary beside its outputs: times and executors differ by design.
-const RUN_FILES: [&str; 2] = [RUN_DATA_FILE, RUN_SCRIPT_FILE];
+/// What a run keeps in OUT itself besides the nodes' outputs (which are in
+/// `OUT/<node>/<port>/`): its record (executors, hosts and times differ by design) and the
+/// lock that lets two runs share one OUT.
+const RUN_FILES: [&str; 3] = [RUN_DATA_FILE, RUN_SCRIPT_FILE, LOCK_FILE];
 
-/// `v` without the wall-clock fields (`wall_seconds`) anywhere in it.
-fn without_times(v: serde_json::Value) -> serde_json::Value {
-    match v {
-        serde_json::Value::Object(m) => m
-            .into_iter()
-            .filter(|(k, _)| k != "wall_seconds")
-            .map(|(k, v)| (k, without_times(v)))
-            .collect(),
-        serde_json::Value::Array(a) => a.into_iter().map(without_times).collect(),
-        other => other,
+/// The files of OUT that nodes wrote (`<node>/<port>/…`), after checking that nothing but
+/// the run's own files lies outside the nodes' folders.
+fn node_outputs(out: &Path) -> BTreeMap<String, Vec<u8>> {
+    let mut files = file_tree(out);
+    for run_file in RUN_FILES {
+        assert!(
+            files.remove(run_file).is_some(),
+            "{run_file} in {}",
+            out.display()
+        );
     }
+    for name in files.keys() {
+        assert!(name.contains('/'), "{name}: not in a node's folder");
+    }
+    files
 }
-
-/// Kinds whose outputs carry wall-clock times (see the module doc).
-const TIMED_KINDS: [&str; 2] = ["train", "report"];
 
 /// The ids of the graph's nodes of `kind`.
 fn nodes_of_kind(graph: &Path, kind: &str) -> Vec<String> {
@@ -99,28 +104,31 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
     };
     let (local, slurm) = (run("local"), run("slurm"));
 
-    // Every node's output digests agree, but for those of the kinds that carry
-    // wall-clock times (compared below with the times taken out).
+    // Every node's output digests agree.
     let digests = |r: &serde_json::Value| -> BTreeMap<String, serde_json::Value> {
         r["nodes"]
             .as_array()
             .unwrap()
             .iter()
-            .filter(|n| !TIMED_KINDS.contains(&n["kind"].as_str().unwrap()))
             .map(|n| (n["id"].as_str().unwrap().to_string(), n["outputs"].clone()))
             .collect()
     };
-    let untimed = digests(&local);
-    assert_eq!(untimed, digests(&slurm));
-    assert!(untimed.len() >= 10, "{:?}", untimed.keys());
-    assert!(untimed.contains_key("viewer") && untimed.contains_key("composed"));
+    let all = digests(&local);
+    assert_eq!(all, digests(&slurm));
+    assert!(all.len() >= 12, "{:?}", all.keys());
+    for id in trainers
+        .iter()
+        .map(String::as_str)
+        .chain(["report", "viewer"])
+    {
+        assert!(all.contains_key(id), "{id}: {:?}", all.keys());
+    }
     assert!(
-        untimed
-            .values()
+        all.values()
             .all(|o| o.as_object().is_some_and(|o| !o.is_empty()))
     );
 
-    // The trained models themselves, byte for byte; their logs without the times.
+    // The trained models themselves, byte for byte, with their training logs.
     for executor in ["local", "slurm"] {
         let mut args = vec!["run", demo, "--cache"];
         let (cache, out) = (format!("cache-{executor}"), format!("models-{executor}"));
@@ -138,8 +146,8 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
         );
     }
     let (a, b) = (
-        file_tree(&dir.join("models-local")),
-        file_tree(&dir.join("models-slurm")),
+        node_outputs(&dir.join("models-local")),
+        node_outputs(&dir.join("models-slurm")),
     );
     assert_eq!(a.keys().collect::<Vec<_>>(), b.keys().collect::<Vec<_>>());
     for t in &trainers {
@@ -151,17 +159,8 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
     }
     let logs = a.keys().filter(|k| k.ends_with(TRAINING_JSON)).count();
     assert!(logs >= 5, "{:?}", a.keys());
-    for (name, bytes) in &a {
-        if RUN_FILES.contains(&name.as_str()) {
-            continue;
-        }
-        if name.ends_with(TRAINING_JSON) {
-            let untimed = |bytes: &[u8]| without_times(serde_json::from_slice(bytes).unwrap());
-            assert_eq!(untimed(bytes), untimed(&b[name]), "{name}");
-        } else {
-            assert!(*bytes == b[name], "{name} differs");
-        }
-    }
+    let differing: Vec<&String> = a.keys().filter(|k| a[*k] != b[*k]).collect();
+    assert!(differing.is_empty(), "models differ: {differing:?}");
 
     // Every training item ran as a job of its node's one array; everything else in
     // the coordinator.
@@ -196,6 +195,21 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
             assert_eq!(i["executor"], "local", "{i}");
             assert_eq!(i["job_id"], serde_json::Value::Null, "{i}");
         }
+        // What training took is in the record, whichever executor ran it: every item
+        // this node trained measured its times (a Slurm job's come back with its record).
+        for report in [&local, &slurm] {
+            let trained: Vec<serde_json::Value> = items(report, t)
+                .into_iter()
+                .filter(|i| i["status"] == "ran" && i["notes"].get("passed through").is_none())
+                .collect();
+            assert!(!trained.is_empty(), "{t} trained nothing");
+            for i in trained {
+                let times = &i["measurements"][TRAINING_TIMES];
+                let iterations = times["iterations"].to_string();
+                assert_eq!(Some(iterations.as_str()), i["notes"]["iterations"].as_str());
+                assert!(times["seconds"].as_f64().is_some_and(|s| s > 0.0), "{i}");
+            }
+        }
     }
     assert_eq!(all_arrays.len(), trainers.len(), "an array per train node");
     for n in slurm["nodes"].as_array().unwrap() {
@@ -206,23 +220,16 @@ fn the_demo_graph_on_slurm_gives_byte_identical_outputs() {
     }
 
     let (a, b) = (
-        file_tree(&dir.join("out-local")),
-        file_tree(&dir.join("out-slurm")),
+        node_outputs(&dir.join("out-local")),
+        node_outputs(&dir.join("out-slurm")),
     );
     assert_eq!(
         a.keys().collect::<Vec<_>>(),
         b.keys().collect::<Vec<_>>(),
         "the same files"
     );
-    let summary_page = "report/file/index.html";
-    assert!(a.contains_key(summary_page));
-    assert!(RUN_FILES.iter().all(|f| a.contains_key(*f)));
-    let differing: Vec<&String> = a
-        .keys()
-        .filter(|k| {
-            k.as_str() != summary_page && !RUN_FILES.contains(&k.as_str()) && a[*k] != b[*k]
-        })
-        .collect();
+    assert!(a.contains_key("report/file/index.html"));
+    let differing: Vec<&String> = a.keys().filter(|k| a[*k] != b[*k]).collect();
     assert!(differing.is_empty(), "files differ: {differing:?}");
     assert!(a.keys().any(|k| k.ends_with(".glb")));
     assert!(a.keys().any(|k| k.starts_with("viewer/")));

@@ -5,10 +5,11 @@
 //! the background behind the frozen objects (depth loss at measured points and
 //! planar prior on, as by default) — and the holistic model, once per backend
 //! and frame size, through the `objectsplat` binary, one item at a time.
-//! Iterations per second are each training log's iterations over its wall
-//! seconds: the whole loop with its schedule events (densification, pruning,
-//! the opacity floor, connectivity), evaluations and final prune, not the
-//! loading of the views. The events come every `--event-every` iterations,
+//! Iterations per second are each item's iterations over the seconds its
+//! training took, as the run report gives the times the item measured
+//! (`measurements.training_times`): the whole loop with its schedule events
+//! (densification, pruning, the opacity floor, connectivity), evaluations and
+//! final prune, not the loading of the views. The events come every `--event-every` iterations,
 //! the reference schedule's period at its 30k budget, so that a short run
 //! has a long run's share of them (a short budget scales them closer). Where
 //! `nvidia-smi` answers, the peak GPU memory of each run is polled beside it.
@@ -16,7 +17,7 @@
 //! `scripts/gpu-bench.sh` drives it on a GPU machine.
 
 use anyhow::{Context, Result, bail};
-use objectsplat_raster::TrainingLog;
+use objectsplat_raster::{TRAINING_TIMES, TrainingLog, TrainingTimes};
 use serde::Serialize;
 use serde_json::Value;
 use std::fmt::Write as _;
@@ -79,7 +80,7 @@ struct ItemRow {
     component: String,
     kind: String,
     iterations: u64,
-    /// Iterations over the training loop's wall seconds.
+    /// Iterations over the seconds the item's training took (its run's measurement).
     iterations_per_second: f64,
     faces: usize,
     /// Whether the training log says every iteration ran on the device.
@@ -271,11 +272,6 @@ fn node<'a>(report: &'a Value, id: &str) -> Option<&'a Value> {
         .and_then(|n| n.iter().find(|n| n["id"] == id))
 }
 
-/// Iterations per second of a run's training loop.
-fn iterations_per_second(log: &TrainingLog) -> Option<f64> {
-    (log.wall_seconds > 0.0).then(|| log.iterations_run as f64 / log.wall_seconds)
-}
-
 fn parse_size(size: &str) -> Result<(u32, u32)> {
     size.split_once('x')
         .and_then(|(w, h)| Some((w.parse::<u32>().ok()?, h.parse::<u32>().ok()?)))
@@ -345,7 +341,15 @@ pub fn device_speed(args: &DeviceSpeedArgs) -> Result<()> {
                     let dir = run_dir.join("out").join(id).join("model").join(&component);
                     let log = TrainingLog::load(&dir)?
                         .with_context(|| format!("no training log in {}", dir.display()))?;
-                    let ips = iterations_per_second(&log).unwrap_or(f64::NAN);
+                    let times = item["measurements"]
+                        .get(TRAINING_TIMES)
+                        .map(TrainingTimes::from_json)
+                        .transpose()
+                        .with_context(|| format!("{id}[{component}] in the run report"))?
+                        .with_context(|| {
+                            format!("{id}[{component}]: the run report has no training times")
+                        })?;
+                    let ips = times.iterations_per_second().unwrap_or(f64::NAN);
                     let device_steps = log.notes.iter().any(|n| n.contains(DEVICE_NOTE));
                     eprintln!(
                         "[device-speed]   {id}/{component}: {ips:.2} it/s, {} faces{}",

@@ -17,13 +17,15 @@ mod train_speed;
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
 use objectsplat_metrics::report::MetricsReport;
-use objectsplat_raster::TrainingLog;
+use objectsplat_raster::{TRAINING_TIMES, TrainingLog, TrainingTimes};
 use objectsplat_report::plot::{PlotSpec, Series, line_plot_svg};
 use objectsplat_runtime::exec::{self, RunOptions, Silent};
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::{Override, build_plan};
+use objectsplat_runtime::report::RunReport;
 use objectsplat_runtime::store::Store;
 use serde::Serialize;
+use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -116,10 +118,12 @@ struct ComponentRow {
     iterations_run: u64,
     best_iteration: u64,
     stopped_early: bool,
+    /// Seconds its training took, as the run measured them.
     wall_seconds: f64,
     final_psnr: f64,
     faces: usize,
-    /// (wall seconds, held-out PSNR) at each evaluation.
+    /// (wall seconds, held-out PSNR) at each evaluation: the log's PSNR at the time the
+    /// run measured for that iteration.
     curve: Vec<(f64, f64)>,
 }
 
@@ -247,6 +251,7 @@ fn paper(args: &PaperArgs) -> Result<()> {
                         }
                         let row = read_row(
                             &out,
+                            &report,
                             scene,
                             split,
                             seed,
@@ -288,8 +293,26 @@ fn objectsplat_binary(given: Option<&Path>) -> Result<PathBuf> {
     }
 }
 
+/// What each trained item of a run measured about its training (by item name), from the
+/// `train` nodes that trained it (not those that passed it through).
+fn training_times(report: &RunReport) -> Result<BTreeMap<String, TrainingTimes>> {
+    let mut times = BTreeMap::new();
+    for node in report.nodes.iter().filter(|n| n.kind == "train") {
+        for item in &node.items {
+            if let Some(value) = item.measurements.get(TRAINING_TIMES) {
+                let t = TrainingTimes::from_json(value)
+                    .with_context(|| format!("{}[{}]", node.id, item.name))?;
+                times.insert(item.name.clone(), t);
+            }
+        }
+    }
+    Ok(times)
+}
+
+#[allow(clippy::too_many_arguments)]
 fn read_row(
     out: &Path,
+    report: &RunReport,
     scene: u64,
     split: &str,
     seed: u64,
@@ -299,6 +322,7 @@ fn read_row(
 ) -> Result<Row> {
     let metrics = MetricsReport::read(&out.join("metrics/metrics"))?.scene;
     let mut components = Vec::new();
+    let times = training_times(report)?;
     let models = out.join("train/model");
     let mut dirs: Vec<PathBuf> = std::fs::read_dir(&models)
         .with_context(|| format!("cannot list {}", models.display()))?
@@ -310,16 +334,23 @@ fn read_row(
         let Some(log) = TrainingLog::load(&dir)? else {
             continue;
         };
+        let t = times.get(&log.component).with_context(|| {
+            format!("the run report has no training times of {}", log.component)
+        })?;
         components.push(ComponentRow {
             component: log.component.clone(),
             budget: log.iterations_budget,
             iterations_run: log.iterations_run,
             best_iteration: log.best_iteration,
             stopped_early: log.stopped_early,
-            wall_seconds: log.wall_seconds,
+            wall_seconds: t.seconds,
             final_psnr: log.final_psnr,
             faces: log.final_faces,
-            curve: log.evals.iter().map(|e| (e.wall_seconds, e.psnr)).collect(),
+            curve: log
+                .evals
+                .iter()
+                .filter_map(|e| Some((t.eval_seconds(e.iteration)?, e.psnr)))
+                .collect(),
         });
     }
     Ok(Row {

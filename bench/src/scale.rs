@@ -12,7 +12,7 @@
 //! split, visibility computed, on every core).
 
 use anyhow::{Context, Result, bail};
-use objectsplat_raster::TrainingLog;
+use objectsplat_raster::{TRAINING_TIMES, TrainingLog, TrainingTimes};
 use serde::Serialize;
 use serde_json::Value;
 use std::fmt::Write as _;
@@ -244,13 +244,19 @@ pub fn scale(args: &ScaleArgs) -> Result<()> {
                     .join(&component);
                 let log = TrainingLog::load(&model)?
                     .with_context(|| format!("no training log in {}", model.display()))?;
+                let times = item["measurements"]
+                    .get(TRAINING_TIMES)
+                    .map(TrainingTimes::from_json)
+                    .transpose()
+                    .with_context(|| format!("{id}[{component}] in the run report"))?
+                    .with_context(|| format!("{id}[{component}]: no training times"))?;
                 let memory = item["notes"]["memory"].as_str().unwrap_or("").to_string();
                 let frames = cache_frames(&dir, &component)?;
                 components.push(ComponentRow {
                     kind: kind_of(&component),
                     name: component,
                     views: frames,
-                    seconds_per_iteration: log.wall_seconds / log.iterations_run.max(1) as f64,
+                    seconds_per_iteration: times.seconds / log.iterations_run.max(1) as f64,
                     view_bytes: view_bytes(&memory),
                     memory,
                 });

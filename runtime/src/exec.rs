@@ -23,6 +23,9 @@ use std::time::Instant;
 
 /// Lifecycle events for displays (progress bars, logs).
 pub trait Observer: ProgressSink {
+    /// A job of node `node` missed the cache and was handed to an executor; it is later
+    /// started and finished. Jobs answered from the cache by the scheduler are not queued.
+    fn job_queued(&self, _job: &str, _node: &str) {}
     fn job_started(&self, _job: &str) {}
     /// Where a job stands when that is not progress of its own (a Slurm job queued,
     /// running on a node).
@@ -122,6 +125,7 @@ struct NodeState {
     pending: usize,
     items: Vec<(String, Option<ActionRecord>, ItemReport)>,
     notes: BTreeMap<String, String>,
+    measurements: BTreeMap<String, serde_json::Value>,
     warnings: Vec<String>,
     keys: BTreeMap<String, String>,
     record: Option<ActionRecord>,
@@ -447,6 +451,7 @@ fn run_pass(
                                 }
                                 st.pending += 1;
                                 in_flight += 1;
+                                opts.observer.job_queued(&label, &node.id);
                                 let job = Job {
                                     node: i,
                                     item: item.clone(),
@@ -559,6 +564,7 @@ fn run_pass(
                 job_id: st.ran_on.as_ref().and_then(|r| r.job_id.clone()),
                 host: st.ran_on.map(|r| r.host),
                 notes: st.notes,
+                measurements: st.measurements,
                 warnings: st.warnings,
                 outputs: st.outputs.unwrap_or_default(),
             }
@@ -601,6 +607,7 @@ fn record_item(
         st.first_job = Some(st.first_job.map_or(t, |f| f.min(t)));
     }
     let mut notes = BTreeMap::new();
+    let mut measurements = BTreeMap::new();
     let (rec, status, reason) = match result {
         Ok(rec) => {
             let status = if rec.status == "skipped" && status == Status::Ran {
@@ -615,6 +622,7 @@ fn record_item(
                 (_, r) => r.clone(),
             };
             notes.extend(rec.notes.iter().cloned());
+            measurements.clone_from(&rec.measurements);
             (Some(rec), status, reason)
         }
         Err(msg) => (None, Status::Failed, Some(msg)),
@@ -631,6 +639,7 @@ fn record_item(
                     queued_seconds: timing.queued,
                     reason,
                     notes,
+                    measurements,
                     executor: ran_on.as_ref().map(|r| r.executor.clone()),
                     job_id: ran_on.as_ref().and_then(|r| r.job_id.clone()),
                     host: ran_on.map(|r| r.host),
@@ -642,6 +651,7 @@ fn record_item(
             st.reason = reason;
             st.record = rec;
             st.notes = notes;
+            st.measurements = measurements;
             st.seconds = timing.seconds;
             st.queued = timing.queued;
             st.ran_on = ran_on;
@@ -869,6 +879,7 @@ pub(crate) fn execute_inner(
             forwarded: BTreeMap::new(),
             params: &node.params,
             notes: vec![],
+            measurements: BTreeMap::new(),
             warnings: vec![],
             threads,
             scratch,
@@ -950,6 +961,7 @@ pub(crate) fn execute_inner(
             reason,
             seconds: t0.elapsed().as_secs_f64(),
             notes: ctx.notes,
+            measurements: ctx.measurements,
             ran_on: Some(ran_on.clone()),
         };
         store.put_action(&rec)?;

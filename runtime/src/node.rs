@@ -293,9 +293,10 @@ pub enum InputValue {
     },
 }
 
-/// Receives progress from running nodes (the CLI draws bars from it).
+/// Receives progress from running nodes (the CLI draws bars from it): `done` of `total`
+/// units of the kind of work `what` names (see [`Context::progress`]).
 pub trait ProgressSink: Send + Sync {
-    fn progress(&self, job: &str, done: u64, total: u64, message: &str);
+    fn progress(&self, job: &str, done: u64, total: u64, what: &str);
 }
 
 pub struct NoProgress;
@@ -313,6 +314,7 @@ pub struct Context<'a> {
     pub(crate) forwarded: BTreeMap<String, String>,
     pub(crate) params: &'a Params,
     pub(crate) notes: Vec<(String, String)>,
+    pub(crate) measurements: BTreeMap<String, serde_json::Value>,
     pub(crate) warnings: Vec<String>,
     pub(crate) threads: usize,
     pub(crate) scratch: PathBuf,
@@ -420,12 +422,29 @@ impl<'a> Context<'a> {
         self.notes.push((key.to_string(), value.to_string()));
     }
 
+    /// What this run measured about itself and must not write into an output (a timing
+    /// curve, a peak memory): outputs may depend only on inputs, or a recomputed item
+    /// would change its digest and rerun everything below it. A measurement is kept with
+    /// the action record, so a cache hit reports the producing run's, and appears in the
+    /// run report (`--json`, `OUT/run.json`) under the node's or item's `measurements`;
+    /// it never enters a key or a digest. A second value under one name replaces the first.
+    pub fn measurement(&mut self, name: &str, value: impl serde::Serialize) -> Result<()> {
+        let value = serde_json::to_value(value)
+            .map_err(|e| anyhow!("measurement `{name}` is not representable as JSON: {e}"))?;
+        self.measurements.insert(name.to_string(), value);
+        Ok(())
+    }
+
     pub fn warn(&mut self, message: impl fmt::Display) {
         self.warnings.push(message.to_string());
     }
 
-    pub fn progress(&self, done: u64, total: u64, message: &str) {
-        self.progress.progress(&self.job, done, total, message);
+    /// `done` of `total` units of one kind of work, `what` naming the kind (`training`,
+    /// `rendering`): the terminal's whole-run line sums each kind's units over the run's
+    /// jobs to estimate what is left, so `what` stays the same for the units of one kind
+    /// (no frame or item names in it).
+    pub fn progress(&self, done: u64, total: u64, what: &str) {
+        self.progress.progress(&self.job, done, total, what);
     }
 
     /// True once the run was interrupted; long loops should return early with an error.

@@ -14,7 +14,7 @@ use anyhow::{Context as _, Result, anyhow, bail};
 use std::fs;
 use std::path::Path;
 
-const LOCK_FILE: &str = ".objectsplat-lock";
+pub const LOCK_FILE: &str = ".objectsplat-lock";
 const STAGING_PREFIX: &str = ".objectsplat-staging-";
 
 /// Held while a run writes into `--out`; released on drop.

@@ -43,6 +43,10 @@ pub struct ItemReport {
     /// The notes this item's run left (each item its own).
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub notes: BTreeMap<String, String>,
+    /// What its run measured about itself (for a cached item, the producing run's), by name:
+    /// see [`crate::Context::measurement`].
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub measurements: BTreeMap<String, serde_json::Value>,
 }
 
 #[derive(Debug, Clone, Serialize)]
@@ -63,6 +67,9 @@ pub struct NodeReport {
     pub host: Option<String>,
     #[serde(skip_serializing_if = "BTreeMap::is_empty")]
     pub notes: BTreeMap<String, String>,
+    /// For a node that does not fan out: what its run measured (as for items).
+    #[serde(skip_serializing_if = "BTreeMap::is_empty")]
+    pub measurements: BTreeMap<String, serde_json::Value>,
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub warnings: Vec<String>,
     /// Output digests by port (absent for failed nodes).

@@ -6,7 +6,8 @@
 //!                                    collection (item names → artifact digests); the
 //!                                    digest is the blake3 hash of the manifest bytes
 //! <cache>/actions/<aa>/<key>.json    one record per node run (or item run), keyed by
-//!                                    the run's cache key; carries its own checksum
+//!                                    the run's cache key: outputs, time, notes and
+//!                                    measurements; carries its own checksum
 //! <cache>/heads/<graph>.json        the last keys each node of a graph ran with (for `explain`)
 //! <cache>/locks/<aa>/<key>.lock      held while a key is being computed (cross-process)
 //! <cache>/tmp/<pid>-<n>/             staging; renamed into place, never read across processes
@@ -89,6 +90,10 @@ pub struct ActionRecord {
     pub reason: Option<String>,
     pub seconds: f64,
     pub notes: Vec<(String, String)>,
+    /// What the run measured about itself ([`crate::Context::measurement`]): reported
+    /// with every hit of this record, never part of its outputs.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub measurements: BTreeMap<String, serde_json::Value>,
     /// Where the run happened (absent in records written before this was kept).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub ran_on: Option<RanOn>,

@@ -15,6 +15,8 @@ pub struct NodeRun {
     /// Output folders by port (forwarded outputs point at the input folder).
     pub outputs: BTreeMap<String, PathBuf>,
     pub notes: Vec<(String, String)>,
+    /// What the run measured about itself ([`Context::measurement`]).
+    pub measurements: BTreeMap<String, serde_json::Value>,
     pub warnings: Vec<String>,
 }
 
@@ -108,6 +110,7 @@ pub fn run_node(
         forwarded: BTreeMap::new(),
         params: &params,
         notes: vec![],
+        measurements: BTreeMap::new(),
         warnings: vec![],
         threads: 2,
         scratch: scratch.clone(),
@@ -126,6 +129,7 @@ pub fn run_node(
         outcome,
         outputs,
         notes: ctx.notes,
+        measurements: ctx.measurements,
         warnings: ctx.warnings,
     })
 }

@@ -29,4 +29,4 @@ pub use cpu::{CpuBackend, render_model};
 pub use model::{Model, ModelGrads, SH_COEFFS};
 pub use model_io::{load_model, save_model};
 pub use real::Real;
-pub use training_log::{EvalRecord, StepRecord, TrainingLog};
+pub use training_log::{EvalRecord, StepRecord, TRAINING_TIMES, TrainingLog, TrainingTimes};

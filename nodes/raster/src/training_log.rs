@@ -1,5 +1,9 @@
 //! The training log saved next to a trained model (`training.json` in the
-//! Model folder): the curves the report plots and the benchmarks read.
+//! Model folder): the curves the report plots and the benchmarks read. It holds
+//! no clock reading: a Model must depend only on its inputs, or a recomputed item
+//! would change its digest and rerun every stage below it. When training reached
+//! its log points is a [`TrainingTimes`], which the `train` node reports as a
+//! measurement of its run (the run record, not the artifact).
 
 use anyhow::{Context, Result, bail};
 use objectsplat_core::artifact::TRAINING_JSON;
@@ -11,8 +15,6 @@ use std::path::Path;
 pub struct StepRecord {
     /// Last iteration of the window (1-based: the number of steps done).
     pub iteration: u64,
-    /// Seconds since training started.
-    pub wall_seconds: f64,
     /// Mean training loss (`0.8·L1 + 0.2·D-SSIM`, weighted) over the window.
     pub loss: f64,
     pub faces: usize,
@@ -22,7 +24,6 @@ pub struct StepRecord {
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EvalRecord {
     pub iteration: u64,
-    pub wall_seconds: f64,
     /// Weighted photometric loss over the held-out views (lower is better; selects the checkpoint).
     pub loss: f64,
     /// PSNR (dB) over the supervised pixels of the held-out views, background black.
@@ -47,8 +48,6 @@ pub struct TrainingLog {
     pub checkpoint: String,
     /// True when the patience window ended the run before the budget.
     pub stopped_early: bool,
-    /// Wall time of the whole run, final prune and evaluation included.
-    pub wall_seconds: f64,
     /// Held-out PSNR of the returned model (after the final prune).
     pub final_psnr: f64,
     pub final_faces: usize,
@@ -85,14 +84,62 @@ impl TrainingLog {
             .with_context(|| format!("cannot read {}", path.display()))?;
         let log: TrainingLog = serde_json::from_str(&text)
             .with_context(|| format!("{} is not a valid training log", path.display()))?;
-        let numbers = log
-            .steps
-            .iter()
-            .flat_map(|s| [s.wall_seconds, s.loss])
-            .chain(log.evals.iter().flat_map(|e| [e.wall_seconds, e.loss]));
-        if numbers.into_iter().any(|v| !v.is_finite()) {
-            bail!("{}: a loss or time is not finite", path.display());
+        let losses = log.steps.iter().map(|s| s.loss);
+        if losses
+            .chain(log.evals.iter().map(|e| e.loss))
+            .any(|v| !v.is_finite())
+        {
+            bail!("{}: a loss is not finite", path.display());
         }
         Ok(Some(log))
+    }
+}
+
+/// The name under which the `train` node reports its [`TrainingTimes`] as a measurement
+/// of each item's run (the run report's `measurements`).
+pub const TRAINING_TIMES: &str = "training_times";
+
+/// When a training run reached its loss-log points and evaluations, in seconds since
+/// it started (a resumed run counts the time before the interruption too).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrainingTimes {
+    /// Iterations the run did (the log's `iterations_run`).
+    pub iterations: u64,
+    /// Seconds of the whole run: its loop, final prune and evaluation; not the loading
+    /// of the views before it.
+    pub seconds: f64,
+    /// (iteration, seconds) at each of the log's `steps`.
+    pub steps: Vec<(u64, f64)>,
+    /// (iteration, seconds) at each of the log's `evals`.
+    pub evals: Vec<(u64, f64)>,
+}
+
+impl TrainingTimes {
+    /// Reads the measurement as a run report holds it (the value under
+    /// [`TRAINING_TIMES`] in an item's `measurements`), checking its times.
+    pub fn from_json(value: &serde_json::Value) -> Result<TrainingTimes> {
+        let times: TrainingTimes = serde_json::from_value(value.clone())
+            .with_context(|| format!("measurement `{TRAINING_TIMES}` is not a TrainingTimes"))?;
+        let seconds = times.steps.iter().chain(&times.evals).map(|p| p.1);
+        if seconds
+            .chain([times.seconds])
+            .any(|s| !(s.is_finite() && s >= 0.0))
+        {
+            bail!("measurement `{TRAINING_TIMES}`: a time is negative or not finite");
+        }
+        Ok(times)
+    }
+
+    /// Iterations per second over the whole run; `None` for a run that took no time.
+    pub fn iterations_per_second(&self) -> Option<f64> {
+        (self.seconds > 0.0).then(|| self.iterations as f64 / self.seconds)
+    }
+
+    /// The seconds at which the evaluation of `iteration` ended.
+    pub fn eval_seconds(&self, iteration: u64) -> Option<f64> {
+        self.evals
+            .iter()
+            .find(|(i, _)| *i == iteration)
+            .map(|(_, s)| *s)
     }
 }

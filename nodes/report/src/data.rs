@@ -1,6 +1,7 @@
 //! What a report shows, as plain serde structs that mirror the run's own files:
-//! the `--json` run report (nodes), `metrics.json` (scene + per-object metrics),
-//! the graph's edges, test views as image paths, and the trained models' `training.json`.
+//! the `--json` run report (nodes, and what their items measured), `metrics.json`
+//! (scene + per-object metrics), the graph's edges, test views as image paths, and the
+//! trained models' `training.json`.
 
 use objectsplat_metrics::report::MetricsReport;
 use objectsplat_raster::TrainingLog;
@@ -88,6 +89,11 @@ pub struct ItemRun {
     pub name: String,
     pub status: NodeStatus,
     pub seconds: f64,
+    /// What the item's run measured about itself (for a cached item, the producing run's):
+    /// a `train` item's [`objectsplat_raster::TrainingTimes`], under
+    /// [`objectsplat_raster::TRAINING_TIMES`].
+    #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
+    pub measurements: serde_json::Map<String, serde_json::Value>,
 }
 
 /// A data dependency: `from`'s output feeds `to`.

@@ -1,4 +1,5 @@
-//! The report's "Run" section: the graph with each node's status and time, and a node table.
+//! The report's "Run" section: the graph with each node's status and time, a node table, and
+//! how long each trained item took (the times its run measured; they are no part of the Model).
 //!
 //! A `report` node runs inside the run it reports on, so it cannot know how the run ends;
 //! it writes a placeholder between [`RUN_SUMMARY_BEGIN`] and [`RUN_SUMMARY_END`]. After the
@@ -11,8 +12,10 @@
 
 use crate::dag::{dag_svg, status_colour};
 use crate::data::{NodeStatus, RunSummary};
+use crate::plot::{PlotSpec, Series, line_plot_svg};
 use anyhow::{Context, Result, bail};
 use objectsplat_export::escape::escape;
+use objectsplat_raster::{TRAINING_TIMES, TrainingTimes};
 use std::fmt::Write;
 use std::io::Write as _;
 use std::path::Path;
@@ -136,8 +139,70 @@ pub fn run_section(run: &RunSummary) -> Result<String> {
             items = escape(&items.join(", "))
         );
     }
-    html.push_str("</table></section>");
+    html.push_str("</table>");
+    html.push_str(&training_times(run)?);
+    html.push_str("</section>");
     html.push_str(RUN_SUMMARY_END);
+    Ok(html)
+}
+
+/// How long each trained item took, from the [`TrainingTimes`] it measured (a Model holds no
+/// clock reading): iterations against seconds, one line per item, and a table; nothing when no
+/// item of the run measured any.
+fn training_times(run: &RunSummary) -> Result<String> {
+    let mut timed = Vec::new();
+    for n in &run.nodes {
+        for item in &n.items {
+            if let Some(value) = item.measurements.get(TRAINING_TIMES) {
+                let times = TrainingTimes::from_json(value)
+                    .with_context(|| format!("run report: node {} item {}", n.id, item.name))?;
+                timed.push((format!("{}[{}]", n.id, item.name), item.status, times));
+            }
+        }
+    }
+    if timed.is_empty() {
+        return Ok(String::new());
+    }
+    let series = timed
+        .iter()
+        .map(|(label, _, t)| {
+            // Seconds count from the start of training, at iteration 0.
+            let points = [(0.0, 0.0)]
+                .into_iter()
+                .chain(t.steps.iter().map(|&(i, s)| (s, i as f64)))
+                .chain([(t.seconds, t.iterations as f64)])
+                .collect();
+            Series::new(label, points)
+        })
+        .collect();
+    let mut html = String::from("<h3>Training time</h3>");
+    html.push_str(&line_plot_svg(&PlotSpec {
+        title: "Training iterations against wall time".into(),
+        x_label: "wall time (s)".into(),
+        y_label: "iterations".into(),
+        series,
+        markers: false,
+    }));
+    html.push_str("<table id=\"training-times\"><tr><th>item</th><th>status</th><th>iterations</th><th>training s</th><th>it/s</th></tr>");
+    for (label, status, t) in &timed {
+        let rate = t
+            .iterations_per_second()
+            .map_or("–".to_string(), |r| format!("{r:.2}"));
+        let _ = write!(
+            html,
+            r#"<tr data-item="{l}"><td>{l}</td><td>{st}{cached}</td><td class="num">{it}</td><td class="num">{secs:.2}</td><td class="num">{rate}</td></tr>"#,
+            l = escape(label),
+            st = status.as_str(),
+            cached = if *status == NodeStatus::Cached {
+                " (when produced)"
+            } else {
+                ""
+            },
+            it = t.iterations,
+            secs = t.seconds,
+        );
+    }
+    html.push_str("</table>");
     Ok(html)
 }
 

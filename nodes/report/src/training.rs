@@ -1,7 +1,8 @@
 //! The training section: one curve per component model from its `training.json` — loss,
-//! held-out PSNR and triangle count against iteration, held-out PSNR against wall time — with
-//! each component's best held-out evaluation ringed and its early stop drawn as a dashed line, and a
-//! table of the runs.
+//! held-out PSNR and triangle count against iteration — with each component's best held-out
+//! evaluation ringed and its early stop drawn as a dashed line, and a table of the runs.
+//! Everything here is drawn against iterations: a Model holds no clock reading, so how long
+//! training took is in the run record and drawn in the Run section ([`crate::run_summary`]).
 
 use crate::data::ModelTraining;
 use crate::plot::{PlotSpec, Series, line_plot_svg};
@@ -27,29 +28,18 @@ pub(crate) fn finite_points(
     kept
 }
 
-/// The best held-out evaluation, as (iteration, wall s, PSNR).
-fn best_eval(log: &TrainingLog) -> Option<(f64, f64, f64)> {
+/// The best held-out evaluation, as (iteration, PSNR).
+fn best_eval(log: &TrainingLog) -> Option<(f64, f64)> {
     log.evals
         .iter()
         .find(|e| e.iteration == log.best_iteration)
-        .map(|e| (e.iteration as f64, e.wall_seconds, e.psnr))
-        .filter(|(_, s, p)| s.is_finite() && p.is_finite())
-}
-
-/// Wall time at which the training loop ended: the last logged step or evaluation.
-fn stop_seconds(log: &TrainingLog) -> Option<f64> {
-    log.steps
-        .iter()
-        .map(|s| s.wall_seconds)
-        .chain(log.evals.iter().map(|e| e.wall_seconds))
-        .filter(|s| s.is_finite())
-        .reduce(f64::max)
+        .map(|e| (e.iteration as f64, e.psnr))
+        .filter(|(_, p)| p.is_finite())
 }
 
 struct Plots {
     loss: Vec<Series>,
     psnr_by_iteration: Vec<Series>,
-    psnr_by_seconds: Vec<Series>,
     faces: Vec<Series>,
     notes: Vec<String>,
 }
@@ -58,7 +48,6 @@ fn build_series(logs: &[&TrainingLog]) -> Plots {
     let mut p = Plots {
         loss: Vec::new(),
         psnr_by_iteration: Vec::new(),
-        psnr_by_seconds: Vec::new(),
         faces: Vec::new(),
         notes: Vec::new(),
     };
@@ -95,26 +84,9 @@ fn build_series(logs: &[&TrainingLog]) -> Plots {
                 notes,
             ),
         );
-        by_iteration.best = best.map(|(i, _, psnr)| (i, psnr));
+        by_iteration.best = best;
         by_iteration.stop = stop_iteration;
         p.psnr_by_iteration.push(by_iteration);
-
-        // The dropped-point note was given once for the PSNR values already.
-        let mut by_seconds = Series::new(
-            name,
-            log.evals
-                .iter()
-                .map(|e| (e.wall_seconds, e.psnr))
-                .filter(|(s, v)| s.is_finite() && v.is_finite())
-                .collect(),
-        );
-        by_seconds.best = best.map(|(_, s, psnr)| (s, psnr));
-        by_seconds.stop = if log.stopped_early {
-            stop_seconds(log)
-        } else {
-            None
-        };
-        p.psnr_by_seconds.push(by_seconds);
 
         let mut faces = Series::new(
             name,
@@ -130,13 +102,13 @@ fn build_series(logs: &[&TrainingLog]) -> Plots {
 }
 
 fn table(training: &[ModelTraining], html: &mut String) {
-    html.push_str("<table id=\"training-table\"><tr><th>component</th><th>budget</th><th>iterations run</th><th>best iteration</th><th>model returned</th><th>scored on</th><th>stopped early</th><th>wall s</th><th>final PSNR (dB)</th><th>faces</th></tr>");
+    html.push_str("<table id=\"training-table\"><tr><th>component</th><th>budget</th><th>iterations run</th><th>best iteration</th><th>model returned</th><th>scored on</th><th>stopped early</th><th>final PSNR (dB)</th><th>faces</th></tr>");
     for entry in training {
         match &entry.log {
             Some(log) => {
                 let _ = write!(
                     html,
-                    r#"<tr data-component="{c}"><td>{c}</td><td class="num">{budget}</td><td class="num">{run}</td><td class="num">{best}</td><td>{returned}</td><td>{scored}</td><td>{early}</td><td class="num">{wall:.2}</td><td class="num">{psnr:.2}</td><td class="num">{faces}</td></tr>"#,
+                    r#"<tr data-component="{c}"><td>{c}</td><td class="num">{budget}</td><td class="num">{run}</td><td class="num">{best}</td><td>{returned}</td><td>{scored}</td><td>{early}</td><td class="num">{psnr:.2}</td><td class="num">{faces}</td></tr>"#,
                     c = escape(&log.component),
                     budget = log.iterations_budget,
                     run = log.iterations_run,
@@ -150,7 +122,6 @@ fn table(training: &[ModelTraining], html: &mut String) {
                     // Which views chose the checkpoint (or, with `last`, only reported).
                     scored = escape(log.scored_on.as_deref().unwrap_or("–")),
                     early = if log.stopped_early { "yes" } else { "no" },
-                    wall = log.wall_seconds,
                     psnr = log.final_psnr,
                     faces = log.final_faces,
                 );
@@ -158,7 +129,7 @@ fn table(training: &[ModelTraining], html: &mut String) {
             None => {
                 let _ = write!(
                     html,
-                    r#"<tr data-component="{m}"><td>{m}</td><td colspan="9">no training log</td></tr>"#,
+                    r#"<tr data-component="{m}"><td>{m}</td><td colspan="8">no training log</td></tr>"#,
                     m = escape(&entry.model)
                 );
             }
@@ -167,7 +138,7 @@ fn table(training: &[ModelTraining], html: &mut String) {
     html.push_str("</table>");
 }
 
-/// The training section (curves, the run-time-against-error plot and the table).
+/// The training section (curves and the table).
 pub fn section_training(training: &[ModelTraining], html: &mut String) {
     html.push_str("<section id=\"training\"><h2>Training</h2>");
     if training.is_empty() {
@@ -191,13 +162,6 @@ pub fn section_training(training: &[ModelTraining], html: &mut String) {
                 x_label: "iteration".into(),
                 y_label: "PSNR (dB)".into(),
                 series: plots.psnr_by_iteration,
-                markers: true,
-            },
-            PlotSpec {
-                title: "Held-out PSNR against run time".into(),
-                x_label: "wall time (s)".into(),
-                y_label: "PSNR (dB)".into(),
-                series: plots.psnr_by_seconds,
                 markers: true,
             },
             PlotSpec {

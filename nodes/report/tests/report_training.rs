@@ -1,6 +1,8 @@
 //! Training curves from the models' `training.json` (hand-written fixtures in
 //! tests/fixtures/models): every plotted vertex, best-checkpoint ring and early-stop line sits
-//! where the logged numbers put it on the plot's axes, and the table lists every model.
+//! where the logged numbers put it on the plot's axes, and the table lists every model. How
+//! long training took is no part of a model: the Run section draws it from the times each
+//! item's run measured.
 
 mod common;
 
@@ -96,11 +98,16 @@ fn parse_and_check_affine(
     chair: Vec<(f64, f64)>,
     background: Vec<(f64, f64)>,
 ) -> (roxmltree::Document<'_>, Axis, Axis) {
+    parse_and_check_series(plot, [("obj_3_chair", chair), ("background", background)])
+}
+
+/// [`parse_and_check_affine`] for two series of any names.
+fn parse_and_check_series<'a>(
+    plot: &'a str,
+    series: [(&str, Vec<(f64, f64)>); 2],
+) -> (roxmltree::Document<'a>, Axis, Axis) {
     let doc = roxmltree::Document::parse(plot).unwrap();
-    let (x, y) = check_affine(
-        &polylines(&doc),
-        &[("obj_3_chair", chair), ("background", background)],
-    );
+    let (x, y) = check_affine(&polylines(&doc), &series);
     (doc, x, y)
 }
 
@@ -132,7 +139,11 @@ fn training_plots() -> Vec<String> {
 #[test]
 fn loss_and_triangle_curves_follow_the_steps() {
     let plots = training_plots();
-    assert_eq!(plots.len(), 4);
+    assert_eq!(
+        plots.len(),
+        3,
+        "loss, held-out PSNR and triangles, against iterations"
+    );
     let (loss, x, _) = parse_and_check_affine(
         &plots[0],
         vec![(100.0, 0.5), (200.0, 0.25), (300.0, 0.125), (400.0, 0.1)],
@@ -143,7 +154,7 @@ fn loss_and_triangle_curves_follow_the_steps() {
     assert_eq!(stop_line(&loss, "background"), None);
 
     let (faces, _, _) = parse_and_check_affine(
-        &plots[3],
+        &plots[2],
         vec![
             (100.0, 1000.0),
             (200.0, 1200.0),
@@ -171,19 +182,78 @@ fn held_out_psnr_marks_the_best_checkpoint_and_the_early_stop() {
         x.at(400.0)
     ));
     assert_eq!(stop_line(&by_iteration, "background"), None);
+}
 
-    // Run time against error: the same evaluations placed by wall time.
-    let (by_time, x, y) = parse_and_check_affine(
-        &plots[2],
-        vec![(1.25, 18.0), (2.25, 21.0), (3.25, 24.0), (4.25, 23.5)],
-        vec![(3.5, 15.0), (6.5, 17.0)],
+#[test]
+fn the_run_section_draws_iterations_against_the_measured_training_times() {
+    let dir = tempfile::tempdir().unwrap();
+    let run = common::synthetic_report::report_data(dir.path()).run;
+    let html = run_section(&run).unwrap();
+    let plots = svg_blocks(&html);
+    assert_eq!(plots.len(), 2, "the graph, then the training times");
+    // From iteration 0 at 0 s through each logged step to the end of the run
+    // (common::synthetic_report::CHAIR_TIMES and BACKGROUND_TIMES).
+    parse_and_check_series(
+        plots[1],
+        [
+            (
+                "train[obj_3_chair]",
+                vec![
+                    (0.0, 0.0),
+                    (1.0, 100.0),
+                    (2.0, 200.0),
+                    (3.0, 300.0),
+                    (4.0, 400.0),
+                    (4.75, 400.0),
+                ],
+            ),
+            (
+                "train[background]",
+                vec![
+                    (0.0, 0.0),
+                    (2.0, 200.0),
+                    (4.0, 400.0),
+                    (6.0, 600.0),
+                    (7.0, 600.0),
+                ],
+            ),
+        ],
     );
-    assert_best_ring_at(&by_time, "obj_3_chair", (x, y), (3.25, 24.0));
-    // The loop ended with the last evaluation, at 4.25 s.
-    assert!(close(
-        stop_line(&by_time, "obj_3_chair").unwrap(),
-        x.at(4.25)
+    // 400 / 4.75 and 600 / 7 iterations per second; the cached item's from the run that
+    // trained it.
+    assert!(html.contains(
+        r#"<tr data-item="train[obj_3_chair]"><td>train[obj_3_chair]</td><td>ran</td><td class="num">400</td><td class="num">4.75</td><td class="num">84.21</td></tr>"#
     ));
+    assert!(html.contains(
+        r#"<tr data-item="train[background]"><td>train[background]</td><td>cached (when produced)</td><td class="num">600</td><td class="num">7.00</td><td class="num">85.71</td></tr>"#
+    ));
+    // The node's page holds no time of its own.
+    let page = std::fs::read_to_string(
+        render_report(
+            &dir.path().join("page"),
+            &ReportData {
+                title: "training".into(),
+                training: common::synthetic_report::fixture_training(),
+                ..Default::default()
+            },
+        )
+        .unwrap(),
+    )
+    .unwrap();
+    assert!(!page.contains("wall time") && !page.contains("training-times"));
+}
+
+#[test]
+fn a_broken_training_time_names_the_item() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut run = common::synthetic_report::report_data(dir.path()).run;
+    let train = run.nodes.iter_mut().find(|n| n.id == "train").unwrap();
+    train.items[1].measurements.insert(
+        "training_times".into(),
+        serde_json::json!({"seconds": "soon"}),
+    );
+    let msg = format!("{:#}", run_section(&run).unwrap_err());
+    common::assert_mentions(&msg, &["node train item background", "training_times"]);
 }
 
 #[test]
@@ -200,7 +270,7 @@ fn non_finite_psnr_is_left_out_with_a_note() {
     let html = std::fs::read_to_string(render_report(dir.path(), &data).unwrap()).unwrap();
     assert!(html.contains("background: 1 non-finite PSNR point(s) not plotted"));
     let plots = svg_blocks(section(&html, "training"));
-    for plot in &plots[1..3] {
+    for plot in &plots[1..2] {
         let doc = roxmltree::Document::parse(plot).unwrap();
         let background = polylines(&doc).into_iter().find(|s| s.0 == "background");
         assert_eq!(background.unwrap().1.len(), 1);
@@ -230,15 +300,15 @@ fn report_node_tabulates_every_model_and_says_which_have_no_log() {
     let (run, html) = common::run_report(&[("models", &models)], "()", &dir.path().join("out"));
     let table = section(&html, "training");
     assert!(table.contains(
-        r#"<tr data-component="obj_3_chair"><td>obj_3_chair</td><td class="num">600</td><td class="num">400</td><td class="num">300</td><td>best</td><td>–</td><td>yes</td><td class="num">4.75</td><td class="num">23.75</td><td class="num">850</td></tr>"#
+        r#"<tr data-component="obj_3_chair"><td>obj_3_chair</td><td class="num">600</td><td class="num">400</td><td class="num">300</td><td>best</td><td>–</td><td>yes</td><td class="num">23.75</td><td class="num">850</td></tr>"#
     ));
     assert!(table.contains(
-        r#"<tr data-component="background"><td>background</td><td class="num">600</td><td class="num">600</td><td class="num">600</td><td>last</td><td>–</td><td>no</td><td class="num">7.00</td><td class="num">17.00</td><td class="num">6400</td></tr>"#
+        r#"<tr data-component="background"><td>background</td><td class="num">600</td><td class="num">600</td><td class="num">600</td><td>last</td><td>–</td><td>no</td><td class="num">17.00</td><td class="num">6400</td></tr>"#
     ));
     assert!(table.contains(
-        r#"<tr data-component="obj_5_lamp"><td>obj_5_lamp</td><td colspan="9">no training log</td></tr>"#
+        r#"<tr data-component="obj_5_lamp"><td>obj_5_lamp</td><td colspan="8">no training log</td></tr>"#
     ));
-    assert_eq!(svg_blocks(table).len(), 4);
+    assert_eq!(svg_blocks(table).len(), 3);
     assert!(
         run.notes
             .contains(&("training logs".to_string(), "2 of 3".to_string()))

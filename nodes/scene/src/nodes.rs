@@ -57,7 +57,7 @@ impl Node for Compose {
         let mut objects = Vec::with_capacity(items.len());
         for (k, (item, dir)) in items.iter().enumerate() {
             check_cancel(ctx)?;
-            ctx.progress(k as u64, items.len() as u64, item);
+            ctx.progress(k as u64, items.len() as u64, "composing");
             let model = load_model(dir).with_context(|| format!("models item {item:?}"))?;
             let info = component_of_item(item, &model)?;
             objects.push(SceneObject {
@@ -67,7 +67,7 @@ impl Node for Compose {
         }
         let scene = Scene::new(objects)?;
         save_scene(&scene, &ports.scene)?;
-        ctx.progress(items.len() as u64, items.len() as u64, "composed");
+        ctx.progress(items.len() as u64, items.len() as u64, "composing");
         ctx.note("members", scene.objects.len());
         ctx.note("triangles", scene.face_count());
         Ok(Outcome::Done)
@@ -366,7 +366,7 @@ impl Node for Render {
         let mut filled = 0usize;
         for (k, (stem, camera, fill)) in jobs.iter().enumerate() {
             check_cancel(ctx)?;
-            ctx.progress(k as u64, jobs.len() as u64, stem);
+            ctx.progress(k as u64, jobs.len() as u64, "rendering");
             let fill_image = match fill {
                 Some(path) => Some(Image::load(path)?),
                 None => None,
@@ -387,7 +387,7 @@ impl Node for Render {
                 })?;
             image.save_png8(&out.join(format!("{stem}.png")))?;
         }
-        ctx.progress(jobs.len() as u64, jobs.len() as u64, "rendered");
+        ctx.progress(jobs.len() as u64, jobs.len() as u64, "rendering");
         ctx.note("views", jobs.len());
         ctx.note("triangles", merged.face_count());
         if filled > 0 {

@@ -11,7 +11,7 @@
 use crate::adam::Adam;
 use crate::face_stats::FaceWeights;
 use anyhow::{Context, Result, bail};
-use objectsplat_raster::{EvalRecord, Model, StepRecord, load_model, save_model};
+use objectsplat_raster::{EvalRecord, Model, StepRecord, TrainingTimes, load_model, save_model};
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
@@ -33,10 +33,12 @@ pub struct Progress {
     pub best: Option<(f64, u64, bool)>,
     pub steps: Vec<StepRecord>,
     pub evals: Vec<EvalRecord>,
+    /// When the run so far reached its steps and evaluations; its `seconds` are the
+    /// run's wall time so far, which the resumed run's clock continues from. (A saved
+    /// state is no artifact: it may hold the clock.)
+    pub times: TrainingTimes,
     pub notes: Vec<String>,
     pub cleanup_pending: bool,
-    /// Wall seconds of the run so far (the log continues from them).
-    pub elapsed: f64,
     /// Per Adam group: learning rate, rest rate, column split and step count.
     pub adam: Vec<(f64, f64, usize, u64)>,
     /// Training steps rendered and the share of frames they rendered, summed.

@@ -8,8 +8,7 @@ use anyhow::{Result, bail};
 use objectsplat_core::artifact::POINTS_PLY;
 use objectsplat_core::visibility::Visibility;
 use objectsplat_core::{ComponentFolder, ComponentKind, Points};
-use objectsplat_raster::save_model;
-use objectsplat_raster::{Model, load_model};
+use objectsplat_raster::{Model, TRAINING_TIMES, load_model, save_model};
 use objectsplat_runtime::{
     Context, Node, NodeSpec, Outcome, ParamError, ParamType, Params, Registry, node_ports,
 };
@@ -124,7 +123,7 @@ node_ports! {
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("train", "7")
+        NodeSpec::new("train", "8")
             .doc(
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
@@ -315,6 +314,7 @@ impl Node for TrainNode {
         }
         save_model(&report.model, &ports.model)?;
         report.log.save(&ports.model)?;
+        ctx.measurement(TRAINING_TIMES, &report.times)?;
         Ok(Outcome::Done)
     }
 }

@@ -33,7 +33,7 @@ use anyhow::{Context, Result, bail};
 use objectsplat_core::{ComponentKind, Points, Split};
 use objectsplat_optim::{LearningRates, Optim};
 use objectsplat_raster::{
-    EvalRecord, Model, RenderBackend, RenderSettings, StepRecord, TrainingLog,
+    EvalRecord, Model, RenderBackend, RenderSettings, StepRecord, TrainingLog, TrainingTimes,
 };
 use objectsplat_wgpu::WgpuBackend;
 use rand::seq::SliceRandom;
@@ -130,6 +130,9 @@ pub struct TrainReport {
     pub notes: Vec<String>,
     /// Curves and outcome, saved next to the model as `training.json`.
     pub log: TrainingLog,
+    /// When the run reached the log's steps and evaluations: not saved with the model,
+    /// which must not depend on the clock.
+    pub times: TrainingTimes,
     /// Where the iterations ran: "host" or "device".
     pub steps_ran_on: &'static str,
 }
@@ -348,6 +351,8 @@ impl<F: FnMut(u64, u64) -> bool> StepHook for ProgressHook<F> {
 /// points wait for their windows.
 struct LossLog {
     records: Vec<StepRecord>,
+    /// (iteration, wall seconds) of each record.
+    times: Vec<(u64, f64)>,
     /// Points whose window has not fully arrived: (iteration, wall seconds, faces).
     waiting: VecDeque<(u64, f64, usize)>,
     arrived: VecDeque<StepLoss>,
@@ -358,9 +363,10 @@ struct LossLog {
 }
 
 impl LossLog {
-    fn new(records: Vec<StepRecord>) -> Self {
+    fn new(records: Vec<StepRecord>, times: Vec<(u64, f64)>) -> Self {
         LossLog {
             records,
+            times,
             waiting: VecDeque::new(),
             arrived: VecDeque::new(),
             window_sum: 0.0,
@@ -399,10 +405,10 @@ impl LossLog {
             }
             self.records.push(StepRecord {
                 iteration,
-                wall_seconds,
                 loss: self.window_sum / self.window_len as f64,
                 faces,
             });
+            self.times.push((iteration, wall_seconds));
             self.waiting.pop_front();
             self.window_sum = 0.0;
             self.window_len = 0;
@@ -540,8 +546,9 @@ pub fn train_component_with_hook(
     };
     // About 200 loss points per run, whatever the budget.
     let log_every = (s.iterations / 200).max(1);
-    let mut log = LossLog::new(Vec::new());
+    let mut log = LossLog::new(Vec::new(), Vec::new());
     let mut evals = Vec::new();
+    let mut eval_times = Vec::new();
     let mut stopped_early = false;
     let mut cleanup_pending = false;
     let mut it = 0;
@@ -568,10 +575,10 @@ pub fn train_component_with_hook(
             }),
             _ => None,
         };
-        log = LossLog::new(p.steps);
-        (evals, notes) = (p.evals, p.notes);
+        log = LossLog::new(p.steps, p.times.steps);
+        (evals, eval_times, notes) = (p.evals, p.times.evals, p.notes);
         cleanup_pending = p.cleanup_pending;
-        elapsed_before = p.elapsed;
+        elapsed_before = p.times.seconds;
         runner.set_rendered(p.rendered);
         it = p.iteration;
         notes.push(format!("resumed at iteration {it} from a saved state"));
@@ -777,9 +784,9 @@ pub fn train_component_with_hook(
         if selectable || it == s.iterations {
             let render = render_settings(&state.model, settings);
             let score = runner.evaluate(Subject::Training(&state), &held_out, &render)?;
+            eval_times.push((it, clock(&started)));
             evals.push(EvalRecord {
                 iteration: it,
-                wall_seconds: clock(&started),
                 loss: score.loss,
                 psnr: score.psnr,
                 faces: state.model.face_count(),
@@ -829,9 +836,14 @@ pub fn train_component_with_hook(
                         .map(|b| (b.score, b.iteration, b.face_weights.is_some())),
                     steps: log.records.clone(),
                     evals: evals.clone(),
+                    times: TrainingTimes {
+                        iterations: it,
+                        seconds: clock(&started),
+                        steps: log.times.clone(),
+                        evals: eval_times.clone(),
+                    },
                     notes: notes.clone(),
                     cleanup_pending,
-                    elapsed: clock(&started),
                     adam: state
                         .optim
                         .adam
@@ -891,6 +903,12 @@ pub fn train_component_with_hook(
     let render = render_settings(&model, settings);
     let final_score = runner.evaluate(Subject::Other(&model), &report_views, &render)?;
     notes.extend(runner.summary());
+    let times = TrainingTimes {
+        iterations: it,
+        seconds: clock(&started),
+        steps: log.times,
+        evals: eval_times,
+    };
     let log = TrainingLog {
         component: data.name.clone(),
         kind: match data.kind {
@@ -910,7 +928,6 @@ pub fn train_component_with_hook(
         }
         .into(),
         stopped_early,
-        wall_seconds: clock(&started),
         final_psnr: final_score.psnr,
         final_faces: model.face_count(),
         rendered_fraction: runner.rendered_fraction(),
@@ -926,6 +943,7 @@ pub fn train_component_with_hook(
         best_score: final_score.loss,
         notes,
         log,
+        times,
         steps_ran_on: runner.place(),
     })
 }

@@ -3,9 +3,23 @@
 mod common;
 
 use objectsplat_core::artifact::POINTS_PLY;
+use objectsplat_raster::{TRAINING_TIMES, TrainingTimes};
 use objectsplat_runtime::testing::{NodeRun, run_node};
 use objectsplat_train::node::TrainNode;
-use std::path::PathBuf;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Every file of a folder (name → bytes).
+fn folder_bytes(dir: &Path) -> BTreeMap<String, Vec<u8>> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| {
+            let e = e.unwrap();
+            let name = e.file_name().to_string_lossy().into_owned();
+            (name, std::fs::read(e.path()).unwrap())
+        })
+        .collect()
+}
 
 /// The node's two input folders, holding the plate, in a temporary folder that
 /// also takes the outputs.
@@ -73,6 +87,32 @@ fn train_node_writes_a_model_and_its_training_log() {
     assert_eq!(log.iterations_budget, 30);
     assert_eq!(log.final_faces, model.face_count());
     assert!(!log.steps.is_empty() && !log.evals.is_empty());
+    // When training reached each step and evaluation is a measurement of the run, beside
+    // the log's records, not in them.
+    let times = TrainingTimes::from_json(&run.measurements[TRAINING_TIMES]).unwrap();
+    let iterations = |points: &[(u64, f64)]| points.iter().map(|p| p.0).collect::<Vec<_>>();
+    assert_eq!(
+        iterations(&times.steps),
+        log.steps.iter().map(|s| s.iteration).collect::<Vec<_>>()
+    );
+    assert_eq!(
+        iterations(&times.evals),
+        log.evals.iter().map(|e| e.iteration).collect::<Vec<_>>()
+    );
+    assert_eq!(times.iterations, log.iterations_run);
+    let last = times.steps.iter().chain(&times.evals).map(|p| p.1);
+    assert!(last.fold(0.0, f64::max) <= times.seconds);
+    // So the model folder is a function of the inputs: a second run writes the same bytes.
+    let again = plate
+        .train(
+            "(iterations: 30, seed: 1, schedule: {\"lr_sh_dc\": 0.03, \"patience\": 10})",
+            "again",
+        )
+        .unwrap();
+    assert_eq!(
+        folder_bytes(&run.outputs["model"]),
+        folder_bytes(&again.outputs["model"])
+    );
     assert!(
         run.notes
             .iter()

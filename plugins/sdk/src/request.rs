@@ -192,7 +192,8 @@ impl<'h> Request<'h> {
         Ok(())
     }
 
-    /// Progress for the host's progress bars.
+    /// Progress for the host's progress bars: `done` of `total` units of the kind of work
+    /// `message` names (the same text for every unit of a kind, so the host can sum them).
     pub fn progress(&self, done: u64, total: u64, message: &str) {
         if let Some(host) = self.host {
             // SAFETY: the host table and its ctx are valid for the whole run call, which

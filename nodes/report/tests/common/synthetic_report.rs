@@ -2,6 +2,7 @@
 //! views written as PNGs, the training logs of tests/fixtures/models and run-time points.
 
 use objectsplat_core::Image;
+use objectsplat_raster::TRAINING_TIMES;
 use objectsplat_report::*;
 use std::path::{Path, PathBuf};
 
@@ -47,6 +48,21 @@ pub fn render_image(seed: u32) -> Image {
         let inside = (8..24).contains(&x) && (8..24).contains(&y);
         gt.get(x, y, c) + if inside { 51.0 / 255.0 } else { 0.0 }
     })
+}
+
+/// When the fixture logs' runs reached their steps and evaluations (iterations, seconds,
+/// steps, evals), as the `train` node measures them: the chair stopped early at 400.
+pub const CHAIR_TIMES: &str = r#"{"iterations": 400, "seconds": 4.75,
+    "steps": [[100, 1.0], [200, 2.0], [300, 3.0], [400, 4.0]],
+    "evals": [[100, 1.25], [200, 2.25], [300, 3.25], [400, 4.25]]}"#;
+pub const BACKGROUND_TIMES: &str = r#"{"iterations": 600, "seconds": 7.0,
+    "steps": [[200, 2.0], [400, 4.0], [600, 6.0]], "evals": [[300, 3.5], [600, 6.5]]}"#;
+
+/// An item's measurements holding `times` (JSON) as its training times.
+fn training_times(times: &str) -> serde_json::Map<String, serde_json::Value> {
+    let mut m = serde_json::Map::new();
+    m.insert(TRAINING_TIMES.into(), serde_json::from_str(times).unwrap());
+    m
 }
 
 fn node(id: &str, kind: &str, status: NodeStatus, seconds: f64) -> NodeRun {
@@ -101,11 +117,13 @@ pub fn report_data(dir: &Path) -> ReportData {
             name: "obj_3_chair".into(),
             status: NodeStatus::Ran,
             seconds: 60.0,
+            measurements: training_times(CHAIR_TIMES),
         },
         ItemRun {
             name: "background".into(),
             status: NodeStatus::Cached,
             seconds: 0.0,
+            measurements: training_times(BACKGROUND_TIMES),
         },
     ];
     ReportData {

@@ -57,7 +57,7 @@ fn colorkey_masks(req: &mut Request) -> Result<Outcome> {
         if req.cancelled() {
             bail!("cancelled");
         }
-        req.progress(i as u64, frames.frames.len() as u64, &frame.name);
+        req.progress(i as u64, frames.frames.len() as u64, "keying frames");
         let image = frames.load_rgb(frame)?;
         let mut map = IdMap::new(image.width, image.height);
         for (px, id) in image.data.chunks_exact(3).zip(map.data.iter_mut()) {
