@@ -54,6 +54,22 @@ pub struct PixelGrads<'a, R: Real> {
     pub median_depth: Option<&'a [R]>,
 }
 
+impl<'a, R: Real> PixelGrads<'a, R> {
+    /// The same gradients as f32 when `R` is f32 (for the f32-only SIMD kernels).
+    pub fn as_f32(&self) -> Option<PixelGrads<'a, f32>> {
+        let plane = |v: Option<&'a [R]>| match v {
+            None => Some(None),
+            Some(s) => R::as_f32_slice(s).map(Some),
+        };
+        Some(PixelGrads {
+            color: R::as_f32_slice(self.color)?,
+            alpha: plane(self.alpha)?,
+            depth: plane(self.depth)?,
+            median_depth: plane(self.median_depth)?,
+        })
+    }
+}
+
 /// `background` covers the rendered region (as the gradients do); `kept` is
 /// what the forward pass of this tile recorded and `stats` its entry statistics.
 #[allow(clippy::too_many_arguments)]

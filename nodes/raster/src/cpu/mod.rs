@@ -1,6 +1,11 @@
 //! The CPU reference backend: multi-threaded over tiles (crossbeam scoped
 //! threads), deterministic for any thread count, generic over f32/f64.
 //!
+//! Each tile is composited by one of two kernels: the scalar one (one pixel
+//! at a time, any scalar type: the reference) or, for f32 on x86-64 CPUs with
+//! AVX2 and FMA, the eight-lane one in [`simd`] (see [`Kernel`]). The rest
+//! of both passes is shared.
+//!
 //! [`CpuBackend::forward_into`] and [`CpuBackend::backward_into`] work in a
 //! caller-held [`CpuWorkspace`] whose buffers are reused from pass to pass, so
 //! a training loop allocates nothing once they have grown to the model and the
@@ -10,6 +15,8 @@ pub mod backward;
 pub mod binning;
 pub mod forward;
 pub mod preprocess;
+#[cfg(target_arch = "x86_64")]
+pub mod simd;
 
 use crate::backend::{
     OutputGrads, PixelRect, Region, RenderBackend, RenderOutput, RenderSettings, SavedForward,
@@ -32,18 +39,69 @@ use preprocess::{
 
 const BACKEND_NAME: &str = "cpu";
 
+/// Which tile kernels the CPU backend runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Kernel {
+    /// Eight f32 lanes per instruction where they exist (x86-64 with AVX2 and
+    /// FMA, f32 models); the scalar kernels elsewhere.
+    #[default]
+    Simd,
+    /// One pixel at a time on every CPU and scalar type: the reference.
+    Scalar,
+}
+
+impl Kernel {
+    /// [`Kernel::Scalar`] when the environment variable `OBJECTSPLAT_CPU_KERNEL`
+    /// is `scalar` (to compare the paths on a whole run), else [`Kernel::Simd`].
+    pub fn from_env() -> Self {
+        match std::env::var("OBJECTSPLAT_CPU_KERNEL") {
+            Ok(v) if v.eq_ignore_ascii_case("scalar") => Kernel::Scalar,
+            _ => Kernel::Simd,
+        }
+    }
+}
+
 /// The CPU backend; `threads` worker threads (≥ 1) for every pass.
 #[derive(Debug, Clone, Copy)]
 pub struct CpuBackend {
     pub threads: usize,
+    pub kernel: Kernel,
 }
 
 impl CpuBackend {
+    /// `threads` workers and the kernels [`Kernel::from_env`] picks.
     pub fn new(threads: usize) -> Self {
         CpuBackend {
             threads: threads.max(1),
+            kernel: Kernel::from_env(),
         }
     }
+
+    /// The same backend with the given kernels.
+    pub fn with_kernel(self, kernel: Kernel) -> Self {
+        CpuBackend { kernel, ..self }
+    }
+
+    /// The eight-lane kernels for scalar type `R`, when asked for and available.
+    fn lanes<R: Real>(&self) -> TileKernel {
+        #[cfg(target_arch = "x86_64")]
+        if self.kernel == Kernel::Simd
+            && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>()
+            && let Some(t) = simd::Avx2::detect()
+        {
+            return TileKernel::Avx2(t);
+        }
+        TileKernel::Scalar
+    }
+}
+
+/// The tile kernels a forward pass ran; its backward pass runs the same.
+#[derive(Debug, Clone, Copy, Default)]
+enum TileKernel {
+    #[default]
+    Scalar,
+    #[cfg(target_arch = "x86_64")]
+    Avx2(simd::Avx2),
 }
 
 /// What a forward pass leaves for its backward pass.
@@ -61,9 +119,14 @@ struct ForwardState<R: Real> {
     background: Vec<R>,
     /// Per entry of `tiles`: its largest blending weight and pixel count.
     stats: Vec<EntryStats<R>>,
-    /// Per tile, the fragments it blended; never shrunk, so a smaller region
-    /// keeps the larger one's allocations for the next pass.
+    /// The kernels that composited the tiles.
+    kernel: TileKernel,
+    /// Per tile, the fragments it blended (scalar kernel); never shrunk, so a
+    /// smaller region keeps the larger one's allocations for the next pass.
     fragments: Vec<TileFragments<R>>,
+    /// Per tile, the lane groups it blended (eight-lane kernel); never shrunk.
+    #[cfg(target_arch = "x86_64")]
+    chunks: Vec<simd::forward::TileChunks>,
 }
 
 /// Scratch of the forward pass.
@@ -137,6 +200,147 @@ fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
     v.resize(n, value);
 }
 
+/// Composites every tile of `st`'s grid with the kernels `st.kernel` names,
+/// into `pixels` (a tile's 16×16 slots after another), `st.stats` and the
+/// per-tile records the backward pass reads.
+fn composite_tiles<R: Real>(
+    threads: usize,
+    st: &mut ForwardState<R>,
+    pixels: &mut Vec<PixelOut<R>>,
+    background: &Background<'_, R>,
+    rules: &PixelRules<R>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if let TileKernel::Avx2(t) = st.kernel
+        && let Some(st) = (st as &mut dyn std::any::Any).downcast_mut::<ForwardState<f32>>()
+        && let Some(pixels) =
+            (pixels as &mut dyn std::any::Any).downcast_mut::<Vec<PixelOut<f32>>>()
+        && let Some(background) = background.as_f32()
+        && let Some(rules) = (rules as &dyn std::any::Any).downcast_ref::<PixelRules<f32>>()
+    {
+        let tile_count = st.grid.tile_count();
+        if st.chunks.len() < tile_count {
+            st.chunks.resize_with(tile_count, Default::default);
+        }
+        let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
+        let jobs = pixels
+            .chunks_mut(TILE_PIXELS)
+            .zip(SplitBy::new(&mut st.stats[..], &tiles.offsets))
+            .zip(st.chunks.iter_mut())
+            .enumerate();
+        run_iter(
+            threads,
+            jobs,
+            || (),
+            |_, (tile, ((p, s), kept))| {
+                let entries = &tiles.entries[tiles.offsets[tile]..tiles.offsets[tile + 1]];
+                simd::forward::render_tile(
+                    t,
+                    grid,
+                    tile,
+                    faces,
+                    entries,
+                    &background,
+                    rules,
+                    p,
+                    s,
+                    kept,
+                );
+            },
+        );
+        return;
+    }
+    st.kernel = TileKernel::Scalar;
+    let tile_count = st.grid.tile_count();
+    if st.fragments.len() < tile_count {
+        st.fragments.resize_with(tile_count, TileFragments::default);
+    }
+    let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
+    let jobs = pixels
+        .chunks_mut(TILE_PIXELS)
+        .zip(SplitBy::new(&mut st.stats[..], &tiles.offsets))
+        .zip(st.fragments.iter_mut())
+        .enumerate();
+    run_iter(
+        threads,
+        jobs,
+        || (),
+        |_, (tile, ((p, s), kept))| {
+            let entries = &tiles.entries[tiles.offsets[tile]..tiles.offsets[tile + 1]];
+            render_tile(grid, tile, faces, entries, background, rules, p, s, kept);
+        },
+    );
+}
+
+/// The per-(tile, face) partials and the background gradient, tile by tile,
+/// with the kernels the forward pass ran.
+fn backward_tiles<R: Real>(
+    threads: usize,
+    st: &ForwardState<R>,
+    bw: &mut BackwardScratch<R>,
+    pixel_grads: &PixelGrads<'_, R>,
+) {
+    let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
+    let rules = PixelRules::<R>::new(&st.settings);
+    #[cfg(target_arch = "x86_64")]
+    if let TileKernel::Avx2(t) = st.kernel
+        && let Some(st) = (st as &dyn std::any::Any).downcast_ref::<ForwardState<f32>>()
+        && let Some(bw) = (bw as &mut dyn std::any::Any).downcast_mut::<BackwardScratch<f32>>()
+        && let Some(grads) = pixel_grads.as_f32()
+        && let Some(rules) = (&rules as &dyn std::any::Any).downcast_ref::<PixelRules<f32>>()
+    {
+        let jobs = SplitBy::new(&mut bw.partials[..], &tiles.offsets)
+            .zip(bw.d_background.chunks_mut(TILE_PIXELS))
+            .enumerate();
+        run_iter(
+            threads,
+            jobs,
+            || (),
+            |_, (tile, (p, b))| {
+                let range = tiles.offsets[tile]..tiles.offsets[tile + 1];
+                simd::backward::backward_tile(
+                    t,
+                    &st.grid,
+                    tile,
+                    &st.faces,
+                    &st.tiles.entries[range],
+                    &st.background,
+                    rules,
+                    &st.chunks[tile],
+                    &grads,
+                    p,
+                    b,
+                );
+            },
+        );
+        return;
+    }
+    let jobs = SplitBy::new(&mut bw.partials[..], &tiles.offsets)
+        .zip(bw.d_background.chunks_mut(TILE_PIXELS))
+        .enumerate();
+    run_iter(
+        threads,
+        jobs,
+        || (),
+        |_, (tile, (p, b))| {
+            let range = tiles.offsets[tile]..tiles.offsets[tile + 1];
+            backward_tile(
+                grid,
+                tile,
+                faces,
+                &tiles.entries[range.clone()],
+                &st.background,
+                &rules,
+                &st.fragments[tile],
+                &st.stats[range],
+                pixel_grads,
+                p,
+                b,
+            );
+        },
+    );
+}
+
 impl CpuBackend {
     /// Renders into `ws.output` and keeps in `ws` what the backward pass needs.
     pub fn forward_into<R: Real>(
@@ -181,34 +385,16 @@ impl CpuBackend {
         st.tiles.bin(&st.faces, &st.grid, threads);
         let rules = PixelRules::<R>::new(settings);
 
-        let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
-        let tile_count = grid.tile_count();
+        let tile_count = st.grid.tile_count();
         refill(
             &mut fw.pixels,
             tile_count * TILE_PIXELS,
             PixelOut::default(),
         );
-        refill(&mut st.stats, tiles.entries.len(), EntryStats::default());
-        if st.fragments.len() < tile_count {
-            st.fragments.resize_with(tile_count, TileFragments::default);
-        }
-        {
-            let jobs = fw
-                .pixels
-                .chunks_mut(TILE_PIXELS)
-                .zip(SplitBy::new(&mut st.stats[..], &tiles.offsets))
-                .zip(st.fragments.iter_mut())
-                .enumerate();
-            run_iter(
-                threads,
-                jobs,
-                || (),
-                |_, (t, ((p, s), kept))| {
-                    let entries = &tiles.entries[tiles.offsets[t]..tiles.offsets[t + 1]];
-                    render_tile(grid, t, faces, entries, &background, &rules, p, s, kept);
-                },
-            );
-        }
+        refill(&mut st.stats, st.tiles.entries.len(), EntryStats::default());
+        st.kernel = self.lanes::<R>();
+        composite_tiles(threads, st, &mut fw.pixels, &background, &rules);
+        let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
 
         let out = &mut ws.output;
         let n = region.pixels();
@@ -292,7 +478,6 @@ fn backward_impl<R: Real>(
     let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
     let pixels = grid.rect.pixels();
     grads.validate(pixels)?;
-    let rules = PixelRules::<R>::new(&st.settings);
     let pixel_grads = PixelGrads {
         color: grads.color,
         alpha: grads.alpha,
@@ -312,32 +497,7 @@ fn backward_impl<R: Real>(
         tile_count * TILE_PIXELS,
         [R::zero(); 3],
     );
-    {
-        let jobs = SplitBy::new(&mut bw.partials[..], &tiles.offsets)
-            .zip(bw.d_background.chunks_mut(TILE_PIXELS))
-            .enumerate();
-        run_iter(
-            threads,
-            jobs,
-            || (),
-            |_, (t, (p, b))| {
-                let range = tiles.offsets[t]..tiles.offsets[t + 1];
-                backward_tile(
-                    grid,
-                    t,
-                    faces,
-                    &tiles.entries[range.clone()],
-                    &st.background,
-                    &rules,
-                    &st.fragments[t],
-                    &st.stats[range],
-                    &pixel_grads,
-                    p,
-                    b,
-                );
-            },
-        );
-    }
+    backward_tiles(threads, st, bw, &pixel_grads);
 
     // 2. Per visible face: sum its partials in tile order, then back through the 2D geometry.
     refill(&mut bw.face_entry_offsets, faces.len() + 1, 0);
