@@ -134,13 +134,43 @@ fn fragment<R: Real>(
     }
 }
 
-/// Forward results of one pixel, before scattering to row-major images.
+/// Forward results of one pixel.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct PixelOut<R: Real> {
     pub color: [R; 3],
     pub transmittance: R,
     pub depth: R,
     pub median_depth: R,
+}
+
+/// The output planes of one row of tiles: the rendered region's rows
+/// `y0..y0 + 16` (fewer at its bottom), row-major, `width` pixels from column `x0`.
+pub struct Band<'a, R: Real> {
+    pub x0: u32,
+    pub y0: u32,
+    pub width: usize,
+    pub color: &'a mut [R],
+    pub alpha: &'a mut [R],
+    pub depth: &'a mut [R],
+    pub median_depth: &'a mut [R],
+    /// The background under each pixel, kept for the backward pass.
+    pub background: &'a mut [R],
+}
+
+impl<R: Real> Band<'_, R> {
+    /// Stores image pixel (`x`, `y`)'s results, `p.color` without the
+    /// background, which is added here as `T·b`.
+    #[inline]
+    pub fn write(&mut self, x: u32, y: u32, p: &PixelOut<R>, bg: [R; 3]) {
+        let i = (y - self.y0) as usize * self.width + (x - self.x0) as usize;
+        for ch in 0..3 {
+            self.color[3 * i + ch] = p.color[ch] + p.transmittance * bg[ch];
+            self.background[3 * i + ch] = bg[ch];
+        }
+        self.alpha[i] = R::one() - p.transmittance;
+        self.depth[i] = p.depth;
+        self.median_depth[i] = p.median_depth;
+    }
 }
 
 /// Per (tile, face) entry: the largest blending weight and pixel count in this tile.
@@ -282,8 +312,8 @@ pub struct TileFragments<R: Real> {
 /// Composites one tile front to back. Faces are walked in depth order and
 /// each visits only the tile pixels it can cover, keeping per-pixel state;
 /// every pixel therefore sees its fragments in exactly the per-pixel order.
-/// `pixels` is the tile's 16×16 slot buffer (row-major inside the tile),
-/// `stats` parallels the tile's entries, and `kept` receives the fragments.
+/// The results go to `band`, `stats` parallels the tile's entries, and
+/// `kept` receives the fragments.
 #[allow(clippy::too_many_arguments)]
 pub fn render_tile<R: Real>(
     grid: &TileGrid,
@@ -292,18 +322,15 @@ pub fn render_tile<R: Real>(
     entries: &[u32],
     background: &Background<'_, R>,
     rules: &PixelRules<R>,
-    pixels: &mut [PixelOut<R>],
+    band: &mut Band<'_, R>,
     stats: &mut [EntryStats<R>],
     kept: &mut TileFragments<R>,
 ) {
-    debug_assert_eq!(pixels.len(), TILE_PIXELS);
     let rect = grid.tile_rect(tile);
     let [x0, y0, x1, y1] = rect;
     let mut t = [R::one(); TILE_PIXELS];
     let mut done = [false; TILE_PIXELS];
-    for p in pixels.iter_mut() {
-        *p = PixelOut::default();
-    }
+    let mut pixels = [PixelOut::<R>::default(); TILE_PIXELS];
     kept.frags.clear();
     kept.median.clear();
     kept.median.resize(TILE_PIXELS, NONE);
@@ -369,11 +396,8 @@ pub fn render_tile<R: Real>(
         for x in x0..x1 {
             let i = ((y - y0) * TILE + (x - x0)) as usize;
             let bg = background.at(y as usize * grid.image_width as usize + x as usize);
-            let out = &mut pixels[i];
-            for ch in 0..3 {
-                out.color[ch] += t[i] * bg[ch];
-            }
-            out.transmittance = t[i];
+            pixels[i].transmittance = t[i];
+            band.write(x, y, &pixels[i], bg);
         }
     }
 }

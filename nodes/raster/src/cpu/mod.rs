@@ -27,10 +27,10 @@ use crate::parallel::{chunk_size, for_chunks_mut, run_iter};
 use crate::real::Real;
 use crate::sh;
 use anyhow::{Context, Result, bail};
-use backward::{CornerGrads, FacePartial, PixelGrads, backward_tile, face_backward};
-use binning::{SplitBy, TILE, TILE_PIXELS, TileGrid, TileLists};
+use backward::{CornerGrads, FacePartial, GradBand, PixelGrads, backward_tile, face_backward};
+use binning::{SplitBy, TILE, TileGrid, TileLists};
 pub use forward::Background;
-use forward::{EntryStats, PixelOut, PixelRules, TileFragments, render_tile};
+use forward::{Band, EntryStats, PixelRules, TileFragments, render_tile};
 use objectsplat_core::Camera;
 use preprocess::{
     CameraParams, ScreenFace, VertexData, footprint, order_by_tile, preprocess_faces,
@@ -115,6 +115,8 @@ struct ForwardState<R: Real> {
     faces: Vec<ScreenFace<R>>,
     grid: TileGrid,
     tiles: TileLists,
+    /// Where each row of tiles' entries start in `tiles` (and one past the last).
+    row_offsets: Vec<usize>,
     /// The background of the rendered region (its pixels, row-major).
     background: Vec<R>,
     /// Per entry of `tiles`: its largest blending weight and pixel count.
@@ -136,14 +138,12 @@ struct ForwardScratch<R: Real> {
     faces: Vec<ScreenFace<R>>,
     counts: Vec<usize>,
     used: Vec<bool>,
-    pixels: Vec<PixelOut<R>>,
 }
 
 /// Scratch of the backward pass.
 #[derive(Default)]
 struct BackwardScratch<R: Real> {
     partials: Vec<FacePartial<R>>,
-    d_background: Vec<[R; 3]>,
     face_entry_offsets: Vec<usize>,
     cursor: Vec<usize>,
     face_entries: Vec<usize>,
@@ -200,143 +200,220 @@ fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
     v.resize(n, value);
 }
 
+/// The output planes of `out` and the kept background, split into rows of tiles.
+fn bands<'a, R: Real>(
+    grid: &TileGrid,
+    out: &'a mut RenderOutput<R>,
+    background: &'a mut [R],
+) -> impl Iterator<Item = Band<'a, R>> + Send {
+    let region = grid.rect;
+    let width = region.width() as usize;
+    // At least 1: an empty region has no rows to split.
+    let band = (TILE as usize * width).max(1);
+    out.color
+        .chunks_mut(3 * band)
+        .zip(out.alpha.chunks_mut(band))
+        .zip(out.depth.chunks_mut(band))
+        .zip(out.median_depth.chunks_mut(band))
+        .zip(background.chunks_mut(3 * band))
+        .enumerate()
+        .map(
+            move |(row, ((((color, alpha), depth), median_depth), background))| Band {
+                x0: region.x0,
+                y0: region.y0 + row as u32 * TILE,
+                width,
+                color,
+                alpha,
+                depth,
+                median_depth,
+                background,
+            },
+        )
+}
+
 /// Composites every tile of `st`'s grid with the kernels `st.kernel` names,
-/// into `pixels` (a tile's 16×16 slots after another), `st.stats` and the
-/// per-tile records the backward pass reads.
+/// a row of tiles per job, into `out`'s planes, `st.stats` and the per-tile
+/// records the backward pass reads.
 fn composite_tiles<R: Real>(
     threads: usize,
     st: &mut ForwardState<R>,
-    pixels: &mut Vec<PixelOut<R>>,
+    out: &mut RenderOutput<R>,
     background: &Background<'_, R>,
     rules: &PixelRules<R>,
 ) {
+    let tile_count = st.grid.tile_count();
+    let tiles_x = (st.grid.tiles_x as usize).max(1);
     #[cfg(target_arch = "x86_64")]
     if let TileKernel::Avx2(t) = st.kernel
         && let Some(st) = (st as &mut dyn std::any::Any).downcast_mut::<ForwardState<f32>>()
-        && let Some(pixels) =
-            (pixels as &mut dyn std::any::Any).downcast_mut::<Vec<PixelOut<f32>>>()
+        && let Some(out) = (out as &mut dyn std::any::Any).downcast_mut::<RenderOutput<f32>>()
         && let Some(background) = background.as_f32()
         && let Some(rules) = (rules as &dyn std::any::Any).downcast_ref::<PixelRules<f32>>()
     {
-        let tile_count = st.grid.tile_count();
         if st.chunks.len() < tile_count {
             st.chunks.resize_with(tile_count, Default::default);
         }
         let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
-        let jobs = pixels
-            .chunks_mut(TILE_PIXELS)
-            .zip(SplitBy::new(&mut st.stats[..], &tiles.offsets))
-            .zip(st.chunks.iter_mut())
+        let jobs = bands(grid, out, &mut st.background)
+            .zip(SplitBy::new(&mut st.stats[..], &st.row_offsets))
+            .zip(st.chunks[..tile_count].chunks_mut(tiles_x))
             .enumerate();
         run_iter(
             threads,
             jobs,
             || (),
-            |_, (tile, ((p, s), kept))| {
-                let entries = &tiles.entries[tiles.offsets[tile]..tiles.offsets[tile + 1]];
-                simd::forward::render_tile(
-                    t,
-                    grid,
-                    tile,
-                    faces,
-                    entries,
-                    &background,
-                    rules,
-                    p,
-                    s,
-                    kept,
-                );
+            |_, (row, ((mut band, mut stats), kept))| {
+                for (tile, kept) in (row * tiles_x..).zip(kept) {
+                    let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
+                    let (these, rest) = stats.split_at_mut(entries.len());
+                    stats = rest;
+                    simd::forward::render_tile(
+                        t,
+                        grid,
+                        tile,
+                        faces,
+                        &tiles.entries[entries],
+                        &background,
+                        rules,
+                        &mut band,
+                        these,
+                        kept,
+                    );
+                }
             },
         );
         return;
     }
     st.kernel = TileKernel::Scalar;
-    let tile_count = st.grid.tile_count();
     if st.fragments.len() < tile_count {
         st.fragments.resize_with(tile_count, TileFragments::default);
     }
     let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
-    let jobs = pixels
-        .chunks_mut(TILE_PIXELS)
-        .zip(SplitBy::new(&mut st.stats[..], &tiles.offsets))
-        .zip(st.fragments.iter_mut())
+    let jobs = bands(grid, out, &mut st.background)
+        .zip(SplitBy::new(&mut st.stats[..], &st.row_offsets))
+        .zip(st.fragments[..tile_count].chunks_mut(tiles_x))
         .enumerate();
     run_iter(
         threads,
         jobs,
         || (),
-        |_, (tile, ((p, s), kept))| {
-            let entries = &tiles.entries[tiles.offsets[tile]..tiles.offsets[tile + 1]];
-            render_tile(grid, tile, faces, entries, background, rules, p, s, kept);
+        |_, (row, ((mut band, mut stats), kept))| {
+            for (tile, kept) in (row * tiles_x..).zip(kept) {
+                let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
+                let (these, rest) = stats.split_at_mut(entries.len());
+                stats = rest;
+                render_tile(
+                    grid,
+                    tile,
+                    faces,
+                    &tiles.entries[entries],
+                    background,
+                    rules,
+                    &mut band,
+                    these,
+                    kept,
+                );
+            }
         },
     );
 }
 
-/// The per-(tile, face) partials and the background gradient, tile by tile,
-/// with the kernels the forward pass ran.
+/// dL/d(background) of `result` split into rows of tiles.
+fn grad_bands<'a, R: Real>(
+    grid: &TileGrid,
+    background: &'a mut [R],
+) -> impl Iterator<Item = GradBand<'a, R>> + Send {
+    let region = grid.rect;
+    let width = region.width() as usize;
+    // At least 1: an empty region has no rows to split.
+    let band = (TILE as usize * width).max(1);
+    background
+        .chunks_mut(3 * band)
+        .enumerate()
+        .map(move |(row, background)| GradBand {
+            x0: region.x0,
+            y0: region.y0 + row as u32 * TILE,
+            width,
+            background,
+        })
+}
+
+/// The per-(tile, face) partials and the background gradient, a row of
+/// tiles per job, with the kernels the forward pass ran.
 fn backward_tiles<R: Real>(
     threads: usize,
     st: &ForwardState<R>,
     bw: &mut BackwardScratch<R>,
+    result: &mut ModelGrads<R>,
     pixel_grads: &PixelGrads<'_, R>,
 ) {
     let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
+    let tiles_x = (grid.tiles_x as usize).max(1);
     let rules = PixelRules::<R>::new(&st.settings);
     #[cfg(target_arch = "x86_64")]
     if let TileKernel::Avx2(t) = st.kernel
         && let Some(st) = (st as &dyn std::any::Any).downcast_ref::<ForwardState<f32>>()
         && let Some(bw) = (bw as &mut dyn std::any::Any).downcast_mut::<BackwardScratch<f32>>()
+        && let Some(result) = (result as &mut dyn std::any::Any).downcast_mut::<ModelGrads<f32>>()
         && let Some(grads) = pixel_grads.as_f32()
         && let Some(rules) = (&rules as &dyn std::any::Any).downcast_ref::<PixelRules<f32>>()
     {
-        let jobs = SplitBy::new(&mut bw.partials[..], &tiles.offsets)
-            .zip(bw.d_background.chunks_mut(TILE_PIXELS))
+        let jobs = grad_bands(grid, &mut result.background)
+            .zip(SplitBy::new(&mut bw.partials[..], &st.row_offsets))
             .enumerate();
         run_iter(
             threads,
             jobs,
             || (),
-            |_, (tile, (p, b))| {
-                let range = tiles.offsets[tile]..tiles.offsets[tile + 1];
-                simd::backward::backward_tile(
-                    t,
-                    &st.grid,
-                    tile,
-                    &st.faces,
-                    &st.tiles.entries[range],
-                    &st.background,
-                    rules,
-                    &st.chunks[tile],
-                    &grads,
-                    p,
-                    b,
-                );
+            |_, (row, (mut band, mut partials))| {
+                for tile in row * tiles_x..((row + 1) * tiles_x).min(grid.tile_count()) {
+                    let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
+                    let (these, rest) = partials.split_at_mut(entries.len());
+                    partials = rest;
+                    simd::backward::backward_tile(
+                        t,
+                        &st.grid,
+                        tile,
+                        &st.faces,
+                        &st.tiles.entries[entries],
+                        &st.background,
+                        rules,
+                        &st.chunks[tile],
+                        &grads,
+                        these,
+                        &mut band,
+                    );
+                }
             },
         );
         return;
     }
-    let jobs = SplitBy::new(&mut bw.partials[..], &tiles.offsets)
-        .zip(bw.d_background.chunks_mut(TILE_PIXELS))
+    let jobs = grad_bands(grid, &mut result.background)
+        .zip(SplitBy::new(&mut bw.partials[..], &st.row_offsets))
         .enumerate();
     run_iter(
         threads,
         jobs,
         || (),
-        |_, (tile, (p, b))| {
-            let range = tiles.offsets[tile]..tiles.offsets[tile + 1];
-            backward_tile(
-                grid,
-                tile,
-                faces,
-                &tiles.entries[range.clone()],
-                &st.background,
-                &rules,
-                &st.fragments[tile],
-                &st.stats[range],
-                pixel_grads,
-                p,
-                b,
-            );
+        |_, (row, (mut band, mut partials))| {
+            for tile in row * tiles_x..((row + 1) * tiles_x).min(grid.tile_count()) {
+                let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
+                let (these, rest) = partials.split_at_mut(entries.len());
+                partials = rest;
+                backward_tile(
+                    grid,
+                    tile,
+                    faces,
+                    &tiles.entries[entries.clone()],
+                    &st.background,
+                    &rules,
+                    &st.fragments[tile],
+                    &st.stats[entries],
+                    pixel_grads,
+                    these,
+                    &mut band,
+                );
+            }
         },
     );
 }
@@ -385,44 +462,26 @@ impl CpuBackend {
         st.tiles.bin(&st.faces, &st.grid, threads);
         let rules = PixelRules::<R>::new(settings);
 
-        let tile_count = st.grid.tile_count();
-        refill(
-            &mut fw.pixels,
-            tile_count * TILE_PIXELS,
-            PixelOut::default(),
-        );
         refill(&mut st.stats, st.tiles.entries.len(), EntryStats::default());
-        st.kernel = self.lanes::<R>();
-        composite_tiles(threads, st, &mut fw.pixels, &background, &rules);
-        let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
+        st.tiles.row_offsets(&st.grid, &mut st.row_offsets);
 
         let out = &mut ws.output;
         let n = region.pixels();
         out.width = w;
         out.height = h;
         out.region = region;
-        refill(&mut out.color, n * 3, R::zero());
-        refill(&mut out.alpha, n, R::zero());
-        refill(&mut out.depth, n, R::zero());
-        refill(&mut out.median_depth, n, R::zero());
+        // The kernels write every pixel of the region: no need to clear.
+        for plane in [&mut out.color, &mut st.background] {
+            plane.resize(n * 3, R::zero());
+        }
+        for plane in [&mut out.alpha, &mut out.depth, &mut out.median_depth] {
+            plane.resize(n, R::zero());
+        }
+        st.kernel = self.lanes::<R>();
+        composite_tiles(threads, st, out, &background, &rules);
+        let (tiles, faces) = (&st.tiles, &st.faces);
         refill(&mut out.face_max_weight, model.face_count(), R::zero());
         refill(&mut out.face_pixel_count, model.face_count(), 0);
-        refill(&mut st.background, n * 3, R::zero());
-        for t in 0..tile_count {
-            let [x0, y0, x1, y1] = grid.tile_rect(t);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let src = &fw.pixels[t * TILE_PIXELS + ((y - y0) * TILE + (x - x0)) as usize];
-                    let i = region.index(x, y);
-                    out.color[i * 3..i * 3 + 3].copy_from_slice(&src.color);
-                    out.alpha[i] = R::one() - src.transmittance;
-                    out.depth[i] = src.depth;
-                    out.median_depth[i] = src.median_depth;
-                    let b = background.at(y as usize * w as usize + x as usize);
-                    st.background[i * 3..i * 3 + 3].copy_from_slice(&b);
-                }
-            }
-        }
         for (e, s) in st.stats.iter().enumerate() {
             let f = faces[tiles.entries[e] as usize].face as usize;
             out.face_max_weight[f] = out.face_max_weight[f].max(s.max_weight);
@@ -486,18 +545,14 @@ fn backward_impl<R: Real>(
     };
 
     // 1. Per (tile, face) partials and the background gradient, tile by tile.
-    let tile_count = grid.tile_count();
     refill(
         &mut bw.partials,
         tiles.entries.len(),
         FacePartial::default(),
     );
-    refill(
-        &mut bw.d_background,
-        tile_count * TILE_PIXELS,
-        [R::zero(); 3],
-    );
-    backward_tiles(threads, st, bw, &pixel_grads);
+    // The kernels write every pixel of the region: no need to clear.
+    result.background.resize(pixels * 3, R::zero());
+    backward_tiles(threads, st, bw, result, &pixel_grads);
 
     // 2. Per visible face: sum its partials in tile order, then back through the 2D geometry.
     refill(&mut bw.face_entry_offsets, faces.len() + 1, 0);
@@ -559,7 +614,6 @@ fn backward_impl<R: Real>(
     refill(&mut result.vertices, nv, [R::zero(); 3]);
     refill(&mut result.sh, nv, [[R::zero(); 3]; crate::SH_COEFFS]);
     refill(&mut result.opacity_logits, nv, R::zero());
-    refill(&mut result.background, pixels * 3, R::zero());
     let verts = &st.verts;
     let floor = R::of(model.opacity_floor);
     let degree = st.settings.sh_degree;
@@ -624,17 +678,6 @@ fn backward_impl<R: Real>(
             }
         },
     );
-    let region = grid.rect;
-    for t in 0..tile_count {
-        let [x0, y0, x1, y1] = grid.tile_rect(t);
-        for y in y0..y1 {
-            for x in x0..x1 {
-                let i = region.index(x, y);
-                let src = bw.d_background[t * TILE_PIXELS + ((y - y0) * TILE + (x - x0)) as usize];
-                result.background[i * 3..i * 3 + 3].copy_from_slice(&src);
-            }
-        }
-    }
     Ok(())
 }
 

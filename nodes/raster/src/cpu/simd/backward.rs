@@ -5,7 +5,7 @@
 
 use super::forward::{FaceLanes, PADDED_PIXELS, RuleLanes, TileChunks};
 use super::{Avx2, F32x8, I32x8, LANES, Mask8, each3};
-use crate::cpu::backward::{FacePartial, PixelGrads};
+use crate::cpu::backward::{FacePartial, GradBand, PixelGrads};
 use crate::cpu::binning::{TILE, TileGrid};
 use crate::cpu::forward::PixelRules;
 use crate::cpu::preprocess::ScreenFace;
@@ -107,7 +107,7 @@ pub fn backward_tile(
     kept: &TileChunks,
     grads: &PixelGrads<'_, f32>,
     partials: &mut [FacePartial<f32>],
-    d_background: &mut [[f32; 3]],
+    d_background: &mut GradBand<'_, f32>,
 ) {
     // SAFETY: the token proves the CPU has AVX2, FMA and POPCNT.
     unsafe {
@@ -140,7 +140,7 @@ fn backward_tile_avx2(
     kept: &TileChunks,
     grads: &PixelGrads<'_, f32>,
     partials: &mut [FacePartial<f32>],
-    d_background: &mut [[f32; 3]],
+    d_background: &mut GradBand<'_, f32>,
 ) {
     let [x0, y0, x1, y1] = grid.tile_rect(tile);
     let tf = &kept.transmittance;
@@ -162,7 +162,7 @@ fn backward_tile_avx2(
             }
             s.depth[i] = grads.depth.map_or(0.0, |d| d[pix]);
             s.median_depth[i] = grads.median_depth.map_or(0.0, |m| m[pix]);
-            d_background[i] = g.map(|v| v * tf[i]);
+            d_background.write(x, y, g.map(|v| v * tf[i]));
             s.behind[i] = tf[i] * (bg[0] * g[0] + bg[1] * g[1] + bg[2] * g[2]) - ga * tf[i];
         }
     }

@@ -5,7 +5,9 @@
 use super::math::pow;
 use super::{Avx2, F32x8, I32x8, LANES, Mask8, each3};
 use crate::cpu::binning::{TILE, TILE_PIXELS, TileGrid};
-use crate::cpu::forward::{Background, EntryStats, PixelOut, PixelRules, RowSpans, clip_to_tile};
+use crate::cpu::forward::{
+    Background, Band, EntryStats, PixelOut, PixelRules, RowSpans, clip_to_tile,
+};
 use crate::cpu::preprocess::ScreenFace;
 
 /// Per-pixel tile arrays are this long: a lane group starts at any pixel of a
@@ -147,14 +149,14 @@ pub fn render_tile(
     entries: &[u32],
     background: &Background<'_, f32>,
     rules: &PixelRules<f32>,
-    pixels: &mut [PixelOut<f32>],
+    band: &mut Band<'_, f32>,
     stats: &mut [EntryStats<f32>],
     kept: &mut TileChunks,
 ) {
     // SAFETY: the token proves the CPU has AVX2, FMA and POPCNT.
     unsafe {
         render_tile_avx2(
-            t, grid, tile, faces, entries, background, rules, pixels, stats, kept,
+            t, grid, tile, faces, entries, background, rules, band, stats, kept,
         )
     }
 }
@@ -169,11 +171,10 @@ fn render_tile_avx2(
     entries: &[u32],
     background: &Background<'_, f32>,
     rules: &PixelRules<f32>,
-    pixels: &mut [PixelOut<f32>],
+    band: &mut Band<'_, f32>,
     stats: &mut [EntryStats<f32>],
     kept: &mut TileChunks,
 ) {
-    debug_assert_eq!(pixels.len(), TILE_PIXELS);
     let rect = grid.tile_rect(tile);
     let [x0, y0, x1, y1] = rect;
     let mut s = TileState {
@@ -305,13 +306,13 @@ fn render_tile_avx2(
         for x in x0..x1 {
             let i = ((y - y0) * TILE + (x - x0)) as usize;
             let bg = background.at(y as usize * grid.image_width as usize + x as usize);
-            let ti = s.t[i];
-            pixels[i] = PixelOut {
-                color: [0, 1, 2].map(|ch| s.color[ch][i] + ti * bg[ch]),
-                transmittance: ti,
+            let p = PixelOut {
+                color: [s.color[0][i], s.color[1][i], s.color[2][i]],
+                transmittance: s.t[i],
                 depth: s.depth[i],
                 median_depth: s.median_depth[i],
             };
+            band.write(x, y, &p, bg);
         }
     }
 }
