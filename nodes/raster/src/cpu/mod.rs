@@ -135,7 +135,6 @@ struct ForwardState<R: Real> {
 #[derive(Default)]
 struct ForwardScratch<R: Real> {
     slots: Vec<Option<ScreenFace<R>>>,
-    faces: Vec<ScreenFace<R>>,
     counts: Vec<usize>,
     used: Vec<bool>,
 }
@@ -433,24 +432,16 @@ impl CpuBackend {
         let cam = CameraParams::<R>::new(camera);
         let (st, fw) = (&mut ws.state, &mut ws.forward);
         preprocess_vertices(model, &cam, threads, &mut st.verts);
-        preprocess_faces(
-            model,
-            &st.verts,
-            &cam,
-            settings,
-            threads,
-            &mut fw.slots,
-            &mut st.faces,
-        );
+        preprocess_faces(model, &st.verts, &cam, settings, threads, &mut fw.slots);
         let (w, h) = (camera.width, camera.height);
         let region = match settings.region {
             Region::Full => PixelRect::full(w, h),
-            Region::Footprint { include, margin } => footprint(&st.faces)
+            Region::Footprint { include, margin } => footprint(fw.slots.iter().flatten())
                 .union(include)
                 .grown_to_tiles(margin, TILE, w, h),
         };
         st.grid = TileGrid::new(w, h, region);
-        order_by_tile(&mut st.faces, &st.grid, &mut fw.faces, &mut fw.counts);
+        order_by_tile(&fw.slots, &st.grid, &mut st.faces, &mut fw.counts);
         shade_vertices(
             model,
             &mut st.verts,
