@@ -218,16 +218,18 @@ fn backward_tile_avx2(
             let (alpha, clamped) = face.alpha(intensity, lanes.alpha_max);
             let color = face.color_at(&lambda);
             let z = FaceLanes::interpolate(&lambda, face.z);
-            let w = alpha * t_before;
+            // Zero outside the chunk's lanes (whose records are not fragments),
+            // so the updates below leave those pixels as they were.
+            let w = m.keep(alpha * t_before);
             let gc = each3(|ch| F32x8::load_at(t, &s.color[ch], first));
             let gd = F32x8::load_at(t, &s.depth, first);
             let h = FaceLanes::interpolate(&color, gc) + z * gd;
             let behind = F32x8::load_at(t, &s.behind, first);
             let d_alpha = t_before.mul_sub(h, behind.div(one - alpha));
-            m.select(h.mul_add(w, behind), behind)
-                .store_at(&mut s.behind, first);
+            // Arithmetic, not a select: see the forward kernel's updates.
+            h.mul_add(w, behind).store_at(&mut s.behind, first);
 
-            let d_c = each3(|ch| m.keep(gc[ch] * w));
+            let d_c = each3(|ch| gc[ch] * w);
             let median = I32x8::load_at(t, &kept.median, first).eq(I32x8::splat(t, c as i32));
             let gm = median.keep(F32x8::load_at(t, &s.median_depth, first));
             let d_zpix = m.keep(w.mul_add(gd, gm));

@@ -255,33 +255,40 @@ fn render_tile_avx2(
                 if bits == 0 {
                     continue;
                 }
+                // Lanes outside `m` get α = w = 0, so the updates below leave
+                // them exactly as they were (colour and depth are finite
+                // there). Arithmetic instead of a select before each store:
+                // the compiler turns "load, select, store back" into masked
+                // stores, which are slow on AMD CPUs.
+                let alpha = m.keep(alpha);
                 let w = alpha * t_old;
                 let c = face.color_at(&lambda);
                 let z = FaceLanes::interpolate(&lambda, face.z);
                 for ch in 0..3 {
                     let old = F32x8::load_at(t, &s.color[ch], first);
-                    m.select(w.mul_add(c[ch], old), old)
-                        .store_at(&mut s.color[ch], first);
+                    w.mul_add(c[ch], old).store_at(&mut s.color[ch], first);
                 }
                 let old = F32x8::load_at(t, &s.depth, first);
-                m.select(w.mul_add(z, old), old)
-                    .store_at(&mut s.depth, first);
-                let chunk = kept.chunks.len() as i32;
+                w.mul_add(z, old).store_at(&mut s.depth, first);
                 let median = m & t_old.gt(lanes.half);
-                let old = F32x8::load_at(t, &s.median_depth, first);
-                median.select(z, old).store_at(&mut s.median_depth, first);
-                let old = I32x8::load_at(t, &s.median, first);
-                median
-                    .select_i32(I32x8::splat(t, chunk), old)
-                    .store_at(&mut s.median, first);
+                // Only the first fragments of a pixel can set it: rarely taken deeper down.
+                if median.any() {
+                    let chunk = kept.chunks.len() as i32;
+                    let old = F32x8::load_at(t, &s.median_depth, first);
+                    median.select(z, old).store_at(&mut s.median_depth, first);
+                    let old = I32x8::load_at(t, &s.median, first);
+                    median
+                        .select_i32(I32x8::splat(t, chunk), old)
+                        .store_at(&mut s.median, first);
+                }
                 let t_new = t_old * (one - alpha);
-                m.select(t_new, t_old).store_at(&mut s.t, first);
+                t_new.store_at(&mut s.t, first);
                 let saturated = (m & t_new.lt(lanes.transmittance_min)).bits();
                 // The group lies inside the row (its lanes are in `live`), so the shift keeps them.
                 active[r] &= !((u32::from(saturated) << gx) as u16);
                 remaining -= saturated.count_ones();
                 // NaN weights do not count, as in f32::max.
-                max_weight = m.keep(w).max(max_weight);
+                max_weight = w.max(max_weight);
                 blended += bits.count_ones();
                 kept.chunks.push(LaneChunk {
                     intensity: intensity.to_array(),
