@@ -36,6 +36,7 @@ use preprocess::{
     CameraParams, ScreenFace, VertexData, footprint, order_by_tile, preprocess_faces,
     preprocess_vertices, shade_vertices,
 };
+use std::ops::Range;
 
 const BACKEND_NAME: &str = "cpu";
 
@@ -230,9 +231,44 @@ fn bands<'a, R: Real>(
         )
 }
 
-/// Composites every tile of `st`'s grid with the kernels `st.kernel` names,
-/// a row of tiles per job, into `out`'s planes, `st.stats` and the per-tile
-/// records the backward pass reads.
+/// Runs `work(tile, entries, band, per_entry, record)` for every tile of the
+/// grid, a row of tiles per job: `band` is the row's output, `per_entry` the
+/// tile's part of `per_entry` (one element per entry of the tile lists) and
+/// `record` the tile's element of `records`.
+#[allow(clippy::too_many_arguments)]
+fn for_each_tile_row<B: Send, S: Send, K: Send>(
+    threads: usize,
+    grid: &TileGrid,
+    tiles: &TileLists,
+    row_offsets: &[usize],
+    bands: impl Iterator<Item = B> + Send,
+    per_entry: &mut [S],
+    records: &mut [K],
+    work: impl Fn(usize, Range<usize>, &mut B, &mut [S], &mut K) + Sync,
+) {
+    let tiles_x = (grid.tiles_x as usize).max(1);
+    let jobs = bands
+        .zip(SplitBy::new(per_entry, row_offsets))
+        .zip(records[..grid.tile_count()].chunks_mut(tiles_x))
+        .enumerate();
+    run_iter(
+        threads,
+        jobs,
+        || (),
+        |_, (row, ((mut band, mut per_entry), records))| {
+            for (tile, record) in (row * tiles_x..).zip(records) {
+                let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
+                let (these, rest) = per_entry.split_at_mut(entries.len());
+                per_entry = rest;
+                work(tile, entries, &mut band, these, record);
+            }
+        },
+    );
+}
+
+/// Composites every tile of `st`'s grid with the kernels `st.kernel` names
+/// into `out`'s planes, `st.stats` and the per-tile records the backward
+/// pass reads.
 fn composite_tiles<R: Real>(
     threads: usize,
     st: &mut ForwardState<R>,
@@ -241,7 +277,6 @@ fn composite_tiles<R: Real>(
     rules: &PixelRules<R>,
 ) {
     let tile_count = st.grid.tile_count();
-    let tiles_x = (st.grid.tiles_x as usize).max(1);
     #[cfg(target_arch = "x86_64")]
     if let TileKernel::Avx2(t) = st.kernel
         && let Some(st) = (st as &mut dyn std::any::Any).downcast_mut::<ForwardState<f32>>()
@@ -253,32 +288,28 @@ fn composite_tiles<R: Real>(
             st.chunks.resize_with(tile_count, Default::default);
         }
         let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
-        let jobs = bands(grid, out, &mut st.background)
-            .zip(SplitBy::new(&mut st.stats[..], &st.row_offsets))
-            .zip(st.chunks[..tile_count].chunks_mut(tiles_x))
-            .enumerate();
-        run_iter(
+        for_each_tile_row(
             threads,
-            jobs,
-            || (),
-            |_, (row, ((mut band, mut stats), kept))| {
-                for (tile, kept) in (row * tiles_x..).zip(kept) {
-                    let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
-                    let (these, rest) = stats.split_at_mut(entries.len());
-                    stats = rest;
-                    simd::forward::render_tile(
-                        t,
-                        grid,
-                        tile,
-                        faces,
-                        &tiles.entries[entries],
-                        &background,
-                        rules,
-                        &mut band,
-                        these,
-                        kept,
-                    );
-                }
+            grid,
+            tiles,
+            &st.row_offsets,
+            bands(grid, out, &mut st.background),
+            &mut st.stats,
+            &mut st.chunks,
+            |tile, entries, band, stats, kept| {
+                let entries = &tiles.entries[entries];
+                simd::forward::render_tile(
+                    t,
+                    grid,
+                    tile,
+                    faces,
+                    entries,
+                    &background,
+                    rules,
+                    band,
+                    stats,
+                    kept,
+                );
             },
         );
         return;
@@ -288,31 +319,19 @@ fn composite_tiles<R: Real>(
         st.fragments.resize_with(tile_count, TileFragments::default);
     }
     let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
-    let jobs = bands(grid, out, &mut st.background)
-        .zip(SplitBy::new(&mut st.stats[..], &st.row_offsets))
-        .zip(st.fragments[..tile_count].chunks_mut(tiles_x))
-        .enumerate();
-    run_iter(
+    for_each_tile_row(
         threads,
-        jobs,
-        || (),
-        |_, (row, ((mut band, mut stats), kept))| {
-            for (tile, kept) in (row * tiles_x..).zip(kept) {
-                let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
-                let (these, rest) = stats.split_at_mut(entries.len());
-                stats = rest;
-                render_tile(
-                    grid,
-                    tile,
-                    faces,
-                    &tiles.entries[entries],
-                    background,
-                    rules,
-                    &mut band,
-                    these,
-                    kept,
-                );
-            }
+        grid,
+        tiles,
+        &st.row_offsets,
+        bands(grid, out, &mut st.background),
+        &mut st.stats,
+        &mut st.fragments,
+        |tile, entries, band, stats, kept| {
+            let entries = &tiles.entries[entries];
+            render_tile(
+                grid, tile, faces, entries, background, rules, band, stats, kept,
+            );
         },
     );
 }
@@ -347,8 +366,9 @@ fn backward_tiles<R: Real>(
     pixel_grads: &PixelGrads<'_, R>,
 ) {
     let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
-    let tiles_x = (grid.tiles_x as usize).max(1);
     let rules = PixelRules::<R>::new(&st.settings);
+    // The backward writes no per-tile record: a zero-sized one per tile (no allocation).
+    let mut no_records = vec![(); grid.tile_count()];
     #[cfg(target_arch = "x86_64")]
     if let TileKernel::Avx2(t) = st.kernel
         && let Some(st) = (st as &dyn std::any::Any).downcast_ref::<ForwardState<f32>>()
@@ -357,62 +377,54 @@ fn backward_tiles<R: Real>(
         && let Some(grads) = pixel_grads.as_f32()
         && let Some(rules) = (&rules as &dyn std::any::Any).downcast_ref::<PixelRules<f32>>()
     {
-        let jobs = grad_bands(grid, &mut result.background)
-            .zip(SplitBy::new(&mut bw.partials[..], &st.row_offsets))
-            .enumerate();
-        run_iter(
+        for_each_tile_row(
             threads,
-            jobs,
-            || (),
-            |_, (row, (mut band, mut partials))| {
-                for tile in row * tiles_x..((row + 1) * tiles_x).min(grid.tile_count()) {
-                    let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
-                    let (these, rest) = partials.split_at_mut(entries.len());
-                    partials = rest;
-                    simd::backward::backward_tile(
-                        t,
-                        &st.grid,
-                        tile,
-                        &st.faces,
-                        &st.tiles.entries[entries],
-                        &st.background,
-                        rules,
-                        &st.chunks[tile],
-                        &grads,
-                        these,
-                        &mut band,
-                    );
-                }
+            grid,
+            tiles,
+            &st.row_offsets,
+            grad_bands(grid, &mut result.background),
+            &mut bw.partials,
+            &mut no_records,
+            |tile, entries, band, partials, _| {
+                simd::backward::backward_tile(
+                    t,
+                    &st.grid,
+                    tile,
+                    &st.faces,
+                    &st.tiles.entries[entries],
+                    &st.background,
+                    rules,
+                    &st.chunks[tile],
+                    &grads,
+                    partials,
+                    band,
+                );
             },
         );
         return;
     }
-    let jobs = grad_bands(grid, &mut result.background)
-        .zip(SplitBy::new(&mut bw.partials[..], &st.row_offsets))
-        .enumerate();
-    run_iter(
+    for_each_tile_row(
         threads,
-        jobs,
-        || (),
-        |_, (row, (mut band, mut partials))| {
-            for tile in row * tiles_x..((row + 1) * tiles_x).min(grid.tile_count()) {
-                let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
-                let (these, rest) = partials.split_at_mut(entries.len());
-                partials = rest;
-                backward_tile(
-                    grid,
-                    tile,
-                    faces,
-                    &tiles.entries[entries.clone()],
-                    &st.background,
-                    &rules,
-                    &st.fragments[tile],
-                    &st.stats[entries],
-                    pixel_grads,
-                    these,
-                    &mut band,
-                );
-            }
+        grid,
+        tiles,
+        &st.row_offsets,
+        grad_bands(grid, &mut result.background),
+        &mut bw.partials,
+        &mut no_records,
+        |tile, entries, band, partials, _| {
+            backward_tile(
+                grid,
+                tile,
+                faces,
+                &tiles.entries[entries.clone()],
+                &st.background,
+                &rules,
+                &st.fragments[tile],
+                &st.stats[entries],
+                pixel_grads,
+                partials,
+                band,
+            );
         },
     );
 }
