@@ -1,5 +1,6 @@
-//! The CPU reference backend: multi-threaded over tiles (crossbeam scoped
-//! threads), deterministic for any thread count, generic over f32/f64.
+//! The CPU reference backend: multi-threaded over rows of tiles (the
+//! [`crate::parallel`] workers), deterministic for any thread count, generic
+//! over f32/f64.
 //!
 //! Each tile is composited by one of two kernels: the scalar one (one pixel
 //! at a time, any scalar type: the reference) or, for f32 on x86-64 CPUs with
