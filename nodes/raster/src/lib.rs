@@ -25,7 +25,7 @@ pub mod sh;
 pub mod training_log;
 
 pub use backend::{OutputGrads, RenderBackend, RenderOutput, RenderSettings, SavedForward};
-pub use cpu::{CpuBackend, render_model};
+pub use cpu::{CpuBackend, Kernel, render_model};
 pub use model::{Model, ModelGrads, SH_COEFFS};
 pub use model_io::{load_model, save_model};
 pub use real::Real;

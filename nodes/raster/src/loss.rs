@@ -108,9 +108,10 @@ pub struct PhotometricLoss<R: Real> {
     maps: [Vec<R>; 3],
     /// Per job: (Σ w·|x − y|, Σ w·S) of its rows.
     partials: Vec<(f64, f64)>,
-    /// Per worker: rows of x, y and a product (row pass), five blurred rows (column passes).
+    /// Per worker: rows of x, y and a product (row pass), five blurred rows
+    /// and the weighted SSIM map (column passes).
     row_scratch: Vec<[Vec<R>; 3]>,
-    column_scratch: Vec<[Vec<R>; 5]>,
+    column_scratch: Vec<[Vec<R>; 6]>,
     /// dL/d(rendered), filled by [`PhotometricLoss::evaluate`] when asked for.
     pub grad: Vec<R>,
 }
@@ -124,50 +125,243 @@ fn gaussian_taps<R: Real>() -> [R; SSIM_WINDOW] {
     std::array::from_fn(|i| R::of(raw[i] / sum))
 }
 
-/// One row of the zero-padded horizontal blur: `dst[x] = Σ_t taps[t]·src[x + t − 5]`.
-#[inline]
-fn blur_row<R: Real>(src: &[R], taps: &[R; SSIM_WINDOW], dst: &mut [R]) {
-    let w = src.len();
-    if w > 2 * HALF {
-        // Interior: every tap in range, a fixed-length loop the compiler vectorizes.
-        let inner = &mut dst[HALF..w - HALF];
-        inner.fill(R::zero());
-        for (t, &tap) in taps.iter().enumerate() {
-            for (d, &s) in inner.iter_mut().zip(&src[t..t + w - 2 * HALF]) {
-                *d += tap * s;
+/// Defines a function whose body is compiled twice: for AVX2 (eight f32
+/// lanes per instruction), run on CPUs that have it, and for the baseline
+/// target. The loops are written so the compiler vectorizes them; Rust
+/// neither fuses nor reorders float operations, so both give the same bits.
+macro_rules! widened {
+    ($(#[$doc:meta])* fn $name:ident<R: Real>($($arg:ident: $ty:ty),* $(,)?) $(-> $ret:ty)? $body:block) => {
+        $(#[$doc])*
+        #[inline]
+        #[allow(clippy::too_many_arguments)]
+        fn $name<R: Real>($($arg: $ty),*) $(-> $ret)? {
+            #[inline(always)]
+            #[allow(clippy::too_many_arguments)]
+            fn body<R: Real>($($arg: $ty),*) $(-> $ret)? $body
+            #[cfg(target_arch = "x86_64")]
+            {
+                #[target_feature(enable = "avx2")]
+                #[allow(clippy::too_many_arguments)]
+                fn avx2<R: Real>($($arg: $ty),*) $(-> $ret)? {
+                    body($($arg),*)
+                }
+                if std::arch::is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has AVX2.
+                    return unsafe { avx2($($arg),*) };
+                }
+            }
+            body($($arg),*)
+        }
+    };
+}
+
+widened! {
+    /// One row of the zero-padded horizontal blur: `dst[x] = Σ_t taps[t]·src[x + t − 5]`.
+    fn blur_row<R: Real>(src: &[R], taps: &[R; SSIM_WINDOW], dst: &mut [R]) {
+        let w = src.len();
+        if w > 2 * HALF {
+            // Interior: every tap in range, a fixed-length loop the compiler vectorizes.
+            let inner = &mut dst[HALF..w - HALF];
+            inner.fill(R::zero());
+            for (t, &tap) in taps.iter().enumerate() {
+                for (d, &s) in inner.iter_mut().zip(&src[t..t + w - 2 * HALF]) {
+                    *d += tap * s;
+                }
             }
         }
-    }
-    for x in (0..w.min(HALF)).chain(w.saturating_sub(HALF).max(HALF.min(w))..w) {
-        let lo = x.saturating_sub(HALF);
-        let hi = (x + HALF).min(w - 1);
-        let mut acc = R::zero();
-        for xx in lo..=hi {
-            acc += taps[xx + HALF - x] * src[xx];
+        for x in (0..w.min(HALF)).chain(w.saturating_sub(HALF).max(HALF.min(w))..w) {
+            let lo = x.saturating_sub(HALF);
+            let hi = (x + HALF).min(w - 1);
+            let mut acc = R::zero();
+            for xx in lo..=hi {
+                acc += taps[xx + HALF - x] * src[xx];
+            }
+            dst[x] = acc;
         }
-        dst[x] = acc;
     }
 }
 
-/// Row `y` of the zero-padded vertical blur of a planar `width`-wide image, added into `acc`.
-#[inline]
-fn blur_column_into<R: Real>(
-    src: &[R],
-    width: usize,
-    height: usize,
-    y: usize,
-    taps: &[R; SSIM_WINDOW],
-    acc: &mut [R],
-) {
-    acc.fill(R::zero());
-    let lo = y.saturating_sub(HALF);
-    let hi = (y + HALF).min(height - 1);
-    for yy in lo..=hi {
-        let tap = taps[yy + HALF - y];
-        for (a, &s) in acc.iter_mut().zip(&src[yy * width..(yy + 1) * width]) {
-            *a += tap * s;
+widened! {
+    /// Row `y` of the zero-padded vertical blur of a planar `width`-wide image, into `acc`.
+    fn blur_column_into<R: Real>(
+        src: &[R],
+        width: usize,
+        height: usize,
+        y: usize,
+        taps: &[R; SSIM_WINDOW],
+        acc: &mut [R],
+    ) {
+        acc.fill(R::zero());
+        let lo = y.saturating_sub(HALF);
+        let hi = (y + HALF).min(height - 1);
+        for yy in lo..=hi {
+            let tap = taps[yy + HALF - y];
+            for (a, &s) in acc.iter_mut().zip(&src[yy * width..(yy + 1) * width]) {
+                *a += tap * s;
+            }
         }
     }
+}
+
+widened! {
+    /// `out[x] = a[x]·b[x]`.
+    fn multiply<R: Real>(a: &[R], b: &[R], out: &mut [R]) {
+        for ((o, &x), &y) in out.iter_mut().zip(a).zip(b) {
+            *o = x * y;
+        }
+    }
+}
+
+/// The SSIM of one window, `(a1·a2)/(b1·b2)`, and its factors.
+struct SsimTerms<R: Real> {
+    a1: R,
+    a2: R,
+    b1: R,
+    b2: R,
+    ssim: R,
+}
+
+#[inline(always)]
+fn ssim_terms<R: Real>(mux: R, muy: R, xx: R, yy: R, xy: R, c1: R, c2: R) -> SsimTerms<R> {
+    let two = R::of(2.0);
+    let vx = xx - mux * mux;
+    let vy = yy - muy * muy;
+    let cxy = xy - mux * muy;
+    let a1 = two * mux * muy + c1;
+    let a2 = two * cxy + c2;
+    let b1 = mux * mux + muy * muy + c1;
+    let b2 = vx + vy + c2;
+    SsimTerms {
+        a1,
+        a2,
+        b1,
+        b2,
+        ssim: a1 * a2 / (b1 * b2),
+    }
+}
+
+/// One row of the blurred statistics of a window: E[x], E[y], E[x²], E[y²], E[xy].
+struct WindowStats<'a, R: Real> {
+    mux: &'a [R],
+    muy: &'a [R],
+    xx: &'a [R],
+    yy: &'a [R],
+    xy: &'a [R],
+}
+
+widened! {
+    /// One row of the weighted SSIM map into `weighted` and, with `partials`,
+    /// `u·∂S/∂(μx, σx², σxy)` (u = weight·`u_scale`), μx's own term including
+    /// what it enters through σx² = E[x²] − μx² and σxy = E[xy] − μx·μy.
+    fn ssim_row<R: Real>(
+        s: &WindowStats<'_, R>,
+        weights: Option<&[R]>,
+        c1: R,
+        c2: R,
+        u_scale: R,
+        weighted: &mut [R],
+        partials: Option<[&mut [R]; 3]>,
+    ) {
+        let two = R::of(2.0);
+        // One length for every row, so the loops carry no bounds checks and vectorize.
+        let n = weighted.len();
+        let (mean_x, mean_y) = (&s.mux[..n], &s.muy[..n]);
+        let (xx, yy, xy) = (&s.xx[..n], &s.yy[..n], &s.xy[..n]);
+        // Plain code, no closures: a closure would be compiled without AVX2.
+        let weights = weights.map(|wt| &wt[..n]);
+        match partials {
+            None => {
+                for x in 0..n {
+                    let t = ssim_terms(mean_x[x], mean_y[x], xx[x], yy[x], xy[x], c1, c2);
+                    let wp = match weights {
+                        Some(wt) => wt[x],
+                        None => R::one(),
+                    };
+                    weighted[x] = wp * t.ssim;
+                }
+            }
+            Some([ga, gb, gc]) => {
+                let (ga, gb, gc) = (&mut ga[..n], &mut gb[..n], &mut gc[..n]);
+                for x in 0..n {
+                    let SsimTerms { a1, a2, b1, b2, ssim } =
+                        ssim_terms(mean_x[x], mean_y[x], xx[x], yy[x], xy[x], c1, c2);
+                    let wp = match weights {
+                        Some(wt) => wt[x],
+                        None => R::one(),
+                    };
+                    weighted[x] = wp * ssim;
+                    let u = wp * u_scale;
+                    let (mux, muy) = (mean_x[x], mean_y[x]);
+                    let ds_dmux = two * muy * a2 / (b1 * b2) - two * mux * ssim / b1;
+                    let ds_dvx = -ssim / b2;
+                    let ds_dcxy = two * a1 / (b1 * b2);
+                    ga[x] = u * (ds_dmux - two * mux * ds_dvx - muy * ds_dcxy);
+                    gb[x] = u * ds_dvx;
+                    gc[x] = u * ds_dcxy;
+                }
+            }
+        }
+    }
+}
+
+widened! {
+    /// Adds `scale·dS/dx = scale·(B(ga) + 2x·B(gb) + y·B(gc))` of channel `ch`
+    /// to one row of the interleaved gradient; an unsupervised pixel's render
+    /// is not in the windows, so it gets nothing.
+    fn combine_row<R: Real>(
+        blurred: [&[R]; 3],
+        rendered: &[R],
+        target: &[R],
+        weights: Option<&[R]>,
+        channels: usize,
+        ch: usize,
+        scale: R,
+        grad: &mut [R],
+    ) {
+        let two = R::of(2.0);
+        for x in 0..blurred[0].len() {
+            if weights.is_some_and(|wt| wt[x] <= R::zero()) {
+                continue;
+            }
+            let i = x * channels + ch;
+            let g = blurred[0][x] + two * rendered[i] * blurred[1][x] + target[i] * blurred[2][x];
+            grad[i] += scale * g;
+        }
+    }
+}
+
+/// `Σ w·|x − y|` over a band of pixels and, with `grad`, its (sub)gradient
+/// times `scale` (0 where x = y).
+fn l1_band<R: Real>(
+    rendered: &[R],
+    target: &[R],
+    weights: Option<&[R]>,
+    channels: usize,
+    scale: R,
+    mut grad: Option<&mut [R]>,
+) -> f64 {
+    let mut sum = 0.0;
+    for (p, (x, y)) in rendered
+        .chunks(channels)
+        .zip(target.chunks(channels))
+        .enumerate()
+    {
+        let wp = weights.map_or(R::one(), |wt| wt[p]);
+        for c in 0..channels {
+            let d = x[c] - y[c];
+            sum += (wp * d.abs()).f64();
+            if let Some(g) = grad.as_deref_mut() {
+                g[p * channels + c] = if d > R::zero() {
+                    wp * scale
+                } else if d < R::zero() {
+                    -(wp * scale)
+                } else {
+                    R::zero()
+                };
+            }
+        }
+    }
+    sum
 }
 
 impl<R: Real> PhotometricLoss<R> {
@@ -268,48 +462,53 @@ impl<R: Real> PhotometricLoss<R> {
         let inv = 1.0 / (norm.total_weight * nc as f64);
         let weight = |p: usize| weights.map_or(R::one(), |wt| wt[p]);
 
-        // L1 over the crop (and its gradient, written first; SSIM's is added per channel).
-        let mut l1 = 0.0;
+        // L1 over the crop (and its gradient, written first; SSIM's is added
+        // per channel), a band of rows per job, the bands' sums added in order.
+        let jobs = h.div_ceil(ROWS_PER_JOB);
+        self.partials.clear();
+        self.partials.resize(jobs, (0.0, 0.0));
         let l1_scale = R::of(coef[0] * inv);
-        for p in 0..n {
-            let wp = weight(p);
-            for c in 0..nc {
-                let i = p * nc + c;
-                let d = rendered[i] - target[i];
-                l1 += (wp * d.abs()).f64();
-                if gradient {
-                    self.grad[i] = if d > R::zero() {
-                        wp * l1_scale
-                    } else if d < R::zero() {
-                        -(wp * l1_scale)
-                    } else {
-                        R::zero()
-                    };
-                }
-            }
-        }
-        let l1 = l1 * inv;
+        let band = ROWS_PER_JOB * w;
+        // Empty without the gradient: then every band gets None.
+        let mut grad_bands = self.grad.chunks_mut(band * nc);
+        let work = self
+            .partials
+            .iter_mut()
+            .map(move |p| (p, grad_bands.next()))
+            .enumerate();
+        run_iter(
+            threads,
+            work,
+            || (),
+            |_, (j, (partial, grad))| {
+                let pixels = j * band..((j + 1) * band).min(n);
+                partial.0 = l1_band(
+                    &rendered[pixels.start * nc..pixels.end * nc],
+                    &target[pixels.start * nc..pixels.end * nc],
+                    weights.map(|wt| &wt[pixels]),
+                    nc,
+                    l1_scale,
+                    grad,
+                );
+            },
+        );
+        let l1 = self.partials.iter().map(|p| p.0).sum::<f64>() * inv;
         if !with_ssim {
             return Ok((l1, outside_ssim, true));
         }
 
         let taps = gaussian_taps::<R>();
         let (c1, c2) = (R::of(SSIM_C1), R::of(SSIM_C2));
-        let two = R::of(2.0);
         let u_scale = R::of(inv);
+        // Every element of these planes is written before it is read.
         for plane in self.rows.iter_mut().chain(self.maps.iter_mut()) {
-            plane.clear();
             plane.resize(n, R::zero());
         }
-        let jobs = h.div_ceil(ROWS_PER_JOB);
-        self.partials.clear();
-        self.partials.resize(jobs, (0.0, 0.0));
         let mut ssim_sum = 0.0;
         for ch in 0..nc {
             // 1. Row blurs of x, y, x², y², xy.
             {
                 let [r0, r1, r2, r3, r4] = &mut self.rows;
-                let band = ROWS_PER_JOB * w;
                 let work = r0
                     .chunks_mut(band)
                     .zip(r1.chunks_mut(band))
@@ -325,6 +524,7 @@ impl<R: Real> PhotometricLoss<R> {
                     |[xs, ys, prod], (j, ((((b0, b1), b2), b3), b4))| {
                         xs.resize(w, R::zero());
                         ys.resize(w, R::zero());
+                        prod.resize(w, R::zero());
                         let outs: [&mut [R]; 5] = [b0, b1, b2, b3, b4];
                         let rows_here = outs[0].len() / w.max(1);
                         for r in 0..rows_here {
@@ -341,14 +541,11 @@ impl<R: Real> PhotometricLoss<R> {
                             let row = r * w..(r + 1) * w;
                             blur_row(xs, &taps, &mut outs[0][row.clone()]);
                             blur_row(ys, &taps, &mut outs[1][row.clone()]);
-                            prod.clear();
-                            prod.extend(xs.iter().map(|&v| v * v));
+                            multiply(xs, xs, prod);
                             blur_row(prod, &taps, &mut outs[2][row.clone()]);
-                            prod.clear();
-                            prod.extend(ys.iter().map(|&v| v * v));
+                            multiply(ys, ys, prod);
                             blur_row(prod, &taps, &mut outs[3][row.clone()]);
-                            prod.clear();
-                            prod.extend(xs.iter().zip(ys.iter()).map(|(&a, &b)| a * b));
+                            multiply(xs, ys, prod);
                             blur_row(prod, &taps, &mut outs[4][row]);
                         }
                     },
@@ -358,7 +555,6 @@ impl<R: Real> PhotometricLoss<R> {
             {
                 let rows = &self.rows;
                 let [m0, m1, m2] = &mut self.maps;
-                let band = ROWS_PER_JOB * w;
                 let work = m0
                     .chunks_mut(band)
                     .zip(m1.chunks_mut(band))
@@ -374,36 +570,41 @@ impl<R: Real> PhotometricLoss<R> {
                         for a in acc.iter_mut() {
                             a.resize(w, R::zero());
                         }
-                        let mut sum = 0.0;
+                        let mut sum = 0.0f64;
                         let rows_here = ga.len() / w.max(1);
                         for r in 0..rows_here {
                             let y = j * ROWS_PER_JOB + r;
                             for k in 0..5 {
                                 blur_column_into(&rows[k], w, h, y, &taps, &mut acc[k]);
                             }
-                            for x in 0..w {
-                                let (mux, muy) = (acc[0][x], acc[1][x]);
-                                let vx = acc[2][x] - mux * mux;
-                                let vy = acc[3][x] - muy * muy;
-                                let cxy = acc[4][x] - mux * muy;
-                                let a1 = two * mux * muy + c1;
-                                let a2 = two * cxy + c2;
-                                let b1 = mux * mux + muy * muy + c1;
-                                let b2 = vx + vy + c2;
-                                let s = a1 * a2 / (b1 * b2);
-                                let wp = weight(y * w + x);
-                                sum += (wp * s).f64();
-                                if gradient {
-                                    let u = wp * u_scale;
-                                    let ds_dmux = two * muy * a2 / (b1 * b2) - two * mux * s / b1;
-                                    let ds_dvx = -s / b2;
-                                    let ds_dcxy = two * a1 / (b1 * b2);
-                                    // μx also enters σx² = E[x²] − μx² and σxy = E[xy] − μx·μy.
-                                    let i = r * w + x;
-                                    ga[i] = u * (ds_dmux - two * mux * ds_dvx - muy * ds_dcxy);
-                                    gb[i] = u * ds_dvx;
-                                    gc[i] = u * ds_dcxy;
-                                }
+                            let [mux, muy, xx, yy, xy, weighted] = acc;
+                            let row = r * w..(r + 1) * w;
+                            let statistics = WindowStats {
+                                mux,
+                                muy,
+                                xx,
+                                yy,
+                                xy,
+                            };
+                            let weights_row = weights.map(|wt| &wt[y * w..(y + 1) * w]);
+                            if gradient {
+                                let partials =
+                                    [&mut ga[row.clone()], &mut gb[row.clone()], &mut gc[row]];
+                                ssim_row(
+                                    &statistics,
+                                    weights_row,
+                                    c1,
+                                    c2,
+                                    u_scale,
+                                    weighted,
+                                    Some(partials),
+                                );
+                            } else {
+                                ssim_row(&statistics, weights_row, c1, c2, u_scale, weighted, None);
+                            }
+                            // In pixel order, so the sum does not depend on the vector width.
+                            for v in weighted.iter() {
+                                sum += v.f64();
                             }
                         }
                         partial.1 = sum;
@@ -419,7 +620,6 @@ impl<R: Real> PhotometricLoss<R> {
             {
                 let maps = &self.maps;
                 let [r0, r1, r2, _, _] = &mut self.rows;
-                let band = ROWS_PER_JOB * w;
                 let work = r0
                     .chunks_mut(band)
                     .zip(r1.chunks_mut(band))
@@ -445,8 +645,7 @@ impl<R: Real> PhotometricLoss<R> {
             {
                 let rows = &self.rows;
                 let scale = R::of(coef[1]);
-                let band = ROWS_PER_JOB * w * nc;
-                let work = self.grad.chunks_mut(band).enumerate();
+                let work = self.grad.chunks_mut(band * nc).enumerate();
                 run_iter_pooled(
                     threads,
                     work,
@@ -462,17 +661,17 @@ impl<R: Real> PhotometricLoss<R> {
                             for k in 0..3 {
                                 blur_column_into(&rows[k], w, h, y, &taps, &mut acc[k]);
                             }
-                            for x in 0..w {
-                                let p = y * w + x;
-                                // An unsupervised pixel's render is not in the windows.
-                                if weight(p) <= R::zero() {
-                                    continue;
-                                }
-                                let g = acc[0][x]
-                                    + two * rendered[p * nc + ch] * acc[1][x]
-                                    + target[p * nc + ch] * acc[2][x];
-                                grad[(r * w + x) * nc + ch] += scale * g;
-                            }
+                            let pixels = y * w..(y + 1) * w;
+                            combine_row(
+                                [&acc[0], &acc[1], &acc[2]],
+                                &rendered[pixels.start * nc..pixels.end * nc],
+                                &target[pixels.start * nc..pixels.end * nc],
+                                weights.map(|wt| &wt[pixels]),
+                                nc,
+                                ch,
+                                scale,
+                                &mut grad[r * w * nc..(r + 1) * w * nc],
+                            );
                         }
                     },
                 );

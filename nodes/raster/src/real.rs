@@ -10,6 +10,11 @@ pub trait Real: Float + NumAssign + Debug + Display + Default + Send + Sync + 's
     fn of(v: f64) -> Self;
     /// Widens to `f64` (exact for both implementors).
     fn f64(self) -> f64;
+    /// The slice itself when `Self` is `f32`: lets generic code hand borrowed
+    /// data to the f32-only SIMD kernels.
+    fn as_f32_slice(_: &[Self]) -> Option<&[f32]> {
+        None
+    }
 }
 
 impl Real for f32 {
@@ -20,6 +25,9 @@ impl Real for f32 {
     #[inline(always)]
     fn f64(self) -> f64 {
         self as f64
+    }
+    fn as_f32_slice(s: &[f32]) -> Option<&[f32]> {
+        Some(s)
     }
 }
 

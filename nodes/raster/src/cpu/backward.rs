@@ -54,6 +54,39 @@ pub struct PixelGrads<'a, R: Real> {
     pub median_depth: Option<&'a [R]>,
 }
 
+impl<'a, R: Real> PixelGrads<'a, R> {
+    /// The same gradients as f32 when `R` is f32 (for the f32-only SIMD kernels).
+    pub fn as_f32(&self) -> Option<PixelGrads<'a, f32>> {
+        let plane = |v: Option<&'a [R]>| match v {
+            None => Some(None),
+            Some(s) => R::as_f32_slice(s).map(Some),
+        };
+        Some(PixelGrads {
+            color: R::as_f32_slice(self.color)?,
+            alpha: plane(self.alpha)?,
+            depth: plane(self.depth)?,
+            median_depth: plane(self.median_depth)?,
+        })
+    }
+}
+
+/// dL/d(background) of one row of tiles: the rendered region's rows from
+/// `y0`, row-major, `width` pixels from column `x0`, RGB interleaved.
+pub struct GradBand<'a, R: Real> {
+    pub x0: u32,
+    pub y0: u32,
+    pub width: usize,
+    pub background: &'a mut [R],
+}
+
+impl<R: Real> GradBand<'_, R> {
+    #[inline]
+    pub fn write(&mut self, x: u32, y: u32, g: [R; 3]) {
+        let i = (y - self.y0) as usize * self.width + (x - self.x0) as usize;
+        self.background[3 * i..3 * i + 3].copy_from_slice(&g);
+    }
+}
+
 /// `background` covers the rendered region (as the gradients do); `kept` is
 /// what the forward pass of this tile recorded and `stats` its entry statistics.
 #[allow(clippy::too_many_arguments)]
@@ -68,7 +101,7 @@ pub fn backward_tile<R: Real>(
     stats: &[EntryStats<R>],
     grads: &PixelGrads<'_, R>,
     partials: &mut [FacePartial<R>],
-    d_background: &mut [[R; 3]],
+    d_background: &mut GradBand<'_, R>,
 ) {
     let rect = grid.tile_rect(tile);
     let [x0, y0, x1, y1] = rect;
@@ -91,7 +124,7 @@ pub fn backward_tile<R: Real>(
             gm[i] = grads.median_depth.map_or(R::zero(), |m| m[pix]);
             let bg = [0, 1, 2].map(|ch| background[pix * 3 + ch]);
             gc[i] = g;
-            d_background[i] = g.map(|v| v * t[i]);
+            d_background.write(x, y, g.map(|v| v * t[i]));
             behind[i] = t[i] * (bg[0] * g[0] + bg[1] * g[1] + bg[2] * g[2]) - ga * t[i];
         }
     }

@@ -134,6 +134,13 @@ impl TileLists {
         self.entries.clear();
         self.entries.extend(self.keys.iter().map(|&k| k as u32));
     }
+
+    /// Into `out`: where each row of `grid`'s tiles starts in the lists, and their end.
+    pub fn row_offsets(&self, grid: &TileGrid, out: &mut Vec<usize>) {
+        out.clear();
+        let tiles_x = grid.tiles_x as usize;
+        out.extend((0..=grid.tiles_y as usize).map(|row| self.offsets[row * tiles_x]));
+    }
 }
 
 /// Splits a slice into consecutive pieces of the lengths `offsets` gives

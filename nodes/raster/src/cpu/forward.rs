@@ -134,13 +134,43 @@ fn fragment<R: Real>(
     }
 }
 
-/// Forward results of one pixel, before scattering to row-major images.
+/// Forward results of one pixel.
 #[derive(Debug, Clone, Copy, Default)]
 pub struct PixelOut<R: Real> {
     pub color: [R; 3],
     pub transmittance: R,
     pub depth: R,
     pub median_depth: R,
+}
+
+/// The output planes of one row of tiles: the rendered region's rows
+/// `y0..y0 + 16` (fewer at its bottom), row-major, `width` pixels from column `x0`.
+pub struct Band<'a, R: Real> {
+    pub x0: u32,
+    pub y0: u32,
+    pub width: usize,
+    pub color: &'a mut [R],
+    pub alpha: &'a mut [R],
+    pub depth: &'a mut [R],
+    pub median_depth: &'a mut [R],
+    /// The background under each pixel, kept for the backward pass.
+    pub background: &'a mut [R],
+}
+
+impl<R: Real> Band<'_, R> {
+    /// Stores image pixel (`x`, `y`)'s results, `p.color` without the
+    /// background, which is added here as `T·b`.
+    #[inline]
+    pub fn write(&mut self, x: u32, y: u32, p: &PixelOut<R>, bg: [R; 3]) {
+        let i = (y - self.y0) as usize * self.width + (x - self.x0) as usize;
+        for ch in 0..3 {
+            self.color[3 * i + ch] = p.color[ch] + p.transmittance * bg[ch];
+            self.background[3 * i + ch] = bg[ch];
+        }
+        self.alpha[i] = R::one() - p.transmittance;
+        self.depth[i] = p.depth;
+        self.median_depth[i] = p.median_depth;
+    }
 }
 
 /// Per (tile, face) entry: the largest blending weight and pixel count in this tile.
@@ -161,34 +191,63 @@ pub fn clip_to_tile<R: Real>(f: &ScreenFace<R>, tile: [u32; 4]) -> Option<(u32, 
     (xa <= xb && ya <= yb).then_some((xa, xb, ya, yb))
 }
 
-/// Narrows the inclusive pixel range `[xa, xb]` of row `y` to the pixels whose
-/// centres may lie inside the triangle. The test is `λ_k > −ε` for all k in
-/// f64 with ε = 1e-3 far above the rounding error of `evaluate`'s `λ_k > 0`
-/// (≈ 1e-6 in f32), so it never drops a pixel `evaluate` accepts.
-#[inline]
-pub fn row_span<R: Real>(f: &ScreenFace<R>, y: u32, xa: u32, xb: u32) -> Option<(u32, u32)> {
+/// The pixels of each row whose centres may lie inside a face: `λ_k > −ε`
+/// for all k, solved for x in f64. ε = 1e-3 is far above the rounding error
+/// of the kernels' `λ_k > 0` (≈ 1e-6 in f32), so a span never drops a pixel
+/// a kernel accepts. The edges' slopes are inverted once per face, so a row
+/// costs no division.
+pub struct RowSpans {
+    /// Per corner k: `λ_k(x) = a·(x + 0.5 − ox) + b(y)` with `b(y) = by·qy + bc`,
+    /// and `1/a` (0 where a = 0).
+    edges: [[f64; 4]; 3],
+    origin: [f64; 2],
+}
+
+impl RowSpans {
     const EPS: f64 = 1e-3;
-    let qy = y as f64 + 0.5 - f.origin[1].f64();
-    let ox = f.origin[0].f64();
-    let (mut lo, mut hi) = (xa as f64, xb as f64);
-    for l in &f.lam {
-        let (a, b) = (l[0].f64(), l[1].f64() * qy + l[2].f64());
-        // λ(x) = a·(x + 0.5 − ox) + b > −ε.
-        if a > 0.0 {
-            lo = lo.max(ox - 0.5 + (-EPS - b) / a);
-        } else if a < 0.0 {
-            hi = hi.min(ox - 0.5 + (-EPS - b) / a);
-        } else if b < -EPS {
-            return None;
+
+    #[inline]
+    pub fn new<R: Real>(f: &ScreenFace<R>) -> Self {
+        RowSpans {
+            edges: f.lam.map(|l| {
+                let a = l[0].f64();
+                [
+                    a,
+                    if a != 0.0 { 1.0 / a } else { 0.0 },
+                    l[1].f64(),
+                    l[2].f64(),
+                ]
+            }),
+            origin: [f.origin[0].f64(), f.origin[1].f64()],
         }
     }
-    if !(lo <= hi) {
-        return None;
+
+    /// Narrows the inclusive pixel range `[xa, xb]` of row `y` to the pixels
+    /// whose centres may lie inside the face.
+    #[inline]
+    pub fn span(&self, y: u32, xa: u32, xb: u32) -> Option<(u32, u32)> {
+        let qy = y as f64 + 0.5 - self.origin[1];
+        let ox = self.origin[0];
+        let (mut lo, mut hi) = (xa as f64, xb as f64);
+        for &[a, inv_a, by, bc] in &self.edges {
+            let b = by * qy + bc;
+            // λ(x) = a·(x + 0.5 − ox) + b > −ε.
+            if a > 0.0 {
+                lo = lo.max(ox - 0.5 + (-Self::EPS - b) * inv_a);
+            } else if a < 0.0 {
+                hi = hi.min(ox - 0.5 + (-Self::EPS - b) * inv_a);
+            } else if b < -Self::EPS {
+                return None;
+            }
+        }
+        if !(lo <= hi) {
+            return None;
+        }
+        // Both ends now lie in [xa, xb] ⊂ [0, 2³²): integer rounding by casts.
+        let (lo, hi) = (lo.max(xa as f64), hi.min(xb as f64));
+        let lo_int = lo as u32 + u32::from((lo as u32 as f64) < lo);
+        Some((lo_int, hi as u32))
     }
-    // Both ends now lie in [xa, xb] ⊂ [0, 2³²): integer rounding by casts.
-    let (lo, hi) = (lo.max(xa as f64), hi.min(xb as f64));
-    let lo_int = lo as u32 + u32::from((lo as u32 as f64) < lo);
-    Some((lo_int, hi as u32))
 }
 
 /// What shows through where the faces leave transmittance.
@@ -200,7 +259,17 @@ pub enum Background<'a, R: Real> {
     Uniform([R; 3]),
 }
 
-impl<R: Real> Background<'_, R> {
+impl<'a, R: Real> Background<'a, R> {
+    /// The same background as f32 when `R` is f32 (for the f32-only SIMD kernels).
+    pub fn as_f32(&self) -> Option<Background<'a, f32>> {
+        match *self {
+            Background::Image(b) => R::as_f32_slice(b).map(Background::Image),
+            Background::Uniform(c) => {
+                R::as_f32_slice(&c).map(|c| Background::Uniform([c[0], c[1], c[2]]))
+            }
+        }
+    }
+
     /// The colour at row-major image pixel `pixel`.
     #[inline]
     pub fn at(&self, pixel: usize) -> [R; 3] {
@@ -243,8 +312,8 @@ pub struct TileFragments<R: Real> {
 /// Composites one tile front to back. Faces are walked in depth order and
 /// each visits only the tile pixels it can cover, keeping per-pixel state;
 /// every pixel therefore sees its fragments in exactly the per-pixel order.
-/// `pixels` is the tile's 16×16 slot buffer (row-major inside the tile),
-/// `stats` parallels the tile's entries, and `kept` receives the fragments.
+/// The results go to `band`, `stats` parallels the tile's entries, and
+/// `kept` receives the fragments.
 #[allow(clippy::too_many_arguments)]
 pub fn render_tile<R: Real>(
     grid: &TileGrid,
@@ -253,18 +322,15 @@ pub fn render_tile<R: Real>(
     entries: &[u32],
     background: &Background<'_, R>,
     rules: &PixelRules<R>,
-    pixels: &mut [PixelOut<R>],
+    band: &mut Band<'_, R>,
     stats: &mut [EntryStats<R>],
     kept: &mut TileFragments<R>,
 ) {
-    debug_assert_eq!(pixels.len(), TILE_PIXELS);
     let rect = grid.tile_rect(tile);
     let [x0, y0, x1, y1] = rect;
     let mut t = [R::one(); TILE_PIXELS];
     let mut done = [false; TILE_PIXELS];
-    for p in pixels.iter_mut() {
-        *p = PixelOut::default();
-    }
+    let mut pixels = [PixelOut::<R>::default(); TILE_PIXELS];
     kept.frags.clear();
     kept.median.clear();
     kept.median.resize(TILE_PIXELS, NONE);
@@ -280,8 +346,9 @@ pub fn render_tile<R: Real>(
             continue;
         };
         let mut st = EntryStats::<R>::default();
+        let spans = RowSpans::new(f);
         for y in ya..=yb {
-            let Some((xs, xe)) = row_span(f, y, xa, xb) else {
+            let Some((xs, xe)) = spans.span(y, xa, xb) else {
                 continue;
             };
             let py = R::of(y as f64 + 0.5);
@@ -329,11 +396,8 @@ pub fn render_tile<R: Real>(
         for x in x0..x1 {
             let i = ((y - y0) * TILE + (x - x0)) as usize;
             let bg = background.at(y as usize * grid.image_width as usize + x as usize);
-            let out = &mut pixels[i];
-            for ch in 0..3 {
-                out.color[ch] += t[i] * bg[ch];
-            }
-            out.transmittance = t[i];
+            pixels[i].transmittance = t[i];
+            band.write(x, y, &pixels[i], bg);
         }
     }
 }

@@ -1,5 +1,11 @@
-//! The CPU reference backend: multi-threaded over tiles (crossbeam scoped
-//! threads), deterministic for any thread count, generic over f32/f64.
+//! The CPU reference backend: multi-threaded over rows of tiles (the
+//! [`crate::parallel`] workers), deterministic for any thread count, generic
+//! over f32/f64.
+//!
+//! Each tile is composited by one of two kernels: the scalar one (one pixel
+//! at a time, any scalar type: the reference) or, for f32 on x86-64 CPUs with
+//! AVX2 and FMA, the eight-lane one in [`simd`] (see [`Kernel`]). The rest
+//! of both passes is shared.
 //!
 //! [`CpuBackend::forward_into`] and [`CpuBackend::backward_into`] work in a
 //! caller-held [`CpuWorkspace`] whose buffers are reused from pass to pass, so
@@ -10,6 +16,8 @@ pub mod backward;
 pub mod binning;
 pub mod forward;
 pub mod preprocess;
+#[cfg(target_arch = "x86_64")]
+pub mod simd;
 
 use crate::backend::{
     OutputGrads, PixelRect, Region, RenderBackend, RenderOutput, RenderSettings, SavedForward,
@@ -20,30 +28,82 @@ use crate::parallel::{chunk_size, for_chunks_mut, run_iter};
 use crate::real::Real;
 use crate::sh;
 use anyhow::{Context, Result, bail};
-use backward::{CornerGrads, FacePartial, PixelGrads, backward_tile, face_backward};
-use binning::{SplitBy, TILE, TILE_PIXELS, TileGrid, TileLists};
+use backward::{CornerGrads, FacePartial, GradBand, PixelGrads, backward_tile, face_backward};
+use binning::{SplitBy, TILE, TileGrid, TileLists};
 pub use forward::Background;
-use forward::{EntryStats, PixelOut, PixelRules, TileFragments, render_tile};
+use forward::{Band, EntryStats, PixelRules, TileFragments, render_tile};
 use objectsplat_core::Camera;
 use preprocess::{
     CameraParams, ScreenFace, VertexData, footprint, order_by_tile, preprocess_faces,
     preprocess_vertices, shade_vertices,
 };
+use std::ops::Range;
 
 const BACKEND_NAME: &str = "cpu";
+
+/// Which tile kernels the CPU backend runs.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Kernel {
+    /// Eight f32 lanes per instruction where they exist (x86-64 with AVX2 and
+    /// FMA, f32 models); the scalar kernels elsewhere.
+    #[default]
+    Simd,
+    /// One pixel at a time on every CPU and scalar type: the reference.
+    Scalar,
+}
+
+impl Kernel {
+    /// [`Kernel::Scalar`] when the environment variable `OBJECTSPLAT_CPU_KERNEL`
+    /// is `scalar` (to compare the paths on a whole run), else [`Kernel::Simd`].
+    pub fn from_env() -> Self {
+        match std::env::var("OBJECTSPLAT_CPU_KERNEL") {
+            Ok(v) if v.eq_ignore_ascii_case("scalar") => Kernel::Scalar,
+            _ => Kernel::Simd,
+        }
+    }
+}
 
 /// The CPU backend; `threads` worker threads (≥ 1) for every pass.
 #[derive(Debug, Clone, Copy)]
 pub struct CpuBackend {
     pub threads: usize,
+    pub kernel: Kernel,
 }
 
 impl CpuBackend {
+    /// `threads` workers and the kernels [`Kernel::from_env`] picks.
     pub fn new(threads: usize) -> Self {
         CpuBackend {
             threads: threads.max(1),
+            kernel: Kernel::from_env(),
         }
     }
+
+    /// The same backend with the given kernels.
+    pub fn with_kernel(self, kernel: Kernel) -> Self {
+        CpuBackend { kernel, ..self }
+    }
+
+    /// The eight-lane kernels for scalar type `R`, when asked for and available.
+    fn lanes<R: Real>(&self) -> TileKernel {
+        #[cfg(target_arch = "x86_64")]
+        if self.kernel == Kernel::Simd
+            && std::any::TypeId::of::<R>() == std::any::TypeId::of::<f32>()
+            && let Some(t) = simd::Avx2::detect()
+        {
+            return TileKernel::Avx2(t);
+        }
+        TileKernel::Scalar
+    }
+}
+
+/// The tile kernels a forward pass ran; its backward pass runs the same.
+#[derive(Debug, Clone, Copy, Default)]
+enum TileKernel {
+    #[default]
+    Scalar,
+    #[cfg(target_arch = "x86_64")]
+    Avx2(simd::Avx2),
 }
 
 /// What a forward pass leaves for its backward pass.
@@ -57,30 +117,34 @@ struct ForwardState<R: Real> {
     faces: Vec<ScreenFace<R>>,
     grid: TileGrid,
     tiles: TileLists,
+    /// Where each row of tiles' entries start in `tiles` (and one past the last).
+    row_offsets: Vec<usize>,
     /// The background of the rendered region (its pixels, row-major).
     background: Vec<R>,
     /// Per entry of `tiles`: its largest blending weight and pixel count.
     stats: Vec<EntryStats<R>>,
-    /// Per tile, the fragments it blended; never shrunk, so a smaller region
-    /// keeps the larger one's allocations for the next pass.
+    /// The kernels that composited the tiles.
+    kernel: TileKernel,
+    /// Per tile, the fragments it blended (scalar kernel); never shrunk, so a
+    /// smaller region keeps the larger one's allocations for the next pass.
     fragments: Vec<TileFragments<R>>,
+    /// Per tile, the lane groups it blended (eight-lane kernel); never shrunk.
+    #[cfg(target_arch = "x86_64")]
+    chunks: Vec<simd::forward::TileChunks>,
 }
 
 /// Scratch of the forward pass.
 #[derive(Default)]
 struct ForwardScratch<R: Real> {
     slots: Vec<Option<ScreenFace<R>>>,
-    faces: Vec<ScreenFace<R>>,
     counts: Vec<usize>,
     used: Vec<bool>,
-    pixels: Vec<PixelOut<R>>,
 }
 
 /// Scratch of the backward pass.
 #[derive(Default)]
 struct BackwardScratch<R: Real> {
     partials: Vec<FacePartial<R>>,
-    d_background: Vec<[R; 3]>,
     face_entry_offsets: Vec<usize>,
     cursor: Vec<usize>,
     face_entries: Vec<usize>,
@@ -137,6 +201,235 @@ fn refill<T: Clone>(v: &mut Vec<T>, n: usize, value: T) {
     v.resize(n, value);
 }
 
+/// The output planes of `out` and the kept background, split into rows of tiles.
+fn bands<'a, R: Real>(
+    grid: &TileGrid,
+    out: &'a mut RenderOutput<R>,
+    background: &'a mut [R],
+) -> impl Iterator<Item = Band<'a, R>> + Send {
+    let region = grid.rect;
+    let width = region.width() as usize;
+    // At least 1: an empty region has no rows to split.
+    let band = (TILE as usize * width).max(1);
+    out.color
+        .chunks_mut(3 * band)
+        .zip(out.alpha.chunks_mut(band))
+        .zip(out.depth.chunks_mut(band))
+        .zip(out.median_depth.chunks_mut(band))
+        .zip(background.chunks_mut(3 * band))
+        .enumerate()
+        .map(
+            move |(row, ((((color, alpha), depth), median_depth), background))| Band {
+                x0: region.x0,
+                y0: region.y0 + row as u32 * TILE,
+                width,
+                color,
+                alpha,
+                depth,
+                median_depth,
+                background,
+            },
+        )
+}
+
+/// Runs `work(tile, entries, band, per_entry, record)` for every tile of the
+/// grid, a row of tiles per job: `band` is the row's output, `per_entry` the
+/// tile's part of `per_entry` (one element per entry of the tile lists) and
+/// `record` the tile's element of `records`.
+#[allow(clippy::too_many_arguments)]
+fn for_each_tile_row<B: Send, S: Send, K: Send>(
+    threads: usize,
+    grid: &TileGrid,
+    tiles: &TileLists,
+    row_offsets: &[usize],
+    bands: impl Iterator<Item = B> + Send,
+    per_entry: &mut [S],
+    records: &mut [K],
+    work: impl Fn(usize, Range<usize>, &mut B, &mut [S], &mut K) + Sync,
+) {
+    let tiles_x = (grid.tiles_x as usize).max(1);
+    let jobs = bands
+        .zip(SplitBy::new(per_entry, row_offsets))
+        .zip(records[..grid.tile_count()].chunks_mut(tiles_x))
+        .enumerate();
+    run_iter(
+        threads,
+        jobs,
+        || (),
+        |_, (row, ((mut band, mut per_entry), records))| {
+            for (tile, record) in (row * tiles_x..).zip(records) {
+                let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
+                let (these, rest) = per_entry.split_at_mut(entries.len());
+                per_entry = rest;
+                work(tile, entries, &mut band, these, record);
+            }
+        },
+    );
+}
+
+/// Composites every tile of `st`'s grid with the kernels `st.kernel` names
+/// into `out`'s planes, `st.stats` and the per-tile records the backward
+/// pass reads.
+fn composite_tiles<R: Real>(
+    threads: usize,
+    st: &mut ForwardState<R>,
+    out: &mut RenderOutput<R>,
+    background: &Background<'_, R>,
+    rules: &PixelRules<R>,
+) {
+    let tile_count = st.grid.tile_count();
+    #[cfg(target_arch = "x86_64")]
+    if let TileKernel::Avx2(t) = st.kernel
+        && let Some(st) = (st as &mut dyn std::any::Any).downcast_mut::<ForwardState<f32>>()
+        && let Some(out) = (out as &mut dyn std::any::Any).downcast_mut::<RenderOutput<f32>>()
+        && let Some(background) = background.as_f32()
+        && let Some(rules) = (rules as &dyn std::any::Any).downcast_ref::<PixelRules<f32>>()
+    {
+        if st.chunks.len() < tile_count {
+            st.chunks.resize_with(tile_count, Default::default);
+        }
+        let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
+        for_each_tile_row(
+            threads,
+            grid,
+            tiles,
+            &st.row_offsets,
+            bands(grid, out, &mut st.background),
+            &mut st.stats,
+            &mut st.chunks,
+            |tile, entries, band, stats, kept| {
+                let entries = &tiles.entries[entries];
+                simd::forward::render_tile(
+                    t,
+                    grid,
+                    tile,
+                    faces,
+                    entries,
+                    &background,
+                    rules,
+                    band,
+                    stats,
+                    kept,
+                );
+            },
+        );
+        return;
+    }
+    st.kernel = TileKernel::Scalar;
+    if st.fragments.len() < tile_count {
+        st.fragments.resize_with(tile_count, TileFragments::default);
+    }
+    let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
+    for_each_tile_row(
+        threads,
+        grid,
+        tiles,
+        &st.row_offsets,
+        bands(grid, out, &mut st.background),
+        &mut st.stats,
+        &mut st.fragments,
+        |tile, entries, band, stats, kept| {
+            let entries = &tiles.entries[entries];
+            render_tile(
+                grid, tile, faces, entries, background, rules, band, stats, kept,
+            );
+        },
+    );
+}
+
+/// dL/d(background) of `result` split into rows of tiles.
+fn grad_bands<'a, R: Real>(
+    grid: &TileGrid,
+    background: &'a mut [R],
+) -> impl Iterator<Item = GradBand<'a, R>> + Send {
+    let region = grid.rect;
+    let width = region.width() as usize;
+    // At least 1: an empty region has no rows to split.
+    let band = (TILE as usize * width).max(1);
+    background
+        .chunks_mut(3 * band)
+        .enumerate()
+        .map(move |(row, background)| GradBand {
+            x0: region.x0,
+            y0: region.y0 + row as u32 * TILE,
+            width,
+            background,
+        })
+}
+
+/// The per-(tile, face) partials and the background gradient, a row of
+/// tiles per job, with the kernels the forward pass ran.
+fn backward_tiles<R: Real>(
+    threads: usize,
+    st: &ForwardState<R>,
+    bw: &mut BackwardScratch<R>,
+    result: &mut ModelGrads<R>,
+    pixel_grads: &PixelGrads<'_, R>,
+) {
+    let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
+    let rules = PixelRules::<R>::new(&st.settings);
+    // The backward writes no per-tile record: a zero-sized one per tile (no allocation).
+    let mut no_records = vec![(); grid.tile_count()];
+    #[cfg(target_arch = "x86_64")]
+    if let TileKernel::Avx2(t) = st.kernel
+        && let Some(st) = (st as &dyn std::any::Any).downcast_ref::<ForwardState<f32>>()
+        && let Some(bw) = (bw as &mut dyn std::any::Any).downcast_mut::<BackwardScratch<f32>>()
+        && let Some(result) = (result as &mut dyn std::any::Any).downcast_mut::<ModelGrads<f32>>()
+        && let Some(grads) = pixel_grads.as_f32()
+        && let Some(rules) = (&rules as &dyn std::any::Any).downcast_ref::<PixelRules<f32>>()
+    {
+        for_each_tile_row(
+            threads,
+            grid,
+            tiles,
+            &st.row_offsets,
+            grad_bands(grid, &mut result.background),
+            &mut bw.partials,
+            &mut no_records,
+            |tile, entries, band, partials, _| {
+                simd::backward::backward_tile(
+                    t,
+                    &st.grid,
+                    tile,
+                    &st.faces,
+                    &st.tiles.entries[entries],
+                    &st.background,
+                    rules,
+                    &st.chunks[tile],
+                    &grads,
+                    partials,
+                    band,
+                );
+            },
+        );
+        return;
+    }
+    for_each_tile_row(
+        threads,
+        grid,
+        tiles,
+        &st.row_offsets,
+        grad_bands(grid, &mut result.background),
+        &mut bw.partials,
+        &mut no_records,
+        |tile, entries, band, partials, _| {
+            backward_tile(
+                grid,
+                tile,
+                faces,
+                &tiles.entries[entries.clone()],
+                &st.background,
+                &rules,
+                &st.fragments[tile],
+                &st.stats[entries],
+                pixel_grads,
+                partials,
+                band,
+            );
+        },
+    );
+}
+
 impl CpuBackend {
     /// Renders into `ws.output` and keeps in `ws` what the backward pass needs.
     pub fn forward_into<R: Real>(
@@ -152,24 +445,16 @@ impl CpuBackend {
         let cam = CameraParams::<R>::new(camera);
         let (st, fw) = (&mut ws.state, &mut ws.forward);
         preprocess_vertices(model, &cam, threads, &mut st.verts);
-        preprocess_faces(
-            model,
-            &st.verts,
-            &cam,
-            settings,
-            threads,
-            &mut fw.slots,
-            &mut st.faces,
-        );
+        preprocess_faces(model, &st.verts, &cam, settings, threads, &mut fw.slots);
         let (w, h) = (camera.width, camera.height);
         let region = match settings.region {
             Region::Full => PixelRect::full(w, h),
-            Region::Footprint { include, margin } => footprint(&st.faces)
+            Region::Footprint { include, margin } => footprint(fw.slots.iter().flatten())
                 .union(include)
                 .grown_to_tiles(margin, TILE, w, h),
         };
         st.grid = TileGrid::new(w, h, region);
-        order_by_tile(&mut st.faces, &st.grid, &mut fw.faces, &mut fw.counts);
+        order_by_tile(&fw.slots, &st.grid, &mut st.faces, &mut fw.counts);
         shade_vertices(
             model,
             &mut st.verts,
@@ -181,62 +466,26 @@ impl CpuBackend {
         st.tiles.bin(&st.faces, &st.grid, threads);
         let rules = PixelRules::<R>::new(settings);
 
-        let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
-        let tile_count = grid.tile_count();
-        refill(
-            &mut fw.pixels,
-            tile_count * TILE_PIXELS,
-            PixelOut::default(),
-        );
-        refill(&mut st.stats, tiles.entries.len(), EntryStats::default());
-        if st.fragments.len() < tile_count {
-            st.fragments.resize_with(tile_count, TileFragments::default);
-        }
-        {
-            let jobs = fw
-                .pixels
-                .chunks_mut(TILE_PIXELS)
-                .zip(SplitBy::new(&mut st.stats[..], &tiles.offsets))
-                .zip(st.fragments.iter_mut())
-                .enumerate();
-            run_iter(
-                threads,
-                jobs,
-                || (),
-                |_, (t, ((p, s), kept))| {
-                    let entries = &tiles.entries[tiles.offsets[t]..tiles.offsets[t + 1]];
-                    render_tile(grid, t, faces, entries, &background, &rules, p, s, kept);
-                },
-            );
-        }
+        refill(&mut st.stats, st.tiles.entries.len(), EntryStats::default());
+        st.tiles.row_offsets(&st.grid, &mut st.row_offsets);
 
         let out = &mut ws.output;
         let n = region.pixels();
         out.width = w;
         out.height = h;
         out.region = region;
-        refill(&mut out.color, n * 3, R::zero());
-        refill(&mut out.alpha, n, R::zero());
-        refill(&mut out.depth, n, R::zero());
-        refill(&mut out.median_depth, n, R::zero());
+        // The kernels write every pixel of the region: no need to clear.
+        for plane in [&mut out.color, &mut st.background] {
+            plane.resize(n * 3, R::zero());
+        }
+        for plane in [&mut out.alpha, &mut out.depth, &mut out.median_depth] {
+            plane.resize(n, R::zero());
+        }
+        st.kernel = self.lanes::<R>();
+        composite_tiles(threads, st, out, &background, &rules);
+        let (tiles, faces) = (&st.tiles, &st.faces);
         refill(&mut out.face_max_weight, model.face_count(), R::zero());
         refill(&mut out.face_pixel_count, model.face_count(), 0);
-        refill(&mut st.background, n * 3, R::zero());
-        for t in 0..tile_count {
-            let [x0, y0, x1, y1] = grid.tile_rect(t);
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    let src = &fw.pixels[t * TILE_PIXELS + ((y - y0) * TILE + (x - x0)) as usize];
-                    let i = region.index(x, y);
-                    out.color[i * 3..i * 3 + 3].copy_from_slice(&src.color);
-                    out.alpha[i] = R::one() - src.transmittance;
-                    out.depth[i] = src.depth;
-                    out.median_depth[i] = src.median_depth;
-                    let b = background.at(y as usize * w as usize + x as usize);
-                    st.background[i * 3..i * 3 + 3].copy_from_slice(&b);
-                }
-            }
-        }
         for (e, s) in st.stats.iter().enumerate() {
             let f = faces[tiles.entries[e] as usize].face as usize;
             out.face_max_weight[f] = out.face_max_weight[f].max(s.max_weight);
@@ -292,7 +541,6 @@ fn backward_impl<R: Real>(
     let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
     let pixels = grid.rect.pixels();
     grads.validate(pixels)?;
-    let rules = PixelRules::<R>::new(&st.settings);
     let pixel_grads = PixelGrads {
         color: grads.color,
         alpha: grads.alpha,
@@ -301,43 +549,14 @@ fn backward_impl<R: Real>(
     };
 
     // 1. Per (tile, face) partials and the background gradient, tile by tile.
-    let tile_count = grid.tile_count();
     refill(
         &mut bw.partials,
         tiles.entries.len(),
         FacePartial::default(),
     );
-    refill(
-        &mut bw.d_background,
-        tile_count * TILE_PIXELS,
-        [R::zero(); 3],
-    );
-    {
-        let jobs = SplitBy::new(&mut bw.partials[..], &tiles.offsets)
-            .zip(bw.d_background.chunks_mut(TILE_PIXELS))
-            .enumerate();
-        run_iter(
-            threads,
-            jobs,
-            || (),
-            |_, (t, (p, b))| {
-                let range = tiles.offsets[t]..tiles.offsets[t + 1];
-                backward_tile(
-                    grid,
-                    t,
-                    faces,
-                    &tiles.entries[range.clone()],
-                    &st.background,
-                    &rules,
-                    &st.fragments[t],
-                    &st.stats[range],
-                    &pixel_grads,
-                    p,
-                    b,
-                );
-            },
-        );
-    }
+    // The kernels write every pixel of the region: no need to clear.
+    result.background.resize(pixels * 3, R::zero());
+    backward_tiles(threads, st, bw, result, &pixel_grads);
 
     // 2. Per visible face: sum its partials in tile order, then back through the 2D geometry.
     refill(&mut bw.face_entry_offsets, faces.len() + 1, 0);
@@ -399,7 +618,6 @@ fn backward_impl<R: Real>(
     refill(&mut result.vertices, nv, [R::zero(); 3]);
     refill(&mut result.sh, nv, [[R::zero(); 3]; crate::SH_COEFFS]);
     refill(&mut result.opacity_logits, nv, R::zero());
-    refill(&mut result.background, pixels * 3, R::zero());
     let verts = &st.verts;
     let floor = R::of(model.opacity_floor);
     let degree = st.settings.sh_degree;
@@ -464,17 +682,6 @@ fn backward_impl<R: Real>(
             }
         },
     );
-    let region = grid.rect;
-    for t in 0..tile_count {
-        let [x0, y0, x1, y1] = grid.tile_rect(t);
-        for y in y0..y1 {
-            for x in x0..x1 {
-                let i = region.index(x, y);
-                let src = bw.d_background[t * TILE_PIXELS + ((y - y0) * TILE + (x - x0)) as usize];
-                result.background[i * 3..i * 3 + 3].copy_from_slice(&src);
-            }
-        }
-    }
     Ok(())
 }
 

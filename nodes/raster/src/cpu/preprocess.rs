@@ -291,8 +291,8 @@ pub fn preprocess_face<R: Real>(
     })
 }
 
-/// The faces that survive culling, in face order, into `visible`; `slots`
-/// is scratch (one per model face).
+/// Every model face after culling into `slots` (one per face, `None` when
+/// culled); [`order_by_tile`] gathers the survivors.
 pub fn preprocess_faces<R: Real>(
     model: &Model<R>,
     verts: &VertexData<R>,
@@ -300,10 +300,10 @@ pub fn preprocess_faces<R: Real>(
     settings: &RenderSettings,
     threads: usize,
     slots: &mut Vec<Option<ScreenFace<R>>>,
-    visible: &mut Vec<ScreenFace<R>>,
 ) {
     let n = model.face_count();
-    slots.clear();
+    // Every slot is written below.
+    slots.truncate(n);
     slots.resize(n, None);
     for_chunks_mut(
         threads,
@@ -315,13 +315,11 @@ pub fn preprocess_faces<R: Real>(
             }
         },
     );
-    visible.clear();
-    visible.extend(slots.iter().flatten().copied());
 }
 
 /// The bounding rectangle of the faces' pixel boxes (empty without faces).
-pub fn footprint<R: Real>(faces: &[ScreenFace<R>]) -> PixelRect {
-    faces.iter().fold(PixelRect::default(), |r, f| {
+pub fn footprint<'a, R: Real>(faces: impl Iterator<Item = &'a ScreenFace<R>>) -> PixelRect {
+    faces.fold(PixelRect::default(), |r, f| {
         r.union(PixelRect {
             x0: f.pixels[0],
             y0: f.pixels[1],
@@ -374,14 +372,16 @@ pub fn shade_vertices<R: Real>(
     });
 }
 
-/// Stable counting sort of the visible faces by the tile of their pixel box's
-/// top-left corner, so a tile's faces sit close together in memory. Row-major
-/// tile order restricted to a tile-aligned region is the full grid's order, so
-/// a region's faces get the slots they would have in a full render.
+/// The faces that survived culling (`slots`, in face order) into `faces`,
+/// stably sorted by the tile of their pixel box's top-left corner (a counting
+/// sort, one copy of each face), so a tile's faces sit close together in
+/// memory. Row-major tile order restricted to a tile-aligned region is the
+/// full grid's order, so a region's faces get the slots they would have in a
+/// full render.
 pub fn order_by_tile<R: Real>(
-    faces: &mut [ScreenFace<R>],
+    slots: &[Option<ScreenFace<R>>],
     grid: &TileGrid,
-    scratch: &mut Vec<ScreenFace<R>>,
+    faces: &mut Vec<ScreenFace<R>>,
     counts: &mut Vec<usize>,
 ) {
     let key = |f: &ScreenFace<R>| {
@@ -391,15 +391,19 @@ pub fn order_by_tile<R: Real>(
     let buckets = grid.tile_count().max(1);
     counts.clear();
     counts.resize(buckets + 1, 0);
-    for f in faces.iter() {
+    for f in slots.iter().flatten() {
         counts[key(f) + 1] += 1;
     }
     for b in 0..buckets {
         counts[b + 1] += counts[b];
     }
-    scratch.clear();
-    scratch.extend_from_slice(faces);
-    for f in scratch.iter() {
+    faces.clear();
+    let Some(first) = slots.iter().flatten().next() else {
+        return;
+    };
+    // Every position below `counts[buckets]` is written once by the loop.
+    faces.resize(counts[buckets], *first);
+    for f in slots.iter().flatten() {
         let k = key(f);
         faces[counts[k]] = *f;
         counts[k] += 1;
