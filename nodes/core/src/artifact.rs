@@ -136,7 +136,8 @@ pub const TYPES: &[ArtifactType] = &[
         defining_file: Some(MODEL_PLY),
         doc: "`model.ply` (vertices, faces, per-vertex SH coefficients and opacity logits) + \
               `model.json` (SH degree, opacity floor, σ, metadata); `train` adds \
-              `training.json` (loss and size over the steps). Encoding: nodes/raster/README.md",
+              `training.json` (loss and size over the steps; no clock reading: its times are in the run \
+              record, docs/engine.md#measurements). Encoding: nodes/raster/README.md",
     },
     ArtifactType {
         name: "Scene",
