@@ -351,7 +351,10 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
         } => {
             let plan = load_plan(&graph, &plugins, &sets, &[])?;
             let store = Store::open(&cache)?;
-            println!("{}", exec::explain(&plan, &store, &node)?);
+            println!(
+                "{}",
+                objectsplat_runtime::explain::explain(&plan, &store, &node)?
+            );
             Ok(ExitCode::SUCCESS)
         }
         Command::Nodes { plugins } => {

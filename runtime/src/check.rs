@@ -3,8 +3,9 @@
 //! [`crate::Node::check_with_inputs`]). Also where a node's [`ParamError`] points.
 
 use crate::diag::Diagnostic;
-use crate::exec::{cached_outputs, params_key};
+use crate::exec::cached_outputs;
 use crate::graph::{GraphSource, NodeDecl, parse_graph};
+use crate::keys::params_key;
 use crate::node::ParamError;
 use crate::plan::{Override, Plan};
 use crate::store::{Digest, Store};

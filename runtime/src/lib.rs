@@ -6,7 +6,9 @@
 pub mod check;
 pub mod diag;
 pub mod exec;
+pub mod explain;
 pub mod graph;
+pub mod keys;
 pub mod node;
 pub mod outdir;
 pub mod params;

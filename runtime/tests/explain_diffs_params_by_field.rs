@@ -21,7 +21,7 @@ fn explain_lists_each_changed_field() {
     let sets = [r#"t.schedule={"rate": 0.25, "steps": 3}"#, "t.label=b"];
     let plan = plan_graph(&g, &registry(), &sets, &[]);
     let store = Store::open(&ws.cache()).unwrap();
-    let text = objectsplat_runtime::exec::explain(&plan, &store, "t").unwrap();
+    let text = objectsplat_runtime::explain::explain(&plan, &store, "t").unwrap();
     let line = text.lines().find(|l| l.starts_with("t:")).unwrap();
     assert_eq!(
         line,

@@ -141,7 +141,7 @@ fn explain_names_the_changed_param() {
     ws.run(&[]);
     let plan = plan_graph(&g, &registry(), &["b.value=9"], &[]);
     let store = objectsplat_runtime::store::Store::open(&ws.cache()).unwrap();
-    let text = objectsplat_runtime::exec::explain(&plan, &store, "sum").unwrap();
+    let text = objectsplat_runtime::explain::explain(&plan, &store, "sum").unwrap();
     assert!(text.contains("a: cached"), "{text}");
     assert!(
         text.contains("b: will run — params changed: value: 4 → 9"),

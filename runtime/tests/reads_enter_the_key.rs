@@ -4,7 +4,7 @@
 
 mod common;
 use common::{Workspace, execute, plan_graph, registry_of, status};
-use objectsplat_runtime::exec;
+use objectsplat_runtime::explain::explain;
 use objectsplat_runtime::report::Status;
 use objectsplat_runtime::store::Store;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Params};
@@ -48,7 +48,7 @@ fn replacing_a_declared_file_reruns_the_node() {
     assert_eq!(status(&run(), "n"), Status::Cached);
 
     std::fs::write(data.join("data.txt"), "22").unwrap();
-    let why = exec::explain(&plan, &Store::open(&cache).unwrap(), "n").unwrap();
+    let why = explain(&plan, &Store::open(&cache).unwrap(), "n").unwrap();
     assert_eq!(
         why,
         "n: will run — a file it reads changed (an image, a script, a folder beside its inputs)"

@@ -4,7 +4,7 @@
 
 mod common;
 use common::{Workspace, execute, plan_graph, registry_of, status};
-use objectsplat_runtime::exec;
+use objectsplat_runtime::explain::explain;
 use objectsplat_runtime::report::Status;
 use objectsplat_runtime::store::Store;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, Params};
@@ -49,7 +49,7 @@ fn another_program_version_reruns_the_node() {
     assert_eq!(status(&run(), "n"), Status::Cached);
 
     *installed.lock().unwrap() = "tool 1.1".into();
-    let why = exec::explain(&plan, &Store::open(&cache).unwrap(), "n").unwrap();
+    let why = explain(&plan, &Store::open(&cache).unwrap(), "n").unwrap();
     assert_eq!(
         why,
         r#"n: will run — a program it starts changed (["tool 1.0"] → ["tool 1.1"])"#
