@@ -119,7 +119,7 @@ impl RanOn {
     pub fn local() -> RanOn {
         RanOn {
             executor: "local".into(),
-            host: crate::slurm::host_name(),
+            host: crate::host::host_name(),
             job_id: None,
             pid: std::process::id(),
         }

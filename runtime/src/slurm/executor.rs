@@ -113,7 +113,7 @@ pub(crate) fn track(
 ) {
     let run_id = format!(
         "{}-{}-{}",
-        super::host_name()
+        crate::host::host_name()
             .chars()
             .map(|c| if c.is_ascii_alphanumeric() || c == '-' {
                 c
@@ -318,7 +318,7 @@ impl Tracker<'_> {
             fs::create_dir_all(dir.join(sub))
                 .with_context(|| format!("{}: cannot create", dir.join(sub).display()))?;
         }
-        let coordinator = format!("{}:{}", super::host_name(), std::process::id());
+        let coordinator = format!("{}:{}", crate::host::host_name(), std::process::id());
         let graph = std::path::absolute(&self.plan.source.path)
             .unwrap_or_else(|_| self.plan.source.path.clone());
         for (index, job) in jobs.iter().enumerate() {

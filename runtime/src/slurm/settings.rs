@@ -16,7 +16,7 @@
 //! None of this enters a cache key: where an action runs never changes what it computes.
 
 use crate::diag::{Diagnostic, did_you_mean, similar};
-use crate::graph::GraphSource;
+use crate::source::GraphSource;
 use crate::syntax::{SKind, Spanned};
 
 /// Options for the jobs of one node; `None` = not said here (a less specific place or

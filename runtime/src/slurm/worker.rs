@@ -85,7 +85,7 @@ pub fn run_action(spec_path: &Path, build_plan: impl FnOnce(&ActionSpec) -> Resu
         host: std::env::var("SLURMD_NODENAME")
             .ok()
             .filter(|h| !h.is_empty())
-            .unwrap_or_else(super::host_name),
+            .unwrap_or_else(crate::host::host_name),
         job_id: job_id_from_env(),
         pid: std::process::id(),
     };
