@@ -269,7 +269,10 @@ impl Node for CommandNode {
                 .input_opt(port)
                 .with_context(|| format!("input `{port}` is not connected"))?;
             let copy = workdir.join("in").join(port);
-            copy_folder(src, &copy)?;
+            // The program gets its own, writable copy of every input.
+            objectsplat_core::files::tree_file_by_file(src, &copy, &|from, to| {
+                objectsplat_runtime::store::copy_writable(from, to)
+            })?;
             folders.insert(format!("input:{port}"), copy);
         }
         for port in d.produces.keys() {
@@ -337,23 +340,6 @@ fn check_output(port: &str, ty: &TypeRef, dir: &Path, program: &str, stderr: &st
             "command {program:?} wrote output `{port}` ({t}) without {file} ({}); see docs/artifacts.md for the {t} encoding; stderr:\n{stderr}",
             dir.display()
         );
-    }
-    Ok(())
-}
-
-/// Copies a folder tree (the program gets its own, writable copy of every input).
-fn copy_folder(src: &Path, dst: &Path) -> Result<()> {
-    std::fs::create_dir_all(dst).with_context(|| format!("{}: cannot create", dst.display()))?;
-    for entry in
-        std::fs::read_dir(src).with_context(|| format!("{}: cannot list", src.display()))?
-    {
-        let entry = entry?;
-        let to = dst.join(entry.file_name());
-        if entry.file_type()?.is_dir() {
-            copy_folder(&entry.path(), &to)?;
-        } else {
-            objectsplat_runtime::store::copy_writable(&entry.path(), &to)?;
-        }
     }
     Ok(())
 }

@@ -16,6 +16,16 @@ pub fn link_or_copy(src: &Path, dst: &Path) -> Result<()> {
 
 /// A folder tree shared into `dst` file by file with [`link_or_copy`].
 pub fn share_tree(src: &Path, dst: &Path) -> Result<()> {
+    tree_file_by_file(src, dst, &link_or_copy)
+}
+
+/// `src`'s folders made again under `dst`, each file placed by `place(from, to)` (a link,
+/// a writable copy).
+pub fn tree_file_by_file(
+    src: &Path,
+    dst: &Path,
+    place: &dyn Fn(&Path, &Path) -> Result<()>,
+) -> Result<()> {
     std::fs::create_dir_all(dst)
         .with_context(|| format!("{}: cannot create folder", dst.display()))?;
     for entry in
@@ -24,9 +34,9 @@ pub fn share_tree(src: &Path, dst: &Path) -> Result<()> {
         let entry = entry.with_context(|| format!("{}: cannot list", src.display()))?;
         let (from, to) = (entry.path(), dst.join(entry.file_name()));
         if entry.file_type()?.is_dir() {
-            share_tree(&from, &to)?;
+            tree_file_by_file(&from, &to, place)?;
         } else {
-            link_or_copy(&from, &to)?;
+            place(&from, &to)?;
         }
     }
     Ok(())

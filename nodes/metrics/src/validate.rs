@@ -27,14 +27,7 @@ pub fn check_pair(a: &Image, b: &Image) -> Result<()> {
                 img.pixel_count() * img.channels as usize
             );
         }
-        if let Some(i) = img.data.iter().position(|v| !v.is_finite()) {
-            let px = i / img.channels as usize;
-            bail!(
-                "{name} image has a non-finite value at pixel ({}, {})",
-                px % img.width as usize,
-                px / img.width as usize
-            );
-        }
+        img.check_finite(&format!("{name} image"))?;
     }
     Ok(())
 }
