@@ -78,16 +78,14 @@ pub fn run_section(run: &RunSummary) -> Result<String> {
     }
     // Cached nodes carry the time of the run that produced their outputs: reused work,
     // not this run's.
-    let total: f64 = nodes
-        .iter()
-        .filter(|n| n.status != NodeStatus::Cached)
-        .map(|n| n.seconds)
-        .sum();
-    let reused: f64 = nodes
-        .iter()
-        .filter(|n| n.status == NodeStatus::Cached)
-        .map(|n| n.seconds)
-        .sum();
+    // Folded from +0.0: an empty f64 `sum()` is −0.0, which prints as "-0.00 s".
+    let seconds = |cached: bool| {
+        nodes
+            .iter()
+            .filter(|n| (n.status == NodeStatus::Cached) == cached)
+            .fold(0.0, |sum, n| sum + n.seconds)
+    };
+    let (total, reused) = (seconds(false), seconds(true));
     let count = |s: NodeStatus| nodes.iter().filter(|n| n.status == s).count();
     let mut html = String::new();
     // Writing to a String cannot fail, so the fmt::Results below are ignored.
@@ -267,4 +265,33 @@ pub fn write_with_run_summary(report: &Path, run: &RunSummary, out: &Path) -> Re
         .map_err(|e| e.error)
         .with_context(|| format!("{}: cannot replace", out.display()))?;
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::run_section;
+    use crate::data::{NodeRun, NodeStatus, RunSummary};
+
+    #[test]
+    fn a_fully_cached_run_has_zero_seconds_of_node_time_not_minus_zero() {
+        let run = RunSummary {
+            nodes: vec![NodeRun {
+                id: "scene".into(),
+                kind: "synthetic_scene".into(),
+                status: NodeStatus::Cached,
+                seconds: 1.5,
+                queued_seconds: 0.0,
+                reason: None,
+                items: vec![],
+            }],
+            edges: vec![],
+            graph: None,
+            seconds: Some(0.02),
+        };
+        let html = run_section(&run).unwrap();
+        assert!(
+            html.contains("1 nodes: 0 ran, 1 cached, 0 skipped, 0 failed; 0.00 s of node time")
+        );
+        assert!(!html.contains("-0.00"));
+    }
 }
