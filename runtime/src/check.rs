@@ -1,80 +1,16 @@
 //! What `objectsplat check` verifies beyond building a plan: that input files exist,
 //! and params checked against upstream values already in the cache (a node's
-//! [`crate::Node::check_with_inputs`]). Also where a node's [`ParamError`] points.
+//! [`crate::Node::check_with_inputs`]).
 
 use crate::diag::Diagnostic;
 use crate::exec::cached_outputs;
-use crate::graph::{GraphSource, NodeDecl, parse_graph};
+use crate::graph::parse_graph;
 use crate::keys::params_key;
 use crate::node::ParamError;
-use crate::plan::{Override, Plan};
+use crate::plan::{Override, Plan, param_error_diag};
 use crate::store::{Digest, Store};
-use crate::syntax::{SKind, Span, Spanned};
 use anyhow::Result;
 use std::collections::BTreeMap;
-
-/// Where a node's [`ParamError`] points: the nested field in the graph file, the
-/// `--set` that gave the value, or the node (a default value).
-pub(crate) fn param_error_diag(
-    src: &GraphSource,
-    n: &NodeDecl,
-    overrides: &[Override],
-    e: &ParamError,
-) -> Diagnostic {
-    let message = format!(
-        "node {:?} ({}) param `{}`: {}",
-        n.id,
-        n.kind,
-        e.path(),
-        e.message
-    );
-    if let Some(o) = overrides
-        .iter()
-        .rev()
-        .find(|o| o.node == n.id && o.param == e.param)
-    {
-        return Diagnostic::argument(&o.text, message);
-    }
-    match n.params.iter().find(|p| p.name == e.param) {
-        Some(p) => src.diag(nested_span(&p.value, &e.field), message),
-        None => src.diag(n.span, format!("{message} (its default value)")),
-    }
-}
-
-/// The span of `field` inside `value`: a struct field's or map key's name when the
-/// path ends there, else the deepest value the path reaches.
-fn nested_span(value: &Spanned, field: &[String]) -> Span {
-    let Some((step, rest)) = field.split_first() else {
-        return value.span;
-    };
-    let (key, next) = match &value.kind {
-        SKind::Struct(_, fields) => match fields.iter().find(|(k, _, _)| k == step) {
-            Some((_, key, v)) => (*key, v),
-            None => return value.span,
-        },
-        SKind::Map(entries) => {
-            let found = entries
-                .iter()
-                .find(|(k, _)| matches!(&k.kind, SKind::Str(s) | SKind::Ident(s) if s == step));
-            match found {
-                Some((k, v)) => (k.span, v),
-                None => return value.span,
-            }
-        }
-        SKind::List(items) | SKind::Tuple(_, items) => {
-            match step.parse::<usize>().ok().and_then(|i| items.get(i)) {
-                Some(v) => (v.span, v),
-                None => return value.span,
-            }
-        }
-        _ => return value.span,
-    };
-    if rest.is_empty() {
-        key
-    } else {
-        nested_span(next, rest)
-    }
-}
 
 /// One error per path param (of the needed nodes) naming a file or folder that does
 /// not exist: at the param in the graph, or at the `--set` that gave it.

@@ -1,50 +1,22 @@
 //! The scheduler: runs the ancestors of the targets in dependency order, in
 //! parallel, each node (or fan-out item) at most once, reusing cached results
-//! (their keys: [`crate::keys`]; why a node would rerun: [`crate::explain`]).
+//! (their keys: the `keys` module; one action computed: `action`; why a node would
+//! rerun: `explain`).
 
+use crate::action::execute;
+use crate::job::{Job, JobError, JobOutcome, Timing, cached};
+pub use crate::job::{Observer, RunOptions, Silent};
 use crate::keys::{compute_key, params_key};
-use crate::node::{Context, InputValue, Outcome, ProgressSink, TypeRef};
 use crate::plan::{Plan, PlanNode};
 use crate::report::{ItemReport, NodeReport, RunReport, Status};
 use crate::slurm::{SlurmConfig, SlurmSettings};
-use crate::store::{ActionRecord, Corrupt, Digest, Manifest, RanOn, Store, short};
+use crate::store::{ActionRecord, Corrupt, Digest, Manifest, RanOn, Store};
 use anyhow::{Result, anyhow};
 use std::collections::BTreeMap;
-use std::panic::{AssertUnwindSafe, catch_unwind};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::Mutex;
 use std::time::Instant;
-
-/// Lifecycle events for displays (progress bars, logs).
-pub trait Observer: ProgressSink {
-    /// A job of node `node` missed the cache and was handed to an executor; it is later
-    /// started and finished. Jobs answered from the cache by the scheduler are not queued.
-    fn job_queued(&self, _job: &str, _node: &str) {}
-    fn job_started(&self, _job: &str) {}
-    /// Where a job stands when that is not progress of its own (a Slurm job queued,
-    /// running on a node).
-    fn job_state(&self, _job: &str, _state: &str) {}
-    fn job_finished(&self, _job: &str, _status: Status, _seconds: f64) {}
-    fn warning(&self, _message: &str) {}
-}
-
-pub struct Silent;
-impl ProgressSink for Silent {
-    fn progress(&self, _: &str, _: u64, _: u64, _: &str) {}
-}
-impl Observer for Silent {}
-
-pub struct RunOptions {
-    pub jobs: usize,
-    /// Threads each job may use (None: the workers left to it, `jobs` / jobs running).
-    /// One job at a time with every core (`jobs: 1, threads_per_job: Some(cores)`) is how
-    /// benchmarks time items one by one.
-    pub threads_per_job: Option<usize>,
-    /// Where to materialize targets' outputs (`OUT/<node>/<port>/`); `None` = don't.
-    pub out_dir: Option<PathBuf>,
-    pub observer: Arc<dyn Observer>,
-}
 
 /// Where the actions that miss the cache are computed.
 #[derive(Debug, Clone, Default)]
@@ -67,44 +39,6 @@ impl Executor {
         let asks = node.fans_out || node.slurm.is_some();
         (asks && settings.local != Some(true)).then_some(settings)
     }
-}
-
-/// What one job (a node, or one item of a fanned-out node) needs.
-pub(crate) struct Job {
-    pub node: usize,
-    pub item: Option<(String, Digest)>,
-    pub key: String,
-    pub params_key: String,
-    pub inputs: BTreeMap<String, Digest>,
-    pub label: String,
-    /// When the job was handed to the workers (queue waiting is reported apart).
-    pub queued_at: Instant,
-}
-
-pub(crate) struct JobOutcome {
-    pub node: usize,
-    pub item: Option<String>,
-    pub result: Result<ActionRecord, JobError>,
-    pub status: Status,
-    pub timing: Timing,
-    pub warnings: Vec<String>,
-    /// Where it was computed (for a cache hit: where the record says).
-    pub ran_on: Option<RanOn>,
-}
-
-/// One job's time: its own run (the producing run's, for a cache hit) and how long it
-/// waited for a worker before that.
-#[derive(Clone, Copy, Default)]
-pub(crate) struct Timing {
-    pub seconds: f64,
-    pub queued: f64,
-    /// When a worker took it up (`None`: answered from the cache by the scheduler).
-    pub started: Option<Instant>,
-}
-
-pub(crate) enum JobError {
-    Failed(String),
-    Corrupt(String),
 }
 
 #[derive(Default)]
@@ -186,9 +120,6 @@ pub fn run_on(
         store.root().display()
     ))
 }
-
-/// Longest failure message a node's report carries.
-pub(crate) const MAX_FAILURE_TEXT: usize = 16 << 10;
 
 fn run_pass(
     plan: &Plan,
@@ -524,14 +455,6 @@ fn run_pass(
     ))
 }
 
-/// A cache hit: a record for the key whose outputs are all present.
-pub(crate) fn cached(store: &Store, key: &str) -> Result<Option<ActionRecord>, Corrupt> {
-    match store.action(key)? {
-        Some(rec) if rec.outputs.values().all(|d| store.has_artifact(d)) => Ok(Some(rec)),
-        _ => Ok(None),
-    }
-}
-
 fn record_item(
     st: &mut NodeState,
     item: Option<String>,
@@ -689,305 +612,6 @@ fn finish_node(plan: &Plan, store: &Store, i: usize, st: &mut NodeState, fans_ou
     } else if st.status == Some(Status::Skipped) {
         st.reason = st.items.first().and_then(|(_, _, r)| r.reason.clone());
     }
-}
-
-fn execute(
-    plan: &Plan,
-    store: &Store,
-    opts: &RunOptions,
-    job: Job,
-    active: &AtomicUsize,
-    jobs: usize,
-    cancel: &AtomicBool,
-) -> JobOutcome {
-    let t0 = Instant::now();
-    let queued = t0.saturating_duration_since(job.queued_at).as_secs_f64();
-    opts.observer.job_started(&job.label);
-    let running = active.fetch_add(1, Ordering::SeqCst) + 1;
-    let threads = opts.threads_per_job.unwrap_or(jobs / running).max(1);
-    let mut warnings = Vec::new();
-    let here = RanOn::local();
-    let result = execute_inner(
-        plan,
-        store,
-        opts,
-        &job,
-        threads,
-        cancel,
-        &mut warnings,
-        &here,
-    );
-    active.fetch_sub(1, Ordering::SeqCst);
-    // A stored action carries its own run time (the producing run's, for a hit);
-    // a failure has none and is timed here.
-    let seconds = match &result {
-        Ok((rec, _)) => rec.seconds,
-        Err(_) => t0.elapsed().as_secs_f64(),
-    };
-    let mut ran_on = Some(here);
-    let (result, status) = match result {
-        Ok((rec, hit)) => {
-            let status = if hit {
-                // Computed by another process while this one waited for the key.
-                ran_on = rec.ran_on.clone();
-                Status::Cached
-            } else if rec.status == "skipped" {
-                Status::Skipped
-            } else {
-                Status::Ran
-            };
-            (Ok(rec), status)
-        }
-        Err(e) => {
-            let status = Status::Failed;
-            if let Some(c) = e.downcast_ref::<Corrupt>() {
-                warnings.push(format!("warning: {c}; recomputing"));
-                (Err(JobError::Corrupt(c.to_string())), status)
-            } else {
-                // A node may fail with megabytes of text (a dump, a log); the report
-                // and the terminal get the start of it.
-                let msg = crate::diag::bounded(&format!("{e:#}"), MAX_FAILURE_TEXT);
-                (Err(JobError::Failed(msg)), status)
-            }
-        }
-    };
-    opts.observer.job_finished(&job.label, status, seconds);
-    JobOutcome {
-        node: job.node,
-        item: job.item.map(|(n, _)| n),
-        result,
-        status,
-        timing: Timing {
-            seconds,
-            queued,
-            started: Some(t0),
-        },
-        warnings,
-        ran_on,
-    }
-}
-
-/// Computes one job in this process (unless another process has meanwhile): the
-/// record, and whether it was a cache hit after all.
-#[allow(clippy::too_many_arguments)]
-pub(crate) fn execute_inner(
-    plan: &Plan,
-    store: &Store,
-    opts: &RunOptions,
-    job: &Job,
-    threads: usize,
-    cancel: &AtomicBool,
-    warnings: &mut Vec<String>,
-    ran_on: &RanOn,
-) -> Result<(ActionRecord, bool)> {
-    let node = &plan.nodes[job.node];
-    let spec = &node.reg.spec;
-    // Another process may be computing the same key: wait for it, then reuse.
-    let _lock = store.lock_key(&job.key)?;
-    if let Ok(Some(rec)) = cached(store, &job.key) {
-        return Ok((rec, true));
-    }
-    // The action's time: inputs laid out, the run, outputs stored (not the wait for
-    // the lock above, which is another process's work).
-    let t0 = Instant::now();
-    let stage = store.staging(&job.label)?;
-    let result = (|| {
-        let mut inputs = BTreeMap::new();
-        for (port, digest) in &job.inputs {
-            let dir = stage.join("in").join(port);
-            let items = store.materialize(digest, &dir, false)?;
-            let v = match items {
-                Some(items) => InputValue::Items { dir, items },
-                None => InputValue::One(dir),
-            };
-            inputs.insert(port.clone(), v);
-        }
-        let mut outputs = BTreeMap::new();
-        for o in &spec.outputs {
-            let d = stage.join("out").join(&o.name);
-            std::fs::create_dir_all(&d)?;
-            outputs.insert(o.name.clone(), d);
-        }
-        let scratch = stage.join("scratch");
-        std::fs::create_dir_all(&scratch)?;
-        let mut ctx = Context {
-            job: job.label.clone(),
-            item: job.item.as_ref().map(|(n, _)| n.clone()),
-            inputs,
-            outputs: outputs.clone(),
-            forwarded: BTreeMap::new(),
-            params: &node.params,
-            notes: vec![],
-            measurements: BTreeMap::new(),
-            warnings: vec![],
-            threads,
-            scratch,
-            resume: store.resume_dir(&job.key),
-            progress: opts.observer.as_ref(),
-            cancel,
-        };
-        let outcome = catch_unwind(AssertUnwindSafe(|| node.reg.node.run(&mut ctx)))
-            .unwrap_or_else(|p| {
-                let msg = p
-                    .downcast_ref::<String>()
-                    .cloned()
-                    .or_else(|| p.downcast_ref::<&str>().map(|s| s.to_string()))
-                    .unwrap_or_else(|| "unknown panic".into());
-                Err(anyhow!("node panicked: {msg}"))
-            })?;
-        warnings.extend(ctx.warnings.iter().map(|w| format!("{}: {w}", job.label)));
-        let mut out_digests = BTreeMap::new();
-        for o in &spec.outputs {
-            if let Some(inp) = ctx.forwarded.get(&o.name) {
-                let d = job
-                    .inputs
-                    .get(inp)
-                    .ok_or_else(|| anyhow!("forwarded input `{inp}` has no value"))?;
-                out_digests.insert(o.name.clone(), d.clone());
-                continue;
-            }
-            if matches!(outcome, Outcome::Skipped(_)) {
-                continue;
-            }
-            let dir = &outputs[&o.name];
-            let digest = match &o.ty {
-                TypeRef::One(t) => store.ingest_folder(t, dir)?,
-                TypeRef::List(t) => {
-                    let mut names: Vec<String> = Vec::new();
-                    for e in std::fs::read_dir(dir)? {
-                        let e = e?;
-                        if !e.file_type()?.is_dir() {
-                            anyhow::bail!(
-                                "output `{}` is a collection: expected one sub-folder per item, found file {:?}",
-                                o.name,
-                                e.file_name()
-                            );
-                        }
-                        let name = e.file_name().into_string().map_err(|n| {
-                            anyhow!("output `{}`: item name {n:?} is not UTF-8", o.name)
-                        })?;
-                        crate::paths::check_component(&name)
-                            .map_err(|why| anyhow!("output `{}`: item {why}", o.name))?;
-                        names.push(name);
-                    }
-                    names.sort();
-                    let mut items = Vec::new();
-                    for n in names {
-                        items.push((n.clone(), store.ingest_folder(t, &dir.join(&n))?));
-                    }
-                    store.put_manifest(&Manifest::Collection {
-                        ty: t.clone(),
-                        items,
-                    })?
-                }
-            };
-            out_digests.insert(o.name.clone(), digest);
-        }
-        let (status, reason) = match outcome {
-            Outcome::Done => ("ran", None),
-            Outcome::Skipped(r) => ("skipped", Some(r)),
-        };
-        let rec = ActionRecord {
-            key: job.key.clone(),
-            node: node.id.clone(),
-            kind: spec.kind.clone(),
-            version: spec.version.clone(),
-            item: job.item.as_ref().map(|(n, _)| n.clone()),
-            params: job.params_key.clone(),
-            inputs: job.inputs.clone(),
-            outputs: out_digests,
-            status: status.into(),
-            reason,
-            seconds: t0.elapsed().as_secs_f64(),
-            notes: ctx.notes,
-            measurements: ctx.measurements,
-            ran_on: Some(ran_on.clone()),
-        };
-        store.put_action(&rec)?;
-        // The action is stored: progress saved for a resume is no longer needed.
-        let resume = store.resume_dir(&job.key);
-        if resume.exists() {
-            let _ = std::fs::remove_dir_all(&resume);
-        }
-        Ok((rec, false))
-    })();
-    let _ = std::fs::remove_dir_all(&stage);
-    result
-}
-
-/// Computes the action a Slurm task was handed (see [`crate::slurm::worker`]): the
-/// record, whether another process computed it meanwhile, and the node's warnings.
-/// Refuses to compute anything but the coordinator's key.
-pub(crate) fn compute_action(
-    plan: &Plan,
-    store: &Store,
-    opts: &RunOptions,
-    spec: &crate::slurm::ActionSpec,
-    ran_on: &RanOn,
-    threads: usize,
-) -> Result<(ActionRecord, bool, Vec<String>)> {
-    let i = plan
-        .index(&spec.node)
-        .ok_or_else(|| anyhow!("no node `{}` in {}", spec.node, plan.source.path.display()))?;
-    let node = &plan.nodes[i];
-    let pk = params_key(plan, i)?;
-    // The key covers the item separately from the other inputs.
-    let mut key_inputs = spec.inputs.clone();
-    if let Some(each) = node.inputs.iter().find(|x| x.each) {
-        key_inputs.remove(&each.port);
-    }
-    let spec_ = &node.reg.spec;
-    let key = compute_key(
-        &spec_.kind,
-        &spec_.version,
-        &pk,
-        &key_inputs,
-        spec.item.as_ref(),
-    );
-    if key != spec.key {
-        anyhow::bail!(
-            "this is not the action the coordinator planned (key {} here, {} there): the graph file, \
-             a param, a file the node reads, a program it starts or the objectsplat build differs \
-             between the coordinator and this node; the cache, the graph and its inputs must be the \
-             same files on both, and the programs the same versions",
-            short(&key),
-            short(&spec.key)
-        );
-    }
-    let job = Job {
-        node: i,
-        item: spec.item.clone(),
-        key,
-        params_key: pk,
-        inputs: spec.inputs.clone(),
-        label: match &spec.item {
-            Some((n, _)) => format!("{}[{n}]", node.id),
-            None => node.id.clone(),
-        },
-        queued_at: Instant::now(),
-    };
-    opts.observer.job_started(&job.label);
-    let cancel = AtomicBool::new(false);
-    let mut warnings = Vec::new();
-    let t0 = Instant::now();
-    let (rec, hit) = execute_inner(
-        plan,
-        store,
-        opts,
-        &job,
-        threads,
-        &cancel,
-        &mut warnings,
-        ran_on,
-    )?;
-    let status = match (hit, rec.status.as_str()) {
-        (true, _) => Status::Cached,
-        (false, "skipped") => Status::Skipped,
-        _ => Status::Ran,
-    };
-    opts.observer
-        .job_finished(&job.label, status, t0.elapsed().as_secs_f64());
-    Ok((rec, hit, warnings))
 }
 
 fn materialize_targets(plan: &Plan, store: &Store, report: &RunReport, out: &Path) -> Result<()> {

@@ -1,7 +1,7 @@
 //! `objectsplat explain`: why each needed node would (re)run, from the cache alone —
 //! a key with no record is diffed against the key the node last ran with.
 
-use crate::exec::cached;
+use crate::job::cached;
 use crate::keys::{compute_key, params_key, split_params_text};
 use crate::plan::Plan;
 use crate::store::{ActionRecord, Digest, Manifest, Store, short};

@@ -3,12 +3,14 @@
 //! caches results by content, schedules work in parallel (here, or as Slurm jobs)
 //! and loads plugins.
 
+pub(crate) mod action;
 pub mod check;
 pub mod diag;
 pub mod exec;
 pub mod explain;
 pub mod graph;
 pub mod host;
+pub mod job;
 pub mod keys;
 pub mod node;
 pub mod outdir;

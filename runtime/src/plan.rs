@@ -2,11 +2,11 @@
 
 use crate::diag::{Diagnostic, Diagnostics, did_you_mean, similar};
 use crate::graph::{GraphDecl, GraphSource, NodeDecl, parse_graph};
-use crate::node::TypeRef;
+use crate::node::{ParamError, TypeRef};
 use crate::params::{ParamType, Params};
 use crate::registry::{Registered, Registry};
 use crate::slurm::SlurmSettings;
-use crate::syntax::{self, Span};
+use crate::syntax::{self, SKind, Span, Spanned};
 use crate::value::Value;
 use petgraph::algo::toposort;
 use petgraph::graph::{DiGraph, NodeIndex};
@@ -640,7 +640,7 @@ fn check_params(
         .node
         .check_params(&params)
         .iter()
-        .map(|e| crate::check::param_error_diag(src, n, overrides, e))
+        .map(|e| param_error_diag(src, n, overrides, e))
         .collect();
     if diags.is_empty() {
         Ok((params, input_paths))
@@ -675,5 +675,68 @@ fn is_path_type(t: &ParamType) -> bool {
         ParamType::Path => true,
         ParamType::Optional(inner) => is_path_type(inner),
         _ => false,
+    }
+}
+
+/// Where a node's [`ParamError`] points: the nested field in the graph file, the
+/// `--set` that gave the value, or the node (a default value).
+pub(crate) fn param_error_diag(
+    src: &GraphSource,
+    n: &NodeDecl,
+    overrides: &[Override],
+    e: &ParamError,
+) -> Diagnostic {
+    let message = format!(
+        "node {:?} ({}) param `{}`: {}",
+        n.id,
+        n.kind,
+        e.path(),
+        e.message
+    );
+    if let Some(o) = overrides
+        .iter()
+        .rev()
+        .find(|o| o.node == n.id && o.param == e.param)
+    {
+        return Diagnostic::argument(&o.text, message);
+    }
+    match n.params.iter().find(|p| p.name == e.param) {
+        Some(p) => src.diag(nested_span(&p.value, &e.field), message),
+        None => src.diag(n.span, format!("{message} (its default value)")),
+    }
+}
+
+/// The span of `field` inside `value`: a struct field's or map key's name when the
+/// path ends there, else the deepest value the path reaches.
+fn nested_span(value: &Spanned, field: &[String]) -> Span {
+    let Some((step, rest)) = field.split_first() else {
+        return value.span;
+    };
+    let (key, next) = match &value.kind {
+        SKind::Struct(_, fields) => match fields.iter().find(|(k, _, _)| k == step) {
+            Some((_, key, v)) => (*key, v),
+            None => return value.span,
+        },
+        SKind::Map(entries) => {
+            let found = entries
+                .iter()
+                .find(|(k, _)| matches!(&k.kind, SKind::Str(s) | SKind::Ident(s) if s == step));
+            match found {
+                Some((k, v)) => (k.span, v),
+                None => return value.span,
+            }
+        }
+        SKind::List(items) | SKind::Tuple(_, items) => {
+            match step.parse::<usize>().ok().and_then(|i| items.get(i)) {
+                Some(v) => (v.span, v),
+                None => return value.span,
+            }
+        }
+        _ => return value.span,
+    };
+    if rest.is_empty() {
+        key
+    } else {
+        nested_span(next, rest)
     }
 }

@@ -11,7 +11,7 @@
 //! <cache>/heads/<graph>.json        the last keys each node of a graph ran with (for `explain`)
 //! <cache>/locks/<aa>/<key>.lock      held while a key is being computed (cross-process)
 //! <cache>/tmp/<pid>-<n>/             staging; renamed into place, never read across processes
-//! <cache>/slurm/                     job files of `--executor slurm` runs (see crate::slurm)
+//! <cache>/slurm/                     job files of `--executor slurm` runs (see the Slurm executor)
 //! ```
 //!
 //! Every write is temp-file + rename, so a crash leaves either nothing or a whole

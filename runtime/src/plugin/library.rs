@@ -1,5 +1,5 @@
 //! Opening a plugin library: the dlopen, the entry symbol, the ABI checks and the
-//! `describe` call. Only plugin child processes ([`super::child`]) open libraries;
+//! `describe` call. Only plugin child processes (the `child` module) open libraries;
 //! the engine never maps plugin code. Libraries are never unloaded (unloading Rust
 //! cdylibs is unsound in general), so each canonical path is opened once per process.
 

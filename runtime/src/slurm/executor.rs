@@ -11,7 +11,7 @@
 use super::claims::{Claim, Claimed, Claims};
 use super::commands::{self, JobState};
 use super::{ActionResult, ActionSpec, SlurmConfig, SlurmSettings};
-use crate::exec::{Job, JobError, JobOutcome, RunOptions, Timing, cached};
+use crate::job::{Job, JobError, JobOutcome, RunOptions, Timing, cached};
 use crate::plan::Plan;
 use crate::report::Status;
 use crate::store::{ActionRecord, RanOn, Store};

@@ -6,7 +6,7 @@
 //! coordinator's `--set` and `--plugin` arguments).
 
 use super::{ActionResult, ActionSpec};
-use crate::exec::{Observer, RunOptions};
+use crate::job::{Observer, RunOptions};
 use crate::node::ProgressSink;
 use crate::plan::Plan;
 use crate::report::Status;
@@ -114,7 +114,7 @@ pub fn run_action(spec_path: &Path, build_plan: impl FnOnce(&ActionSpec) -> Resu
             out_dir: None,
             observer: observer.clone(),
         };
-        crate::exec::compute_action(&plan, &store, &opts, &spec, &here, threads)
+        crate::action::compute_action(&plan, &store, &opts, &spec, &here, threads)
     })();
     let (status, error, warnings) = match outcome {
         Ok((rec, hit, warnings)) => {
@@ -129,7 +129,7 @@ pub fn run_action(spec_path: &Path, build_plan: impl FnOnce(&ActionSpec) -> Resu
         }
         Err(e) => {
             let corrupt = e.downcast_ref::<crate::store::Corrupt>().is_some();
-            let msg = crate::diag::bounded(&format!("{e:#}"), crate::exec::MAX_FAILURE_TEXT);
+            let msg = crate::diag::bounded(&format!("{e:#}"), crate::job::MAX_FAILURE_TEXT);
             eprintln!("error: {msg}");
             (
                 if corrupt { "corrupt" } else { "failed" },
