@@ -14,8 +14,8 @@ use crate::store::{ActionRecord, Corrupt, Digest, Manifest, RanOn, Store};
 use anyhow::{Result, anyhow};
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
 /// Where the actions that miss the cache are computed.

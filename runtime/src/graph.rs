@@ -13,7 +13,6 @@
 //! ```
 
 use crate::diag::{Diagnostic, Diagnostics};
-use crate::slurm::SlurmSettings;
 pub use crate::source::GraphSource;
 use crate::syntax::{self, SKind, Span, Spanned};
 
@@ -48,9 +47,11 @@ pub struct NodeDecl {
     pub kind_span: Span,
     pub params: Vec<ParamDecl>,
     pub inputs: Vec<InputDecl>,
-    /// Its `slurm: (...)` field: options for its Slurm jobs (and, on a node that does
-    /// not fan out, the request to run it as one).
-    pub slurm: Option<SlurmSettings>,
+    /// Its `slurm: (...)` field as written: options for its Slurm jobs (and, on a node
+    /// that does not fan out, the request to run it as one). The parser keeps an
+    /// executor's settings as syntax; the executor's own module reads them
+    /// (`slurm::SlurmSettings::parse`, when the plan is built).
+    pub slurm: Option<Spanned>,
     pub span: Span,
 }
 
@@ -59,8 +60,9 @@ pub struct GraphDecl {
     pub nodes: Vec<NodeDecl>,
     pub targets: Vec<(String, Span)>,
     pub plugins: Vec<(String, Span)>,
-    /// The graph's `slurm: (...)` field: defaults for every Slurm job of the graph.
-    pub slurm: SlurmSettings,
+    /// The graph's `slurm: (...)` field as written: defaults for every Slurm job of the
+    /// graph (read like a node's).
+    pub slurm: Option<Spanned>,
 }
 
 pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
@@ -91,7 +93,7 @@ pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
         nodes: vec![],
         targets: vec![],
         plugins: vec![],
-        slurm: SlurmSettings::default(),
+        slurm: None,
     };
     let mut saw_nodes = false;
     for (name, name_span, value) in fields {
@@ -136,10 +138,7 @@ pub fn parse_graph(src: &GraphSource) -> Result<GraphDecl, Diagnostics> {
                 }
                 Err((span, msg)) => diags.push(src.diag(span, format!("`{name}`: {msg}"))),
             },
-            "slurm" => match SlurmSettings::parse(src, value, None) {
-                Ok(s) => graph.slurm = s,
-                Err(mut d) => diags.append(&mut d),
-            },
+            "slurm" => graph.slurm = Some(value.clone()),
             other => diags.push(src.diag(
                 *name_span,
                 format!(
@@ -248,10 +247,7 @@ fn parse_node(src: &GraphSource, key: &Spanned, v: &Spanned) -> Result<NodeDecl,
                     format!("node {id:?}: `inputs` must be a struct `(port: \"node.port\", ...)`, found {}", value.shape()),
                 )),
             },
-            "slurm" => match SlurmSettings::parse(src, value, Some(&id)) {
-                Ok(s) => slurm = Some(s),
-                Err(mut d) => diags.append(&mut d),
-            },
+            "slurm" => slurm = Some(value.clone()),
             "doc" => {}
             other => diags.push(src.diag(
                 *name_span,

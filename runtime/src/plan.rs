@@ -223,10 +223,11 @@ fn check(
                 declared_ports(src, n, reg, registry, &params)?,
                 params,
                 paths,
+                slurm_settings(src, n.slurm.as_ref(), Some(&n.id))?,
             ))
         });
         match checked {
-            Ok((reg, params, input_paths)) => nodes.push(Some(PlanNode {
+            Ok((reg, params, input_paths, slurm)) => nodes.push(Some(PlanNode {
                 id: n.id.clone(),
                 kind: n.kind.clone(),
                 reg,
@@ -235,7 +236,7 @@ fn check(
                 inputs: vec![],
                 fans_out: n.inputs.iter().any(|i| i.source.each),
                 outputs: BTreeMap::new(),
-                slurm: n.slurm.clone(),
+                slurm,
             })),
             Err(mut d) => {
                 diags.append(&mut d);
@@ -431,6 +432,12 @@ fn check(
             .collect();
     }
 
+    let slurm = slurm_settings(src, decl.slurm.as_ref(), None)
+        .unwrap_or_else(|mut d| {
+            diags.append(&mut d);
+            None
+        })
+        .unwrap_or_default();
     if !diags.is_empty() {
         return Err(Diagnostics(diags));
     }
@@ -448,7 +455,7 @@ fn check(
             .iter()
             .map(|(p, _)| src.dir().join(p))
             .collect(),
-        slurm: decl.slurm.clone(),
+        slurm,
     })
 }
 
@@ -739,4 +746,15 @@ fn nested_span(value: &Spanned, field: &[String]) -> Span {
     } else {
         nested_span(next, rest)
     }
+}
+
+/// A `slurm: (...)` field read by the Slurm module (absent: none).
+fn slurm_settings(
+    src: &GraphSource,
+    written: Option<&Spanned>,
+    node: Option<&str>,
+) -> Result<Option<SlurmSettings>, Vec<Diagnostic>> {
+    written
+        .map(|v| SlurmSettings::parse(src, v, node))
+        .transpose()
 }
