@@ -1,6 +1,6 @@
 //! A graph file's path and text: where diagnostics point, what paths resolve against.
-//! Below the graph parser and the settings parsers it calls, so neither depends on the
-//! other for it.
+//! Its own module so that the graph parser and the Slurm settings reader, which both
+//! point into it, depend on it and not on each other.
 
 use crate::diag::{Diagnostic, Diagnostics};
 use crate::syntax::Span;
