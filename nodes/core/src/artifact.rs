@@ -154,7 +154,8 @@ pub const TYPES: &[ArtifactType] = &[
         name: "Metrics",
         defining_file: Some(METRICS_JSON),
         doc: "`metrics.json` — top level: scene averages `psnr`, `ssim`, `lpips` (null when \
-              skipped), `fscore`, `precision`, `recall`, `tau`; `objects`: the same per object \
+              skipped), `fscore`, `precision`, `recall`, `tau`, `normal_consistency` (area-weighted \
+              |cos| between the faces and the true surface nearest them); `objects`: the same per object \
               with `id`, `label`, and `thresholds` (one `{tau, fscore, precision, recall}` per \
               extra threshold of `evaluate`'s `object_taus`, default 5 and 2 cm; absent in \
               older reports); per-image entries — and `metrics.csv` (extra thresholds as \

@@ -6,6 +6,7 @@ use objectsplat_core::artifact::OBJECTS_JSON;
 use objectsplat_core::frames::frame_stem;
 use objectsplat_core::masks::read_objects;
 use objectsplat_core::{Frames, IdMap, Image, Mesh, ObjectLabels, Split};
+use objectsplat_metrics::normal_consistency;
 use objectsplat_metrics::surface::sample_surface;
 use objectsplat_metrics::{
     Lpips, MeshEvalParams, MetricsReport, SsimMode, TestImage, assemble_report, evaluate_image,
@@ -189,25 +190,34 @@ pub fn evaluate_scene(
         );
     }
 
-    let mesh_scores = match truth.mesh {
+    // Mesh scores, and the normal consistency of the scene and of each object.
+    let (mesh_scores, normals) = match truth.mesh {
         Some((gt, _)) => {
             let observed = match settings.gt_surface {
                 GtSurface::Observed => Some(ObservedSurface::new(gt, frames, settings.mesh.voxel)?),
                 GtSurface::All => None,
             };
             let keep = observed.as_ref().map(|o| move |p: &[f64; 3]| o.sees(p));
+            let keep_normals = keep
+                .as_ref()
+                .map(|k| k as &(dyn Fn(&[f64; 3]) -> bool + Sync));
             let merged = scene.merged_model()?;
-            let pred_scene = surface_points(&visible_mesh(&merged.model), &settings.mesh)
+            let scene_mesh = visible_mesh(&merged.model);
+            let pred_scene = surface_points(&scene_mesh, &settings.mesh)
                 .context("sampling the scene's surface")?;
+            let scene_normals = normal_consistency(&scene_mesh, gt, &settings.mesh, keep_normals)
+                .context("the scene's normal consistency")?;
             let mut pred_objects = Vec::new();
+            let mut object_normals = Vec::new();
             for o in &scene.objects {
                 if let Some(id) = o.entry.id {
-                    let points =
-                        surface_points(&visible_mesh(o.world_model()?.as_ref()), &settings.mesh)
-                            .with_context(|| {
-                                format!("sampling the surface of {:?}", o.entry.name)
-                            })?;
+                    let mesh = visible_mesh(o.world_model()?.as_ref());
+                    let points = surface_points(&mesh, &settings.mesh)
+                        .with_context(|| format!("sampling the surface of {:?}", o.entry.name))?;
                     pred_objects.push((id, points));
+                    let nc = normal_consistency(&mesh, gt, &settings.mesh, keep_normals)
+                        .with_context(|| format!("the normal consistency of {:?}", o.entry.name))?;
+                    object_normals.push((id, nc));
                 }
             }
             // Per-object scores need ids on the ground-truth faces.
@@ -216,18 +226,18 @@ pub fn evaluate_scene(
             } else {
                 Vec::new()
             };
-            Some(evaluate_mesh(
+            let scores = evaluate_mesh(
                 gt,
                 &pred_scene,
                 &pred_objects,
                 &object_ids,
                 &settings.mesh,
-                keep.as_ref()
-                    .map(|k| k as &(dyn Fn(&[f64; 3]) -> bool + Sync)),
+                keep_normals,
                 &settings.object_taus,
-            )?)
+            )?;
+            (Some(scores), Some((scene_normals, object_normals)))
         }
-        None => None,
+        None => (None, None),
     };
     let mut report = assemble_report(
         per_image,
@@ -240,5 +250,14 @@ pub fn evaluate_scene(
     report.gt_surface = truth
         .mesh
         .map(|_| settings.gt_surface.describe().to_string());
+    if let Some((scene_normals, object_normals)) = normals {
+        report.scene.normal_consistency = scene_normals;
+        for o in &mut report.objects {
+            o.metrics.normal_consistency = object_normals
+                .iter()
+                .find(|(id, _)| *id == o.id)
+                .and_then(|(_, nc)| *nc);
+        }
+    }
     Ok((report, summary))
 }

@@ -64,8 +64,8 @@ node_ports! {
 
 impl Node for Evaluate {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("evaluate", "4")
-            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id (per object also at each of object_taus). Writes metrics.json and metrics.csv.")
+        NodeSpec::new("evaluate", "5")
+            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id (per object also at each of object_taus), and the normal consistency of the same surfaces (area-weighted |cos| between each face and the true surface nearest it). Writes metrics.json and metrics.csv.")
             .ports::<EvaluatePorts>()
             .params::<EvaluateParams>()
     }

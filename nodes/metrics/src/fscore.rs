@@ -26,6 +26,18 @@ type Tree = ImmutableKdTree<f64, u64, 3, 32>;
 
 /// Distance from each query point to its nearest neighbour in `reference` (k-d tree).
 pub fn nearest_distances(queries: &[[f64; 3]], reference: &[[f64; 3]]) -> Result<Vec<f64>> {
+    Ok(nearest_neighbours(queries, reference)?
+        .into_iter()
+        .map(|(_, d)| d)
+        .collect())
+}
+
+/// For each query point, the index of its nearest neighbour in `reference` and the
+/// distance to it (k-d tree).
+pub fn nearest_neighbours(
+    queries: &[[f64; 3]],
+    reference: &[[f64; 3]],
+) -> Result<Vec<(usize, f64)>> {
     check_points("reference", reference)?;
     check_points("query", queries)?;
     if reference.is_empty() {
@@ -35,17 +47,16 @@ pub fn nearest_distances(queries: &[[f64; 3]], reference: &[[f64; 3]]) -> Result
     // Queries run in Morton (Z-curve) order: neighbouring queries then walk the same
     // tree nodes, which keeps them in cache.
     let order = morton_order(queries);
-    let sorted: Vec<f64> = order
+    let sorted: Vec<(usize, f64)> = order
         .par_iter()
         .map(|&i| {
-            tree.nearest_one::<SquaredEuclidean>(&queries[i])
-                .distance
-                .sqrt()
+            let hit = tree.nearest_one::<SquaredEuclidean>(&queries[i]);
+            (hit.item as usize, hit.distance.sqrt())
         })
         .collect();
-    let mut out = vec![0.0; queries.len()];
-    for (&i, d) in order.iter().zip(sorted) {
-        out[i] = d;
+    let mut out = vec![(0, 0.0); queries.len()];
+    for (&i, hit) in order.iter().zip(sorted) {
+        out[i] = hit;
     }
     Ok(out)
 }

@@ -14,6 +14,7 @@ pub mod fscore;
 pub mod lpips;
 pub mod mask;
 pub mod mesh_eval;
+pub mod normals;
 pub mod psnr;
 pub mod report;
 pub mod ssim;
@@ -28,6 +29,7 @@ pub use mask::Mask;
 pub use mesh_eval::{
     DEFAULT_MAX_SAMPLES, MeshEvalParams, MeshFScores, ObjectFScore, evaluate_mesh, mesh_points,
 };
+pub use normals::normal_consistency;
 pub use psnr::psnr;
 pub use report::MetricsReport;
 pub use ssim::{SsimMode, ssim};

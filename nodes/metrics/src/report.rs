@@ -6,6 +6,8 @@
 //! - `ssim_convention`: which SSIM border convention was used;
 //! - `fscore`, `precision`, `recall`, `accuracy`, `completeness`, `tau`, `voxel`:
 //!   the whole-scene mesh F-score (null when no mesh was evaluated);
+//! - `normal_consistency`: area-weighted |cos| between the predicted faces and the true
+//!   surface nearest them (null without a mesh; absent in older reports);
 //! - `gt_surface`: which ground-truth surface the F-scores compare against (the
 //!   whole mesh, or only what the capture's frames see);
 //! - `objects`: one entry per object with `id`, `label` and the same fields —
@@ -20,7 +22,7 @@
 //! A PSNR of identical images is infinite and written as null (JSON has no infinity).
 //!
 //! `metrics.csv`: one row per scene / object / image with columns
-//! `scope,name,id,label,psnr,ssim,lpips,fscore,precision,recall,accuracy,completeness,tau`,
+//! `scope,name,id,label,psnr,ssim,lpips,fscore,precision,recall,accuracy,completeness,tau,normal_consistency`,
 //! then one `object_tau` row per object and extra threshold (fscore, precision, recall,
 //! tau); empty cells mean null.
 
@@ -79,6 +81,10 @@ pub struct ScopeMetrics {
     pub completeness: Option<f64>,
     #[serde(serialize_with = "finite_or_null")]
     pub tau: Option<f64>,
+    /// Area-weighted |cos| between the predicted faces and the true surface nearest them
+    /// ([`crate::normals`]); absent in older reports.
+    #[serde(default, serialize_with = "finite_or_null")]
+    pub normal_consistency: Option<f64>,
 }
 
 /// An object's mesh scores at one more threshold.
@@ -141,6 +147,7 @@ struct CsvRow<'a> {
     accuracy: Option<f64>,
     completeness: Option<f64>,
     tau: Option<f64>,
+    normal_consistency: Option<f64>,
 }
 
 impl<'a> CsvRow<'a> {
@@ -166,6 +173,7 @@ impl<'a> CsvRow<'a> {
             accuracy: f(m.accuracy),
             completeness: f(m.completeness),
             tau: f(m.tau),
+            normal_consistency: f(m.normal_consistency),
         }
     }
 }

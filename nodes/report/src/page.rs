@@ -40,7 +40,7 @@ fn metric_cell(value: Option<f64>) -> String {
 }
 
 /// Column headers and values of a metrics row, in display order; null = not computed.
-fn columns(m: &ScopeMetrics) -> [(&'static str, Option<f64>); 7] {
+fn columns(m: &ScopeMetrics) -> [(&'static str, Option<f64>); 8] {
     [
         ("PSNR", m.psnr),
         ("SSIM", m.ssim),
@@ -49,6 +49,7 @@ fn columns(m: &ScopeMetrics) -> [(&'static str, Option<f64>); 7] {
         ("precision", m.precision),
         ("recall", m.recall),
         ("τ (m)", m.tau),
+        ("normals |cos|", m.normal_consistency),
     ]
 }
 
