@@ -16,6 +16,7 @@
 //! Optionally runs the demo graph's `objects` and `train` nodes on each backend.
 //! `scripts/gpu-bench.sh` drives it on a GPU machine.
 
+use crate::run_report::node;
 use anyhow::{Context, Result, bail};
 use objectsplat_raster::{TRAINING_TIMES, TrainingLog, TrainingTimes};
 use serde::Serialize;
@@ -261,15 +262,7 @@ fn run(
             graph.display()
         );
     }
-    let text = std::fs::read_to_string(&json)
-        .with_context(|| format!("cannot read {}", json.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not JSON", json.display()))
-}
-
-fn node<'a>(report: &'a Value, id: &str) -> Option<&'a Value> {
-    report["nodes"]
-        .as_array()
-        .and_then(|n| n.iter().find(|n| n["id"] == id))
+    crate::run_report::read(&json)
 }
 
 fn parse_size(size: &str) -> Result<(u32, u32)> {

@@ -11,6 +11,7 @@
 
 mod device_speed;
 mod quality;
+mod run_report;
 mod scale;
 mod train_speed;
 

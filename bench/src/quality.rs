@@ -279,9 +279,7 @@ pub fn run_graph(binary: &Path, graph: &Path, dir: &Path, jobs: usize) -> Result
             graph.display()
         );
     }
-    let text = std::fs::read_to_string(&json)
-        .with_context(|| format!("cannot read {}", json.display()))?;
-    serde_json::from_str(&text).with_context(|| format!("{} is not JSON", json.display()))
+    crate::run_report::read(&json)
 }
 
 /// The scene-level scores of a metrics node's output, if it ran.

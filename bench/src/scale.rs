@@ -11,6 +11,7 @@
 //! load time from the nodes' seconds (frames decoded, masks rasterized and
 //! split, visibility computed, on every core).
 
+use crate::run_report::node;
 use anyhow::{Context, Result, bail};
 use objectsplat_raster::{TRAINING_TIMES, TrainingLog, TrainingTimes};
 use serde::Serialize;
@@ -146,9 +147,7 @@ fn run_measured(
             graph.display()
         );
     }
-    let text = std::fs::read_to_string(&json)
-        .with_context(|| format!("cannot read {}", json.display()))?;
-    Ok((serde_json::from_str(&text)?, peak))
+    Ok((crate::run_report::read(&json)?, peak))
 }
 
 /// Waits for `child`; its exit code and peak resident set in bytes (its own,
@@ -170,12 +169,6 @@ fn wait_with_peak_rss(child: std::process::Child) -> Result<(i32, u64)> {
     };
     // Linux reports ru_maxrss in kilobytes.
     Ok((code, usage.ru_maxrss as u64 * 1024))
-}
-
-fn node<'a>(report: &'a Value, id: &str) -> Option<&'a Value> {
-    report["nodes"]
-        .as_array()
-        .and_then(|n| n.iter().find(|n| n["id"] == id))
 }
 
 fn seconds(report: &Value, id: &str) -> f64 {

@@ -132,35 +132,21 @@ impl RgbWindow {
 
     /// The window of a `width`-wide 8-bit RGB image.
     pub fn from_rgb8(width: u32, rgb: &[u8], window: [u32; 4]) -> Self {
-        let [x0, y0, x1, y1] = window;
-        let mut samples = Vec::with_capacity(3 * ((x1 - x0) * (y1 - y0)) as usize);
-        for y in y0..y1 {
-            let row = 3 * (y * width) as usize;
-            samples.extend_from_slice(&rgb[row + 3 * x0 as usize..row + 3 * x1 as usize]);
-        }
-        RgbWindow {
-            x0,
-            y0,
-            x1,
-            y1,
-            samples: Samples::U8(samples),
-        }
+        Self::with_samples(window, Samples::U8(window_rows(width, rgb, window)))
     }
 
     /// The window of a `width`-wide float RGB image.
     pub fn from_rgb_f32(width: u32, rgb: &[f32], window: [u32; 4]) -> Self {
-        let [x0, y0, x1, y1] = window;
-        let mut samples = Vec::with_capacity(3 * ((x1 - x0) * (y1 - y0)) as usize);
-        for y in y0..y1 {
-            let row = 3 * (y * width) as usize;
-            samples.extend_from_slice(&rgb[row + 3 * x0 as usize..row + 3 * x1 as usize]);
-        }
+        Self::with_samples(window, Samples::F32(window_rows(width, rgb, window)))
+    }
+
+    fn with_samples([x0, y0, x1, y1]: [u32; 4], samples: Samples) -> Self {
         RgbWindow {
             x0,
             y0,
             x1,
             y1,
-            samples: Samples::F32(samples),
+            samples,
         }
     }
 
@@ -414,6 +400,16 @@ impl Image {
         }
         Ok(())
     }
+}
+
+/// The rows of `window` (`[x0, y0, x1, y1]`) of a `width`-wide RGB image, packed.
+fn window_rows<T: Copy>(width: u32, rgb: &[T], [x0, y0, x1, y1]: [u32; 4]) -> Vec<T> {
+    let mut samples = Vec::with_capacity(3 * ((x1 - x0) * (y1 - y0)) as usize);
+    for y in y0..y1 {
+        let row = 3 * (y * width) as usize;
+        samples.extend_from_slice(&rgb[row + 3 * x0 as usize..row + 3 * x1 as usize]);
+    }
+    samples
 }
 
 #[cfg(test)]
