@@ -7,6 +7,7 @@ use objectsplat_core::frames::frame_stem;
 use objectsplat_core::masks::read_objects;
 use objectsplat_core::{Frames, IdMap, Image, Mesh, ObjectLabels, Split};
 use objectsplat_metrics::normal_consistency;
+use objectsplat_metrics::report::ImageMetrics;
 use objectsplat_metrics::surface::sample_surface;
 use objectsplat_metrics::{
     Lpips, MeshEvalParams, MetricsReport, SsimMode, TestImage, assemble_report, evaluate_image,
@@ -120,10 +121,63 @@ fn surface_points(mesh: &Mesh, params: &MeshEvalParams) -> Result<Vec<[f64; 3]>>
     Ok(sample_surface(mesh, params.samples, params.seed, params.max_samples)?.points)
 }
 
+/// The image metrics of `renders` (`<frame stem>.png` per test frame) against the
+/// test photos, per object where `masks` holds an id map; and how many had one.
+fn score_renders(
+    renders: &Path,
+    tests: &[&objectsplat_core::Frame],
+    frames: &Frames,
+    masks: Option<&Path>,
+    ids: &[u16],
+    settings: &EvaluateSettings,
+) -> Result<(Vec<ImageMetrics>, usize)> {
+    let mut per_image = Vec::with_capacity(tests.len());
+    let mut with_masks = 0;
+    for frame in tests {
+        let stem = frame_stem(&frame.name);
+        let render_path = renders.join(format!("{stem}.png"));
+        if !render_path.is_file() {
+            bail!(
+                "{}: no render for test frame {:?}",
+                render_path.display(),
+                frame.name
+            );
+        }
+        let rendered = Image::load(&render_path)?.to_rgb();
+        let ground_truth = frames.load_rgb(frame)?;
+        let id_map = match masks {
+            Some(dir) => {
+                let path = dir.join(format!("{stem}.png"));
+                if path.is_file() {
+                    with_masks += 1;
+                    Some(IdMap::load(&path)?)
+                } else {
+                    None
+                }
+            }
+            None => None,
+        };
+        let test = TestImage {
+            name: &frame.name,
+            rendered: &rendered,
+            ground_truth: &ground_truth,
+            valid: None,
+            objects: id_map.as_ref(),
+        };
+        per_image.push(
+            evaluate_image(&test, settings.ssim, settings.lpips, ids)
+                .with_context(|| format!("render {}", render_path.display()))?,
+        );
+    }
+    Ok((per_image, with_masks))
+}
+
 /// Runs the whole evaluation. Renders are `<renders>/<frame stem>.png` for every
-/// test frame; a missing render is an error naming it.
+/// test frame, and so are the renders as exported when given (`exported`); a
+/// missing render is an error naming it.
 pub fn evaluate_scene(
     renders: &Path,
+    exported: Option<&Path>,
     frames: &Frames,
     scene: &Scene,
     truth: &GroundTruth,
@@ -152,43 +206,18 @@ pub fn evaluate_scene(
         ..Default::default()
     };
 
-    let mut per_image = Vec::with_capacity(tests.len());
-    for frame in tests {
-        let stem = frame_stem(&frame.name);
-        let render_path = renders.join(format!("{stem}.png"));
-        if !render_path.is_file() {
-            bail!(
-                "{}: no render for test frame {:?}",
-                render_path.display(),
-                frame.name
-            );
+    let (per_image, with_masks) =
+        score_renders(renders, &tests, frames, truth.masks, &ids, settings)?;
+    summary.images_with_masks = with_masks;
+    let exported = match exported {
+        Some(dir) => {
+            let (images, _) = score_renders(dir, &tests, frames, truth.masks, &ids, settings)
+                .context("the renders as exported")?;
+            let scored = assemble_report(images, None, None, &labels, settings.ssim, false);
+            Some(scored)
         }
-        let rendered = Image::load(&render_path)?.to_rgb();
-        let ground_truth = frames.load_rgb(frame)?;
-        let id_map = match truth.masks {
-            Some(dir) => {
-                let path = dir.join(format!("{stem}.png"));
-                if path.is_file() {
-                    summary.images_with_masks += 1;
-                    Some(IdMap::load(&path)?)
-                } else {
-                    None
-                }
-            }
-            None => None,
-        };
-        let test = TestImage {
-            name: &frame.name,
-            rendered: &rendered,
-            ground_truth: &ground_truth,
-            valid: None,
-            objects: id_map.as_ref(),
-        };
-        per_image.push(
-            evaluate_image(&test, settings.ssim, settings.lpips, &ids)
-                .with_context(|| format!("render {}", render_path.display()))?,
-        );
-    }
+        None => None,
+    };
 
     // Mesh scores, and the normal consistency of the scene and of each object.
     let (mesh_scores, normals) = match truth.mesh {
@@ -247,6 +276,16 @@ pub fn evaluate_scene(
         settings.ssim,
         settings.lpips.is_some(),
     );
+    if let Some(x) = exported {
+        report.scene.exported_psnr = x.scene.psnr;
+        report.scene.exported_ssim = x.scene.ssim;
+        for (o, xo) in report.objects.iter_mut().zip(&x.objects) {
+            // Both reports list the same labels in the same order.
+            debug_assert_eq!(o.id, xo.id);
+            o.metrics.exported_psnr = xo.metrics.psnr;
+            o.metrics.exported_ssim = xo.metrics.ssim;
+        }
+    }
     report.gt_surface = truth
         .mesh
         .map(|_| settings.gt_surface.describe().to_string());

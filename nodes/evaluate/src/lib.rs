@@ -51,6 +51,9 @@ node_ports! {
         images: input "Images",
         /// the capture; its test split is the ground truth
         frames: input "Frames",
+        /// the same test views rendered as exported (render's appearance: exported),
+        /// scored beside `images` (exported_psnr, exported_ssim)
+        exported: optional "Images",
         /// the scene whose surface is scored
         scene: input "Scene",
         /// ground-truth mesh; per-object F-score needs its object ids
@@ -64,8 +67,8 @@ node_ports! {
 
 impl Node for Evaluate {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("evaluate", "5")
-            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id (per object also at each of object_taus), and the normal consistency of the same surfaces (area-weighted |cos| between each face and the true surface nearest it). Writes metrics.json and metrics.csv.")
+        NodeSpec::new("evaluate", "6")
+            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id (per object also at each of object_taus), and the normal consistency of the same surfaces (area-weighted |cos| between each face and the true surface nearest it). With `exported` (the test views rendered as the .glb holds the scene), their PSNR and SSIM too: the gap to `images` is what a user loses by opening the export. Writes metrics.json and metrics.csv.")
             .ports::<EvaluatePorts>()
             .params::<EvaluateParams>()
     }
@@ -121,7 +124,14 @@ impl Node for Evaluate {
             },
         };
         ctx.progress(0, 1, "evaluating");
-        let (report, summary) = evaluate_scene(&ports.images, &frames, &scene, &truth, &settings)?;
+        let (report, summary) = evaluate_scene(
+            &ports.images,
+            ports.exported.as_deref(),
+            &frames,
+            &scene,
+            &truth,
+            &settings,
+        )?;
         report.write(&ports.metrics)?;
         ctx.progress(1, 1, "evaluated");
         ctx.note("test images", summary.test_images);

@@ -85,6 +85,13 @@ pub struct ScopeMetrics {
     /// ([`crate::normals`]); absent in older reports.
     #[serde(default, serialize_with = "finite_or_null")]
     pub normal_consistency: Option<f64>,
+    /// PSNR of the scene rendered as exported (opaque, hard-edged, DC colours:
+    /// what a user who opens the `.glb` sees); absent when not scored.
+    #[serde(default, serialize_with = "finite_or_null")]
+    pub exported_psnr: Option<f64>,
+    /// SSIM of the same renders.
+    #[serde(default, serialize_with = "finite_or_null")]
+    pub exported_ssim: Option<f64>,
 }
 
 /// An object's mesh scores at one more threshold.
@@ -148,6 +155,8 @@ struct CsvRow<'a> {
     completeness: Option<f64>,
     tau: Option<f64>,
     normal_consistency: Option<f64>,
+    exported_psnr: Option<f64>,
+    exported_ssim: Option<f64>,
 }
 
 impl<'a> CsvRow<'a> {
@@ -174,6 +183,8 @@ impl<'a> CsvRow<'a> {
             completeness: f(m.completeness),
             tau: f(m.tau),
             normal_consistency: f(m.normal_consistency),
+            exported_psnr: f(m.exported_psnr),
+            exported_ssim: f(m.exported_ssim),
         }
     }
 }

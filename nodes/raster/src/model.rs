@@ -12,6 +12,9 @@ pub const MAX_SH_DEGREE: u32 = 3;
 /// Logit-space clamp used when inverting the opacity activation, so that an
 /// opacity at (or beyond) either end of the activation's range maps to a finite logit.
 pub const INVERSE_SIGMOID_EPS: f64 = 1e-6;
+/// The window sharpness σ of a finished model: the training schedule's end,
+/// where a triangle's window is a step (hard edges), as a mesh export draws it.
+pub const FINISHED_SIGMA: f64 = 1e-4;
 
 /// A mesh-splatting model.
 ///

@@ -48,6 +48,11 @@ pub struct TrainingLog {
     pub checkpoint: String,
     /// True when the patience window ended the run before the budget.
     pub stopped_early: bool,
+    /// The iteration after which the returned model — from before the end of the
+    /// schedule — was finished (its anneal completed; see the trainer's
+    /// `finish_iterations`); absent when the model came from the schedule's end.
+    #[serde(default)]
+    pub finished_from: Option<u64>,
     /// Held-out PSNR of the returned model (after the final prune).
     pub final_psnr: f64,
     pub final_faces: usize,

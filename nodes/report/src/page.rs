@@ -40,21 +40,29 @@ fn metric_cell(value: Option<f64>) -> String {
 }
 
 /// Column headers and values of a metrics row, in display order; null = not computed.
-fn columns(m: &ScopeMetrics) -> [(&'static str, Option<f64>); 8] {
-    [
-        ("PSNR", m.psnr),
-        ("SSIM", m.ssim),
+/// The scores as exported show beside the trained ones when the run scored them.
+fn columns(m: &ScopeMetrics, exported: bool) -> Vec<(&'static str, Option<f64>)> {
+    let mut columns = vec![("PSNR", m.psnr)];
+    if exported {
+        columns.push(("PSNR as exported", m.exported_psnr));
+    }
+    columns.push(("SSIM", m.ssim));
+    if exported {
+        columns.push(("SSIM as exported", m.exported_ssim));
+    }
+    columns.extend([
         ("LPIPS", m.lpips),
         ("F-score", m.fscore),
         ("precision", m.precision),
         ("recall", m.recall),
         ("τ (m)", m.tau),
         ("normals |cos|", m.normal_consistency),
-    ]
+    ]);
+    columns
 }
 
-fn metrics_row(name: &str, values: &ScopeMetrics) -> String {
-    let cells: String = columns(values)
+fn metrics_row(name: &str, values: &ScopeMetrics, exported: bool) -> String {
+    let cells: String = columns(values, exported)
         .iter()
         .map(|(_, v)| metric_cell(*v))
         .collect();
@@ -67,19 +75,25 @@ fn section_metrics(data: &ReportData, html: &mut String) {
         html.push_str("<p>This run did not evaluate.</p></section>");
         return;
     };
+    let exported = metrics.scene.exported_psnr.is_some();
     html.push_str("<table id=\"metrics-table\"><tr><th></th>");
-    for (header, _) in columns(&metrics.scene) {
+    for (header, _) in columns(&metrics.scene, exported) {
         let _ = write!(html, "<th>{}</th>", escape(header));
     }
     html.push_str("</tr>");
-    html.push_str(&metrics_row("scene", &metrics.scene));
+    html.push_str(&metrics_row("scene", &metrics.scene, exported));
     for object in &metrics.objects {
         html.push_str(&metrics_row(
             &object_item_name(object.id, &object.label),
             &object.metrics,
+            exported,
         ));
     }
-    html.push_str("</table></section>");
+    html.push_str("</table>");
+    if exported {
+        html.push_str("<p>As exported: the test views rendered as the <code>.glb</code> holds the scene (visible faces only, opaque, hard-edged, colours from the SH DC term) — what a user who opens the export sees.</p>");
+    }
+    html.push_str("</section>");
 }
 
 fn section_views(data: &ReportData, html: &mut String) -> Result<()> {

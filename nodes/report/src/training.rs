@@ -54,7 +54,10 @@ fn build_series(logs: &[&TrainingLog]) -> Plots {
     for log in logs {
         let name = log.component.as_str();
         let notes = &mut p.notes;
-        let stop_iteration = log.stopped_early.then_some(log.iterations_run as f64);
+        // A finished model's run stopped the schedule where its finish began.
+        let stop_iteration = log
+            .stopped_early
+            .then_some(log.finished_from.unwrap_or(log.iterations_run) as f64);
         let best = best_eval(log);
         if best.is_none() {
             notes.push(format!(
@@ -113,15 +116,23 @@ fn table(training: &[ModelTraining], html: &mut String) {
                     budget = log.iterations_budget,
                     run = log.iterations_run,
                     best = log.best_iteration,
-                    // Logs written before the `checkpoint` field always returned the best one.
-                    returned = if log.checkpoint.is_empty() {
-                        "best"
-                    } else {
-                        log.checkpoint.as_str()
+                    returned = match (log.checkpoint.as_str(), log.finished_from) {
+                        // Logs written before the `checkpoint` field always returned the best one.
+                        ("", None) => "best".to_string(),
+                        (c, Some(from)) => format!(
+                            "{}, finished over {from}–{}",
+                            if c.is_empty() { "best" } else { c },
+                            log.iterations_run
+                        ),
+                        (c, None) => c.to_string(),
                     },
                     // Which views chose the checkpoint (or, with `last`, only reported).
                     scored = escape(log.scored_on.as_deref().unwrap_or("–")),
-                    early = if log.stopped_early { "yes" } else { "no" },
+                    early = match (log.stopped_early, log.finished_from) {
+                        (true, Some(at)) => format!("yes, at {at}"),
+                        (true, None) => "yes".to_string(),
+                        (false, _) => "no".to_string(),
+                    },
                     psnr = log.final_psnr,
                     faces = log.final_faces,
                 );

@@ -6,7 +6,7 @@
 use crate::edit::{apply_edits, edit_item_problem, parse_edits};
 use crate::render::{Backdrop, focus_bounds, orbit_cameras, render_view};
 use crate::scene::{Scene, SceneEntry, SceneObject, component_of_item, load_scene, save_scene};
-use crate::surface::{display_colors, visible_faces};
+use crate::surface::{display_colors, exported_model, visible_faces};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::artifact::{SCENE_FILLS_DIR, SCENE_GLB};
 use objectsplat_core::frames::frame_stem;
@@ -278,6 +278,9 @@ objectsplat_runtime::node_params! {
         backend: String = "\"auto\"" as ParamType::enumeration(&["auto", "cpu", "wgpu"]),
         /// sRGB colour [r, g, b] where nothing (and no fill) covers a pixel
         background: Vec<f64> = "[0.0, 0.0, 0.0]" as ParamType::list(ParamType::float_range(0.0, 1.0)),
+        /// trained: the models as trained (soft edges, view-dependent colour); exported:
+        /// as the .glb holds them (visible faces only, opaque, hard-edged, DC colours)
+        appearance: String = "\"trained\"" as ParamType::enumeration(&["trained", "exported"]),
     }
 }
 
@@ -299,8 +302,8 @@ node_ports! {
 
 impl Node for Render {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("render", "2")
-            .doc("Renders the (composed or edited) scene: all members' triangles in one pass, the renderer's depth order deciding. Views: the frames' test/train/all cameras (PNG per frame, <frame stem>.png) or an orbit (orbit_000.png …) around the objects at the frames' mean height and distance. Where no triangle covers a pixel it shows the background fill of that frame (the `fills` input, else the scene's stored fills), else the `background` colour.")
+        NodeSpec::new("render", "3")
+            .doc("Renders the (composed or edited) scene: all members' triangles in one pass, the renderer's depth order deciding; as trained, or (appearance: exported) as the .glb holds it — visible faces only, opaque, hard-edged, DC colours. Views: the frames' test/train/all cameras (PNG per frame, <frame stem>.png) or an orbit (orbit_000.png …) around the objects at the frames' mean height and distance. Where no triangle covers a pixel it shows the background fill of that frame (the `fills` input, else the scene's stored fills), else the `background` colour.")
             .ports::<RenderPorts>()
             .params::<RenderParams>()
     }
@@ -325,6 +328,10 @@ impl Node for Render {
         let scene = load_scene(&scene_dir)?;
         let frames = Frames::read(&ports.frames)?;
         let merged = scene.merged_model()?.model;
+        let merged = match p.appearance.as_str() {
+            "exported" => exported_model(&merged),
+            _ => merged,
+        };
         let fills = match ports.fills.as_deref() {
             Some(dir) => Some(dir.to_path_buf()),
             None => Some(scene_dir.join(SCENE_FILLS_DIR)).filter(|d| d.is_dir()),

@@ -39,6 +39,11 @@ pub struct Progress {
     pub times: TrainingTimes,
     pub notes: Vec<String>,
     pub cleanup_pending: bool,
+    /// The finishing window, once the run is in it.
+    #[serde(default)]
+    pub finish: Option<crate::trainer::Finish>,
+    #[serde(default)]
+    pub stopped_early: bool,
     /// Per Adam group: learning rate, rest rate, column split and step count.
     pub adam: Vec<(f64, f64, usize, u64)>,
     /// Training steps rendered and the share of frames they rendered, summed.

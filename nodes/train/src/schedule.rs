@@ -112,6 +112,14 @@ pub struct Schedule {
     /// while the cleanup after the connectivity step is pending.
     pub depth_smoothness_start: u64,
 
+    /// A run that returns a model from before the end of its budget (an early
+    /// stop, or a best checkpoint before the last iteration) first finishes it:
+    /// the rest of the schedule — σ, opacity floor, SH degree, vertex learning
+    /// rate — compressed into the first half of this many more iterations, then
+    /// the schedule's end values for the second half, so the model returned is
+    /// opaque and hard-edged like every exported one.
+    pub finish_iterations: u64,
+
     /// Held-out evaluation (best checkpoint) every this many iterations.
     pub eval_every: u64,
     /// Early stop when the held-out score has not improved for this many iterations
@@ -162,7 +170,7 @@ impl Schedule {
             sh_rest_lr_divisor: 20.0,
             lr_opacity: 0.03,
             sigma_start: 1.0,
-            sigma_end: 1e-4,
+            sigma_end: objectsplat_raster::FINISHED_SIGMA,
             sh_degree_every: every(1000),
             sh_max_degree: 3,
             floor_start: at(5000),
@@ -194,6 +202,7 @@ impl Schedule {
             point_depth_start: 0,
             depth_smoothness_weight: 3.0,
             depth_smoothness_start: at(11_000) + 1,
+            finish_iterations: every(3000),
             eval_every: every(500),
             patience: every(3000),
         }
@@ -271,6 +280,7 @@ impl Schedule {
             ("prune_every", self.prune_every),
             ("densify_every", self.densify_every),
             ("eval_every", self.eval_every),
+            ("finish_iterations", self.finish_iterations),
         ] {
             if v == 0 {
                 bail!("schedule {name} must be at least 1");
@@ -340,8 +350,21 @@ impl Schedule {
         if (paused_from..paused_until).contains(&it) {
             return None;
         }
+        Some(self.floor_at(it))
+    }
+
+    /// The floor's scheduled value at iteration `it` (0 before `floor_start`; no pause).
+    pub fn floor_at(&self, it: u64) -> f64 {
+        if it < self.floor_start {
+            return 0.0;
+        }
         let ramp = ((it - self.floor_start) as f64 / self.floor_ramp as f64).min(1.0);
-        Some(self.floor_base + self.floor_gain * ramp)
+        self.floor_base + self.floor_gain * ramp
+    }
+
+    /// The floor of a finished model: the ramp's end.
+    pub fn floor_end(&self) -> f64 {
+        self.floor_base + self.floor_gain
     }
 
     /// The pruning threshold at iteration `it`, when pruning happens then.

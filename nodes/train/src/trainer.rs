@@ -39,6 +39,7 @@ use objectsplat_wgpu::WgpuBackend;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
+use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
 use std::time::Instant;
 
@@ -283,6 +284,34 @@ struct Snapshot {
     model: Model<f32>,
     /// Its per-face weights, when the running statistics were complete then.
     face_weights: Option<Vec<f32>>,
+}
+
+/// The end of a run that returns a model from before the end of its budget:
+/// from the returned model, the rest of the schedule compressed into the first
+/// half of the window and its end values held for the second half.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+pub struct Finish {
+    /// The loop iteration the window starts at.
+    pub from: u64,
+    /// The loop iteration it ends at.
+    pub until: u64,
+    /// The schedule iteration the model comes from.
+    pub model_from: u64,
+}
+
+impl Finish {
+    /// The schedule iteration whose σ, floor, SH degree and vertex learning rate
+    /// apply at loop iteration `it`.
+    fn schedule_iteration(&self, it: u64, iterations: u64) -> u64 {
+        let half = ((self.until - self.from) / 2).max(1);
+        let t = ((it.saturating_sub(self.from)) as f64 / half as f64).min(1.0);
+        self.model_from + ((iterations.saturating_sub(self.model_from)) as f64 * t).round() as u64
+    }
+
+    /// Whether the opacity floor is due for its next step at loop iteration `it`.
+    fn floor_due(&self, it: u64, floor_every: u64) -> bool {
+        (it - self.from).is_multiple_of(floor_every) || it + 1 == self.until
+    }
 }
 
 /// The training views in shuffled epochs: every view once per epoch.
@@ -550,6 +579,7 @@ pub fn train_component_with_hook(
     let mut evals = Vec::new();
     let mut eval_times = Vec::new();
     let mut stopped_early = false;
+    let mut finish: Option<Finish> = None;
     let mut cleanup_pending = false;
     let mut it = 0;
     let mut elapsed_before = 0.0;
@@ -578,6 +608,7 @@ pub fn train_component_with_hook(
         log = LossLog::new(p.steps, p.times.steps);
         (evals, eval_times, notes) = (p.evals, p.times.evals, p.notes);
         cleanup_pending = p.cleanup_pending;
+        (finish, stopped_early) = (p.finish, p.stopped_early);
         elapsed_before = p.times.seconds;
         runner.set_rendered(p.rendered);
         it = p.iteration;
@@ -585,12 +616,22 @@ pub fn train_component_with_hook(
     }
     let clock = |started: &Instant| elapsed_before + started.elapsed().as_secs_f64();
     let mut last_save = Instant::now();
-    while it < s.iterations {
-        let edits_model = (it == s.connectivity_at && state.model.face_count() > 0)
-            || s.floor_update(it).is_some()
-            || s.prune_at(it).is_some()
-            || (s.densify_at(it) && state.model.vertex_count() < s.max_vertices);
-        if edits_model {
+    while it < finish.map_or(s.iterations, |f| f.until) {
+        // Where the schedule stands: the loop's iteration, or within a finish
+        // the compressed rest of the schedule, whose structural edits are over.
+        let at = finish.map_or(it, |f| f.schedule_iteration(it, s.iterations));
+        let connect = finish.is_none() && it == s.connectivity_at && state.model.face_count() > 0;
+        let floor = match finish {
+            None => s.floor_update(it),
+            Some(f) => f
+                .floor_due(it, s.floor_every)
+                .then(|| s.floor_at(at))
+                .filter(|&m| m > state.model.opacity_floor),
+        };
+        let prune = s.prune_at(it).filter(|_| finish.is_none());
+        let densify =
+            finish.is_none() && s.densify_at(it) && state.model.vertex_count() < s.max_vertices;
+        if connect || floor.is_some() || prune.is_some() || densify {
             runner.sync(&mut state)?;
             runner.edited();
         }
@@ -599,7 +640,7 @@ pub fn train_component_with_hook(
             optim,
             stats,
         } = &mut state;
-        if it == s.connectivity_at && model.face_count() > 0 {
+        if connect {
             let faces = restricted_delaunay(
                 &model.vertices,
                 &model.faces,
@@ -627,13 +668,11 @@ pub fn train_component_with_hook(
                 best = None;
             }
         }
-        if let Some(m) = s.floor_update(it) {
+        if let Some(m) = floor {
             model.set_opacity_floor(m)?;
         }
-        model.sigma = s.sigma(it);
-        model.sh_degree = s.sh_degree(it);
-        let prune = s.prune_at(it);
-        let densify = s.densify_at(it) && model.vertex_count() < s.max_vertices;
+        model.sigma = s.sigma(at);
+        model.sh_degree = s.sh_degree(at);
         if prune.is_some() || densify {
             let render = render_settings(model, settings);
             // The running maxima cover the last one to two epochs. When prunes come
@@ -690,7 +729,7 @@ pub fn train_component_with_hook(
                 stats.follow(&edit);
             }
         }
-        optim.adam.set_lr(optim.vertices, s.lr_vertices(it))?;
+        optim.adam.set_lr(optim.vertices, s.lr_vertices(at))?;
 
         let (slot, new_epoch) = order.next(&mut rng);
         if new_epoch && it > 0 {
@@ -738,7 +777,7 @@ pub fn train_component_with_hook(
             view,
             background,
             render: render_settings(&state.model, settings),
-            point_depth_weight: if it >= s.point_depth_start {
+            point_depth_weight: if at >= s.point_depth_start {
                 depth_weight
             } else {
                 0.0
@@ -746,7 +785,7 @@ pub fn train_component_with_hook(
             // Not while the cleanup after the connectivity step is pending: the
             // prior would decide which faces never show (at 320×240 the cleanup
             // then took upper walls with it; −2.5 dB).
-            smoothness_weight: if it >= s.depth_smoothness_start
+            smoothness_weight: if at >= s.depth_smoothness_start
                 && !(cleanup_pending && s.connectivity_cleanup_threshold > 0.0)
             {
                 smoothness_weight
@@ -759,7 +798,7 @@ pub fn train_component_with_hook(
         let arrived = runner.losses(false)?;
         let step_loss = arrived.last().filter(|l| l.iteration == it).map(|l| l.loss);
         log.arrive(arrived);
-        if it % log_every == 0 || it == s.iterations {
+        if it % log_every == 0 || it == s.iterations || finish.is_some_and(|f| it == f.until) {
             log.point(it, clock(&started), state.model.face_count());
         }
         if hook.wants_model() {
@@ -767,7 +806,7 @@ pub fn train_component_with_hook(
         }
         let shown = Step {
             iteration: it,
-            total: s.iterations,
+            total: finish.map_or(s.iterations, |f| f.until.max(s.iterations)),
             view: Some(view),
             loss: step_loss,
             model: (hook.wants_model() || runner.model_is_current()).then_some(&state.model),
@@ -779,9 +818,11 @@ pub fn train_component_with_hook(
             );
         }
 
-        let selectable =
-            settings.checkpoint == Checkpoint::Best && it > eval_from && it % s.eval_every == 0;
-        if selectable || it == s.iterations {
+        let selectable = finish.is_none()
+            && settings.checkpoint == Checkpoint::Best
+            && it > eval_from
+            && it % s.eval_every == 0;
+        if selectable || (finish.is_none() && it == s.iterations) {
             let render = render_settings(&state.model, settings);
             let score = runner.evaluate(Subject::Training(&state), &held_out, &render)?;
             eval_times.push((it, clock(&started)));
@@ -812,13 +853,43 @@ pub fn train_component_with_hook(
                     "early stop at {it}: no held-out improvement since {best_it}"
                 ));
                 stopped_early = true;
-                break;
+            }
+            // The model to return is from before the schedule's end: finish it.
+            let returned_early = best
+                .as_ref()
+                .is_some_and(|b| b.iteration < s.iterations && b.iteration < it);
+            if settings.checkpoint == Checkpoint::Best
+                && (stopped_early || it == s.iterations)
+                && returned_early
+                && let Some(b) = best.take()
+            {
+                runner.sync(&mut state)?;
+                let f = Finish {
+                    from: it,
+                    until: it + s.finish_iterations,
+                    model_from: b.iteration,
+                };
+                notes.push(format!(
+                    "finished the model of iteration {}: the rest of the schedule over iterations {}–{}, its end values to {}",
+                    b.iteration,
+                    f.from + 1,
+                    f.from + (f.until - f.from) / 2,
+                    f.until
+                ));
+                state = TrainingState {
+                    stats: FaceWeights::new(b.model.face_count()),
+                    optim: Optim::new(s.learning_rates(b.iteration), b.model.vertex_count())?,
+                    model: b.model,
+                };
+                runner.edited();
+                cleanup_pending = false;
+                finish = Some(f);
             }
         }
         // Save at loss-log points, where no loss is pending anywhere.
         if let Some(dir) = &settings.resume_dir
             && it % log_every == 0
-            && it < s.iterations
+            && it < finish.map_or(s.iterations, |f| f.until)
             && last_save.elapsed().as_secs_f64() >= settings.save_seconds
         {
             runner.sync(&mut state)?;
@@ -844,6 +915,8 @@ pub fn train_component_with_hook(
                     },
                     notes: notes.clone(),
                     cleanup_pending,
+                    finish,
+                    stopped_early,
                     adam: state
                         .optim
                         .adam
@@ -868,11 +941,22 @@ pub fn train_component_with_hook(
     runner.sync(&mut state)?;
     log.arrive(runner.losses(true)?);
     let current_weights = state.stats.complete().then(|| state.stats.max_weight());
-    let (best_iteration, mut model, weights) = match (best, settings.checkpoint) {
-        (Some(b), Checkpoint::Best) => (b.iteration, b.model, b.face_weights),
-        (Some(b), Checkpoint::Last) => (b.iteration, state.model, current_weights),
-        (None, _) => (it, state.model, current_weights),
+    let (best_iteration, mut model, weights) = match (finish, best, settings.checkpoint) {
+        (Some(f), _, _) => (f.model_from, state.model, current_weights),
+        (None, Some(b), Checkpoint::Best) => (b.iteration, b.model, b.face_weights),
+        (None, Some(b), Checkpoint::Last) => (b.iteration, state.model, current_weights),
+        (None, None, _) => (it, state.model, current_weights),
     };
+    // What the schedule's end leaves, exactly: the σ and floor every export draws with.
+    model.sigma = s.sigma_end;
+    if model.opacity_floor < s.floor_end() {
+        notes.push(format!(
+            "opacity floor raised from {:.4} to its end value {:.4} (the schedule ended below it)",
+            model.opacity_floor,
+            s.floor_end()
+        ));
+        model.set_opacity_floor(s.floor_end())?;
+    }
     // Final prune: faces that never reach a blending weight above the threshold in any training view.
     let max_weight = match weights {
         Some(w) => w,
@@ -928,6 +1012,7 @@ pub fn train_component_with_hook(
         }
         .into(),
         stopped_early,
+        finished_from: finish.map(|f| f.from),
         final_psnr: final_score.psnr,
         final_faces: model.face_count(),
         rendered_fraction: runner.rendered_fraction(),
