@@ -6,7 +6,11 @@
 //! [`Placement`](crate::Placement) as its translation / rotation / scale (vertices relative
 //! to the pivot, so the node's origin is the object's centre), vertex colours as linear
 //! `COLOR_0` (f32 VEC3), `u32` indices, a single unlit material listed in `extensionsUsed`
-//! only, and scene metadata in `asset.extras`.
+//! only, and scene metadata in `asset.extras`. A component with view-dependent colour also
+//! carries its spherical-harmonics coefficients as application-specific attributes
+//! `_SH_0` … `_SH_{(d+1)²−1}` (f32 VEC3 each, the 3DGS basis in the node's frame, sRGB
+//! display space; see [`ShColors`](crate::ShColors)) and `sh_degree` d in the node's
+//! extras: other glTF viewers show `COLOR_0`, ours the trained appearance.
 
 use crate::color::{srgb_to_linear, srgb8_to_linear};
 use crate::object::{CleanMesh, ExportObject, SrgbColors, clean_mesh};
@@ -180,7 +184,7 @@ pub fn build_glb(
                 SrgbColors::F32(c) => c[v as usize].map(srgb_to_linear),
             })
             .collect();
-        let extras = serde_json::json!({
+        let mut extras = serde_json::json!({
             "kind": match object.component.kind {
                 ComponentKind::Object => "object",
                 ComponentKind::Background => "background",
@@ -190,6 +194,9 @@ pub fn build_glb(
             "num_faces": mesh.faces.len(),
             "num_vertices": positions_out.len(),
         });
+        if let Some(sh) = &object.sh {
+            extras["sh_degree"] = sh.degree.into();
+        }
         // glTF forbids empty accessors, so a component with nothing left is a mesh-less node.
         let mesh_index = if mesh.faces.is_empty() {
             None
@@ -241,6 +248,26 @@ pub fn build_glb(
             let mut attributes = BTreeMap::new();
             attributes.insert(Valid(json::mesh::Semantic::Positions), positions);
             attributes.insert(Valid(json::mesh::Semantic::Colors(0)), colors);
+            if let Some(sh) = &object.sh {
+                let per_vertex = sh.per_vertex();
+                for k in 0..per_vertex {
+                    let values: Vec<[f32; 3]> = mesh
+                        .vertex_source
+                        .iter()
+                        .map(|&v| sh.coefficients[v as usize * per_vertex + k])
+                        .collect();
+                    let view = bin.push_view(
+                        &mut root,
+                        &vec3_bytes(&values),
+                        json::buffer::Target::ArrayBuffer,
+                    );
+                    let accessor = float_accessor(&mut root, view, values.len(), None);
+                    attributes.insert(
+                        Valid(json::mesh::Semantic::Extras(format!("SH_{k}"))),
+                        accessor,
+                    );
+                }
+            }
             Some(root.push(json::Mesh {
                 extensions: None,
                 extras: None,

@@ -16,5 +16,5 @@ pub mod ply;
 pub mod viewer;
 
 pub use glb::{ExportedComponent, build_glb, write_glb};
-pub use object::{ExportObject, SrgbColors};
+pub use object::{ExportObject, ShColors, SrgbColors};
 pub use placement::Placement;

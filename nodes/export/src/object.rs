@@ -25,6 +25,25 @@ impl SrgbColors {
     }
 }
 
+/// View-dependent colour: spherical-harmonics coefficients per vertex (the 3DGS
+/// basis, as the renderer evaluates them): the colour seen along the unit
+/// direction `d` from the eye to a vertex, in the model frame, is
+/// `max(0, 0.5 + Σ_k Y_k(d)·c_k)` per sRGB channel, `k < (degree + 1)²`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ShColors {
+    /// 1..=3 (degree 0 is the view-independent colour alone).
+    pub degree: u32,
+    /// `(degree + 1)²` coefficients `[r, g, b]` per vertex, vertex after vertex.
+    pub coefficients: Vec<[f32; 3]>,
+}
+
+impl ShColors {
+    /// Coefficients per vertex.
+    pub fn per_vertex(&self) -> usize {
+        ((self.degree + 1) * (self.degree + 1)) as usize
+    }
+}
+
 /// One component of the scene to export (an object or the background).
 #[derive(Debug, Clone, PartialEq)]
 pub struct ExportObject {
@@ -38,6 +57,8 @@ pub struct ExportObject {
     /// and its vertices are `position − pivot`. [`Placement::IDENTITY`] (the
     /// constructors' default) writes world coordinates under an untransformed node.
     pub placement: Placement,
+    /// The view-dependent colour beside `colors_srgb` (its DC term), when there is one.
+    pub sh: Option<ShColors>,
 }
 
 impl ExportObject {
@@ -54,6 +75,7 @@ impl ExportObject {
             faces,
             colors_srgb,
             placement: Placement::IDENTITY,
+            sh: None,
         }
     }
 
@@ -68,6 +90,15 @@ impl ExportObject {
             faces,
             colors_srgb,
             placement: Placement::IDENTITY,
+            sh: None,
+        }
+    }
+
+    /// The same object with view-dependent colour.
+    pub fn with_sh(self, sh: ShColors) -> Self {
+        ExportObject {
+            sh: Some(sh),
+            ..self
         }
     }
 
@@ -157,6 +188,31 @@ pub(crate) fn clean_mesh(object: &ExportObject) -> Result<CleanMesh> {
             "{name}: vertex {i} colour {:?} is not in [0, 1] (NaN or out of range)",
             colors[i]
         );
+    }
+    if let Some(sh) = &object.sh {
+        ensure!(
+            (1..=3).contains(&sh.degree),
+            "{name}: SH degree {} is not 1, 2 or 3",
+            sh.degree
+        );
+        ensure!(
+            sh.coefficients.len() == n * sh.per_vertex(),
+            "{name}: {} SH coefficients for {n} vertices of degree {} ({} each)",
+            sh.coefficients.len(),
+            sh.degree,
+            sh.per_vertex()
+        );
+        if let Some(i) = sh
+            .coefficients
+            .iter()
+            .position(|c| c.iter().any(|v| !v.is_finite()))
+        {
+            bail!(
+                "{name}: vertex {} has a non-finite SH coefficient {:?}",
+                i / sh.per_vertex(),
+                sh.coefficients[i]
+            );
+        }
     }
     if let Some((i, f)) = object
         .faces

@@ -71,7 +71,11 @@ fn exported_scene_has_no_validator_errors_or_warnings() {
     let dir = tempfile::tempdir().unwrap();
     let mut objects = common::scene();
     // Objects placed by edits: node transforms with a turn, a scale and a pivot.
-    let chair = objects[0].clone();
+    // The chair with view-dependent colour: `_SH_k` attributes.
+    let chair = objects[0].clone().with_sh(objectsplat_export::ShColors {
+        degree: 2,
+        coefficients: (0..8 * 9).map(|i| [i as f32 * 0.01, -0.1, 0.2]).collect(),
+    });
     objects[0] = chair.placed(
         objectsplat_export::Placement::at([0.25, 0.25, 0.45])
             .rotated([1.0, 2.0, 3.0], 33.3)

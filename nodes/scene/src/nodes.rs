@@ -6,7 +6,7 @@
 use crate::edit::{apply_edits, edit_item_problem, parse_edits};
 use crate::render::{Backdrop, focus_bounds, orbit_cameras, render_view};
 use crate::scene::{Scene, SceneEntry, SceneObject, component_of_item, load_scene, save_scene};
-use crate::surface::{display_colors, exported_model, visible_faces};
+use crate::surface::{display_colors, exported_model, sh_colors, visible_faces};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::artifact::{SCENE_FILLS_DIR, SCENE_GLB};
 use objectsplat_core::frames::frame_stem;
@@ -430,6 +430,7 @@ pub fn export_objects(scene: &Scene) -> Vec<ExportObject> {
             faces: visible_faces(&o.model),
             colors_srgb: SrgbColors::F32(display_colors(&o.model)),
             placement: o.placement(),
+            sh: sh_colors(&o.model),
         })
         .collect()
 }
@@ -445,8 +446,8 @@ node_ports! {
 
 impl Node for ExportGltf {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("export_gltf", "2")
-            .doc("Exports the scene as scene.glb (a node per member named obj_<id>_<label> or background, its origin on the member's centre and its placement — edits included — as the node's translation / rotation / scale, vertices in the object's frame, extras with id and label, linear vertex colours from the SH DC term, unlit material, Z-up → Y-up root) and ply/<member>.ply (capture frame, 8-bit sRGB). Faces too faint for the renderer to draw (opacity < 0.01) are left out.")
+        NodeSpec::new("export_gltf", "3")
+            .doc("Exports the scene as scene.glb (a node per member named obj_<id>_<label> or background, its origin on the member's centre and its placement — edits included — as the node's translation / rotation / scale, vertices in the object's frame, extras with id and label, linear vertex colours from the SH DC term, the view-dependent SH coefficients as _SH_0 … _SH_15 attributes (sh_degree in the extras) for viewers that evaluate them, unlit material, Z-up → Y-up root) and ply/<member>.ply (capture frame, 8-bit sRGB). Faces too faint for the renderer to draw (opacity < 0.01) are left out.")
             .ports::<ExportGltfPorts>()
     }
 
@@ -524,7 +525,7 @@ node_ports! {
 
 impl Node for Viewer {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("viewer", "1")
+        NodeSpec::new("viewer", "2")
             .doc("The scene as an interactive page (index.html; opens from disk with no network; WebGL2): orbit / pan / zoom, click an object to select it (highlight + name and label), move / turn / scale it with the mouse or keys, duplicate, remove, recolor, undo; `Export edits` gives the RON list that edit_scene's `edits` takes (the scene's own earlier edits first), so a graph reproduces what was done by hand. Scripting surface window.objectsplat: ready, objects(), pick(x, y), apply(edit), edits(). Also writes scene.glb (as export_gltf) and viewer.json; the report embeds the view when given this folder.")
             .ports::<ViewerPorts>()
             .params::<ViewerParams>()

@@ -185,10 +185,26 @@
       if (node.mesh === undefined || !node.name) continue;
       const primitive = json.meshes[node.mesh].primitives[0];
       const positions = accessor(primitive.attributes.POSITION, "VEC3", 5126);
+      const count = positions.data.length / 3;
+      // View-dependent colour: `_SH_k` attributes, packed 16 coefficients × RGB per vertex.
+      let shDegree = 0;
+      while (shDegree < 3 && primitive.attributes[`_SH_${(shDegree + 2) * (shDegree + 2) - 1}`] !== undefined) shDegree++;
+      let sh = null;
+      if (shDegree > 0) {
+        sh = new Float32Array(count * 48);
+        for (let k = 0; k < (shDegree + 1) * (shDegree + 1); k++) {
+          const values = accessor(primitive.attributes[`_SH_${k}`], "VEC3", 5126).data;
+          for (let v = 0; v < count; v++) {
+            for (let c = 0; c < 3; c++) sh[v * 48 + k * 3 + c] = values[v * 3 + c];
+          }
+        }
+      }
       meshes.set(node.name, {
         positions: positions.data,
         colors: accessor(primitive.attributes.COLOR_0, "VEC3", 5126).data,
         indices: accessor(primitive.indices, "SCALAR", 5125).data,
+        sh,
+        shDegree,
         min: positions.min,
         max: positions.max,
       });
@@ -433,6 +449,7 @@
     }
     gl.bindAttribLocation(program, 0, "a_position");
     gl.bindAttribLocation(program, 1, "a_color");
+    SH_SLOTS.forEach((name, i) => gl.bindAttribLocation(program, 2 + i, name));
     gl.linkProgram(program);
     if (!gl.getProgramParameter(program, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(program));
     const uniforms = {};
@@ -443,24 +460,59 @@
     return { program, uniforms };
   }
 
+  // The SH coefficients arrive as 12 vec4 attributes (16 coefficients × RGB).
+  const SH_SLOTS = Array.from({ length: 12 }, (_, i) => `a_sh${i}`);
+  const SH_FLOATS = SH_SLOTS.flatMap((a) => ["x", "y", "z", "w"].map((c) => `${a}.${c}`)).join(", ");
+  // As the renderer colours a vertex (objectsplat-raster's sh.rs, the 3DGS basis): along
+  // the direction from the eye to the vertex in the member's own frame, so a turned
+  // member keeps the appearance it was trained with.
   const VERTEX = `#version 300 es
+  precision highp float;
   uniform mat4 u_view_proj;
   uniform mat4 u_model;
+  uniform int u_sh_degree;
+  uniform vec3 u_eye_local;
   in vec3 a_position;
   in vec3 a_color;
+  ${SH_SLOTS.map((a) => `in vec4 ${a};`).join("\n  ")}
   out vec3 v_color;
+  vec3 k(float c[48], int i) { return vec3(c[3 * i], c[3 * i + 1], c[3 * i + 2]); }
   void main() {
     v_color = a_color;
+    if (u_sh_degree > 0) {
+      float c[48] = float[48](${SH_FLOATS});
+      vec3 d = a_position - u_eye_local;
+      d = length(d) > 0.0 ? normalize(d) : vec3(0.0);
+      float x = d.x, y = d.y, z = d.z;
+      vec3 rgb = 0.5 + 0.28209479177387814 * k(c, 0)
+        - 0.4886025119029199 * y * k(c, 1) + 0.4886025119029199 * z * k(c, 2) - 0.4886025119029199 * x * k(c, 3);
+      if (u_sh_degree > 1) {
+        float xx = x * x, yy = y * y, zz = z * z;
+        rgb += 1.0925484305920792 * x * y * k(c, 4) - 1.0925484305920792 * y * z * k(c, 5)
+          + 0.31539156525252005 * (2.0 * zz - xx - yy) * k(c, 6) - 1.0925484305920792 * x * z * k(c, 7)
+          + 0.5462742152960396 * (xx - yy) * k(c, 8);
+        if (u_sh_degree > 2) {
+          rgb += -0.5900435899266435 * y * (3.0 * xx - yy) * k(c, 9) + 2.890611442640554 * x * y * z * k(c, 10)
+            - 0.4570457994644658 * y * (4.0 * zz - xx - yy) * k(c, 11)
+            + 0.3731763325901154 * z * (2.0 * zz - 3.0 * xx - 3.0 * yy) * k(c, 12)
+            - 0.4570457994644658 * x * (4.0 * zz - xx - yy) * k(c, 13) + 1.445305721320277 * z * (xx - yy) * k(c, 14)
+            - 0.5900435899266435 * x * (xx - 3.0 * yy) * k(c, 15);
+        }
+      }
+      v_color = max(rgb, 0.0);
+    }
     gl_Position = u_view_proj * u_model * vec4(a_position, 1.0);
   }`;
-  // Vertex colours are linear (glTF); the canvas shows sRGB-encoded values. A recolored
-  // member shows its sRGB colour as given; the selection is tinted.
+  // Vertex colours are linear (glTF); the canvas shows sRGB-encoded values. Colours from
+  // SH are sRGB already, as the renderer's. A recolored member shows its sRGB colour as
+  // given; the selection is tinted.
   const SHADED = compile(
     VERTEX,
     `#version 300 es
   precision highp float;
   in vec3 v_color;
   uniform bool u_recolored;
+  uniform bool u_sh;
   uniform vec3 u_color;
   uniform float u_tint;
   out vec4 o_color;
@@ -469,7 +521,7 @@
     return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
   }
   void main() {
-    vec3 c = u_recolored ? u_color : encode(v_color);
+    vec3 c = u_recolored ? u_color : u_sh ? clamp(v_color, 0.0, 1.0) : encode(v_color);
     o_color = vec4(mix(c, vec3(1.0, 0.55, 0.0), u_tint), 1.0);
   }`,
   );
@@ -497,11 +549,20 @@
       gl.enableVertexAttribArray(location);
       gl.vertexAttribPointer(location, 3, gl.FLOAT, false, 0, 0);
     }
+    if (mesh.sh) {
+      const buffer = gl.createBuffer();
+      gl.bindBuffer(gl.ARRAY_BUFFER, buffer);
+      gl.bufferData(gl.ARRAY_BUFFER, mesh.sh, gl.STATIC_DRAW);
+      for (let i = 0; i < 12; i++) {
+        gl.enableVertexAttribArray(2 + i);
+        gl.vertexAttribPointer(2 + i, 4, gl.FLOAT, false, 48 * 4, i * 16);
+      }
+    }
     const indices = gl.createBuffer();
     gl.bindBuffer(gl.ELEMENT_ARRAY_BUFFER, indices);
     gl.bufferData(gl.ELEMENT_ARRAY_BUFFER, mesh.indices, gl.STATIC_DRAW);
     gl.bindVertexArray(null);
-    gpuMeshes.set(name, { vao, count: mesh.indices.length });
+    gpuMeshes.set(name, { vao, count: mesh.indices.length, shDegree: mesh.shDegree });
   }
   // The selection outline: the 12 edges of the mesh's local bounding box.
   const outline = (() => {
@@ -622,14 +683,27 @@
   /** Whether background members are drawn (and pickable): hiding the room helps to see into it. */
   let showBackground = true;
 
+  /** The eye in the member's own frame: the inverse of its placement applied to the eye. */
+  function eyeInMember(p, e) {
+    const r = quatToMatrix(p.rotation);
+    const d = sub(e, p.translation);
+    return [0, 1, 2].map((i) => (r[0][i] * d[0] + r[1][i] * d[1] + r[2][i] * d[2]) / p.scale);
+  }
+
   function drawMembers(program, perMember) {
-    const { viewProj } = matrices();
+    const { viewProj, eye: e } = matrices();
     gl.useProgram(program.program);
     gl.uniformMatrix4fv(program.uniforms.u_view_proj, false, new Float32Array(viewProj));
     members.forEach((m, index) => {
       const mesh = gpuMeshes.get(m.mesh);
       if (!mesh || (!showBackground && m.kind === "background")) return;
       gl.uniformMatrix4fv(program.uniforms.u_model, false, new Float32Array(placementMatrix(m.placement)));
+      // Flat-colour passes (picking, outline) need no view-dependent colour.
+      const shDegree = program === SHADED ? mesh.shDegree : 0;
+      // A uniform the compiler dropped from a program has no location (null: a no-op).
+      gl.uniform1i(program.uniforms.u_sh_degree ?? null, shDegree);
+      gl.uniform1i(program.uniforms.u_sh ?? null, shDegree > 0 ? 1 : 0);
+      if (shDegree > 0) gl.uniform3fv(program.uniforms.u_eye_local ?? null, eyeInMember(m.placement, e));
       perMember(m, index);
       gl.bindVertexArray(mesh.vao);
       gl.drawElements(gl.TRIANGLES, mesh.count, gl.UNSIGNED_INT, 0);
