@@ -3,7 +3,7 @@
 //! The artifact types it writes (Frames, Mesh, Points) are registered by the catalogue
 //! crate; [`register`] adds only the node kind.
 
-use crate::scene::{SyntheticParams, generate};
+use crate::scene::{CameraPath, SyntheticParams, generate};
 use anyhow::{Result, bail};
 use objectsplat_core::SplitPolicy;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, node_ports};
@@ -43,6 +43,10 @@ objectsplat_runtime::node_params! {
         supersample: u32 = "2" as ParamType::int_range(1, 8),
         /// horizontal field of view (degrees)
         fov: f64 = "60.0" as ParamType::float_range(20.0, 120.0),
+        /// how the cameras move: orbit around the table; walk a loop along the walls
+        /// looking across the room; inside: stand by the table and turn, looking out;
+        /// tabletop: a close orbit over the objects on the table
+        cameras: String = "\"orbit\"" as ParamType::enumeration(&["orbit", "walk", "inside", "tabletop"]),
     }
 }
 
@@ -64,7 +68,7 @@ impl Node for SyntheticSceneNode {
         NodeSpec::new("synthetic_scene", "1")
             .doc(
                 "Procedural room (floor, walls, ceiling, a table, box, cup, ball, chair, bin) with textured surfaces and \
-                 baked lighting, rendered from an orbit of cameras around the table; the annotated ground-truth mesh; \
+                 baked lighting, rendered from an orbit of cameras around the table (or a walk along the walls, from beside the table looking out, or a close orbit over the table top); the annotated ground-truth mesh; \
                  and SfM-like sparse points (surface samples seen by ≥ 2 cameras, with Gaussian noise). Deterministic \
                  from its seed.",
             )
@@ -94,6 +98,7 @@ impl Node for SyntheticSceneNode {
             points_noise: p.points_noise,
             supersample: p.supersample,
             fov_degrees: p.fov,
+            path: CameraPath::parse(&p.cameras)?,
             threads: ctx.threads().max(1),
         };
         let scene = generate(&params)?;

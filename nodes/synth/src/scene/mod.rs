@@ -18,6 +18,38 @@ use glam::DVec3;
 use objectsplat_core::{Camera, Frame, Frames, Mesh, ObjectLabels, Points, SplitPolicy};
 use std::path::Path;
 
+/// How the cameras move through the room: the layouts real captures come in.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum CameraPath {
+    /// A circle around the table at about 1.5 m, every camera on the table top.
+    #[default]
+    Orbit,
+    /// A loop walked along the walls (0.5 m inside them, straight sides, rounded
+    /// corners) at eye height, looking across the room at points that drift beside
+    /// the table: corners and two walls in many frames, objects off centre.
+    Walk,
+    /// Standing near the table and turning: every camera looks outward at a wall
+    /// (a room scan from its middle; the objects hardly show).
+    Inside,
+    /// A close orbit over the table top at 0.8 m, looking down at the small objects:
+    /// they fill the frame, the room shows only behind them.
+    Tabletop,
+}
+
+impl CameraPath {
+    pub fn parse(name: &str) -> Result<Self> {
+        Ok(match name {
+            "orbit" => CameraPath::Orbit,
+            "walk" => CameraPath::Walk,
+            "inside" => CameraPath::Inside,
+            "tabletop" => CameraPath::Tabletop,
+            other => bail!(
+                "camera path {other:?} is not one of \"orbit\", \"walk\", \"inside\", \"tabletop\""
+            ),
+        })
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct SyntheticParams {
     pub seed: u64,
@@ -39,6 +71,8 @@ pub struct SyntheticParams {
     pub supersample: u32,
     /// Horizontal field of view in degrees.
     pub fov_degrees: f64,
+    /// How the cameras move through the room.
+    pub path: CameraPath,
     pub threads: usize,
 }
 
@@ -57,6 +91,7 @@ impl Default for SyntheticParams {
             points_noise: 0.01,
             supersample: 2,
             fov_degrees: 60.0,
+            path: CameraPath::Orbit,
             threads: objectsplat_masks::raster::default_threads(),
         }
     }
@@ -125,7 +160,7 @@ pub struct SyntheticScene {
 pub fn generate(params: &SyntheticParams) -> Result<SyntheticScene> {
     params.validate()?;
     let room = layout::build_room(params.seed, params.table);
-    let cameras = orbit_cameras(params);
+    let cameras = cameras(params);
     let texture_seed = params.seed.wrapping_mul(0x2545_F491_4F6C_DD1D);
     let views = render::render_views(&room, &cameras, params, texture_seed)?;
     let points = points::sample_points(&room, &cameras, &views.depth, params, texture_seed)?;
@@ -156,6 +191,87 @@ pub fn generate(params: &SyntheticParams) -> Result<SyntheticScene> {
 
 pub fn frame_name(i: usize) -> String {
     format!("frame_{i:03}")
+}
+
+/// The room's inner bounds (metres): x, y ∈ [−2, 2], z ∈ [0, 2.6].
+pub fn layout_bounds() -> (DVec3, DVec3) {
+    let (h, z) = (layout::ROOM_HALF, layout::ROOM_HEIGHT);
+    (DVec3::new(-h, -h, 0.0), DVec3::new(h, h, z))
+}
+
+/// The cameras of `params.path`.
+pub fn cameras(params: &SyntheticParams) -> Vec<Camera> {
+    match params.path {
+        CameraPath::Orbit => orbit_cameras(params),
+        CameraPath::Walk => walk_cameras(params),
+        CameraPath::Inside => inside_cameras(params),
+        CameraPath::Tabletop => tabletop_cameras(params),
+    }
+}
+
+/// The pinhole focal length (px) of `params`' image width and field of view.
+fn focal(params: &SyntheticParams) -> f64 {
+    let (w, _) = params.image_size();
+    (w as f64 / 2.0) / (params.fov_degrees.to_radians() / 2.0).tan()
+}
+
+/// A loop 0.5 m inside the walls (a square with rounded corners), eye height with a
+/// walker's bob, each camera looking across the room at a point beside the table
+/// that drifts with the walk.
+fn walk_cameras(params: &SyntheticParams) -> Vec<Camera> {
+    let (w, h) = params.image_size();
+    let f = focal(params);
+    let reach = layout::ROOM_HALF - 0.5;
+    (0..params.views)
+        .map(|i| {
+            let t = i as f64 / params.views as f64;
+            let angle = std::f64::consts::TAU * t + 0.2;
+            // A superellipse: straight along the walls, rounded in the corners.
+            let (c, s) = (angle.cos(), angle.sin());
+            let squash = |v: f64| v.signum() * v.abs().powf(0.5);
+            let eye = DVec3::new(
+                reach * squash(c),
+                reach * squash(s),
+                1.55 + 0.05 * (9.0 * angle).sin(),
+            );
+            let side = DVec3::new(-s, c, 0.0) * (0.7 * (2.0 * angle).sin());
+            let target = DVec3::new(0.0, 0.0, 0.55) + side;
+            Camera::look_at(w, h, f, f, eye, target, DVec3::Z)
+        })
+        .collect()
+}
+
+/// Cameras 0.9 m from the room's centre at 1.4 m, each turned outward and a little
+/// down, one turn around: the walls, the floor near them and what stands there.
+fn inside_cameras(params: &SyntheticParams) -> Vec<Camera> {
+    let (w, h) = params.image_size();
+    let f = focal(params);
+    (0..params.views)
+        .map(|i| {
+            let angle = std::f64::consts::TAU * i as f64 / params.views as f64 + 0.4;
+            let out = DVec3::new(angle.cos(), angle.sin(), 0.0);
+            let eye = out * 0.9 + DVec3::Z * 1.4;
+            let target = out * layout::ROOM_HALF + DVec3::Z * 0.7;
+            Camera::look_at(w, h, f, f, eye, target, DVec3::Z)
+        })
+        .collect()
+}
+
+/// A circle 0.8 m from the table's centre, 0.55 m above its top, looking at the
+/// objects on it (a little off centre, alternating sides, as a hand-held sweep does).
+fn tabletop_cameras(params: &SyntheticParams) -> Vec<Camera> {
+    let (w, h) = params.image_size();
+    let f = focal(params);
+    (0..params.views)
+        .map(|i| {
+            let angle = std::f64::consts::TAU * i as f64 / params.views as f64 + 0.1;
+            let (c, s) = (angle.cos(), angle.sin());
+            let eye = DVec3::new(0.8 * c, 0.8 * s, layout::TABLE_HEIGHT + 0.55);
+            let sweep = if i % 2 == 0 { 0.08 } else { -0.08 };
+            let target = DVec3::new(-s * sweep, c * sweep, layout::TABLE_HEIGHT + 0.05);
+            Camera::look_at(w, h, f, f, eye, target, DVec3::Z)
+        })
+        .collect()
 }
 
 /// Cameras on a circle around the table at about 1.5 m height, looking at its top.
