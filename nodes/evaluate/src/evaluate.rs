@@ -2,6 +2,7 @@
 //! scene's visible surface against a ground-truth mesh, for the scene and per object.
 
 use anyhow::{Context, Result, bail};
+use objectsplat_core::ComponentKind;
 use objectsplat_core::artifact::OBJECTS_JSON;
 use objectsplat_core::frames::frame_stem;
 use objectsplat_core::masks::read_objects;
@@ -13,8 +14,10 @@ use objectsplat_metrics::{
     Lpips, MeshEvalParams, MetricsReport, SsimMode, TestImage, assemble_report, evaluate_image,
     evaluate_mesh,
 };
+use objectsplat_raster::{RenderBackend, RenderSettings};
 use objectsplat_scene::Scene;
 use objectsplat_scene::surface::visible_mesh;
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Ground truth beyond the photos.
@@ -32,6 +35,8 @@ pub struct EvaluateSettings<'a> {
     pub ssim: SsimMode,
     pub lpips: Option<&'a Lpips>,
     pub gt_surface: GtSurface,
+    /// Renders the background member for [`background_in_front`].
+    pub backend: &'a dyn RenderBackend<f32>,
 }
 
 /// Which ground-truth surface the F-scores compare against.
@@ -103,6 +108,70 @@ impl ObservedSurface {
                     .is_some_and(|d| (z - d as f64).abs() <= self.absolute.max(self.relative * z))
             })
     }
+}
+
+/// Where background geometry hangs in front of an object, in the test views: per
+/// object id, the object's true pixels (the ground-truth mesh rasterized) and those
+/// at which the background member alone renders an at least half-opaque surface
+/// nearer than the object's true surface by more than `tolerance` (or 2 % of its
+/// depth): the floaters and sheets a user sees in front of an object.
+fn background_in_front(
+    scene: &Scene,
+    tests: &[&objectsplat_core::Frame],
+    gt: &Mesh,
+    objects: &[u16],
+    tolerance: f64,
+    backend: &dyn RenderBackend<f32>,
+) -> Result<Option<BTreeMap<u16, (u64, u64)>>> {
+    let (Some(gt_ids), Some(background)) = (
+        gt.object_ids.as_ref(),
+        scene
+            .objects
+            .iter()
+            .find(|o| o.entry.kind == ComponentKind::Background),
+    ) else {
+        return Ok(None);
+    };
+    let background = background.world_model()?;
+    let settings = RenderSettings::for_model(&background);
+    let mut counts: BTreeMap<u16, (u64, u64)> = objects.iter().map(|&id| (id, (0, 0))).collect();
+    for frame in tests {
+        let camera = frame.camera();
+        let truth = objectsplat_masks::raster::rasterize(
+            &gt.positions,
+            &gt.faces,
+            &camera,
+            &objectsplat_masks::raster::RasterOptions::default(),
+        )
+        .map_err(|e| anyhow::anyhow!("rasterizing the ground-truth mesh: {e}"))?;
+        let pixels = (camera.width * camera.height) as usize;
+        let (rendered, _) = backend
+            .forward(&background, &camera, &settings, &vec![0.0; pixels * 3])
+            .with_context(|| format!("rendering the background in {}", frame.name))?;
+        let region = rendered.region;
+        for y in 0..camera.height {
+            for x in 0..camera.width {
+                let (Some(face), Some(depth)) = (truth.face_at(x, y), truth.depth_at(x, y)) else {
+                    continue;
+                };
+                let id = gt_ids[gt.faces[face as usize][0] as usize];
+                let Some(count) = u16::try_from(id).ok().and_then(|id| counts.get_mut(&id)) else {
+                    continue;
+                };
+                count.0 += 1;
+                if !region.contains(x, y) {
+                    continue;
+                }
+                let k = ((y - region.y0) * region.width() + (x - region.x0)) as usize;
+                let front = rendered.median_depth[k] as f64;
+                let depth = depth as f64;
+                if front > 0.0 && front < depth - tolerance.max(0.02 * depth) {
+                    count.1 += 1;
+                }
+            }
+        }
+    }
+    Ok(Some(counts))
 }
 
 /// What the evaluation covered, for the run report.
@@ -219,6 +288,21 @@ pub fn evaluate_scene(
         None => None,
     };
 
+    // Background in front of the objects, measured against the true surfaces.
+    let in_front = match truth.mesh {
+        Some((gt, _)) => {
+            let objects: Vec<u16> = scene.objects.iter().filter_map(|o| o.entry.id).collect();
+            background_in_front(
+                scene,
+                &tests,
+                gt,
+                &objects,
+                settings.mesh.tau,
+                settings.backend,
+            )?
+        }
+        None => None,
+    };
     // Mesh scores, and the normal consistency of the scene and of each object.
     let (mesh_scores, normals) = match truth.mesh {
         Some((gt, _)) => {
@@ -276,6 +360,16 @@ pub fn evaluate_scene(
         settings.ssim,
         settings.lpips.is_some(),
     );
+    if let Some(counts) = in_front {
+        let share = |(total, front): (u64, u64)| (total > 0).then(|| front as f64 / total as f64);
+        let pooled = counts
+            .values()
+            .fold((0, 0), |(t, f), &(total, front)| (t + total, f + front));
+        report.scene.background_in_front = share(pooled);
+        for o in &mut report.objects {
+            o.metrics.background_in_front = counts.get(&o.id).copied().and_then(share);
+        }
+    }
     if let Some(x) = exported {
         report.scene.exported_psnr = x.scene.psnr;
         report.scene.exported_ssim = x.scene.ssim;

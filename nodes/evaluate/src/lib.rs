@@ -67,8 +67,8 @@ node_ports! {
 
 impl Node for Evaluate {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("evaluate", "6")
-            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id (per object also at each of object_taus), and the normal consistency of the same surfaces (area-weighted |cos| between each face and the true surface nearest it). With `exported` (the test views rendered as the .glb holds the scene), their PSNR and SSIM too: the gap to `images` is what a user loses by opening the export. Writes metrics.json and metrics.csv.")
+        NodeSpec::new("evaluate", "7")
+            .doc("PSNR and SSIM per test image and averaged (per object: masked by the ground-truth id maps), LPIPS when a weights file is given, and the F-score of the scene's visible surface (faces the renderer can draw) against the ground-truth mesh, for the scene and per object id (per object also at each of object_taus), and the normal consistency of the same surfaces (area-weighted |cos| between each face and the true surface nearest it). With the mesh, also the share of each object's true pixels in the test views where the background member renders an at least half-opaque surface nearer than the object by more than tau (floaters and sheets in front of objects). With `exported` (the test views rendered as the .glb holds the scene), their PSNR and SSIM too: the gap to `images` is what a user loses by opening the export. Writes metrics.json and metrics.csv.")
             .ports::<EvaluatePorts>()
             .params::<EvaluateParams>()
     }
@@ -105,7 +105,9 @@ impl Node for Evaluate {
             mesh: gt_mesh.as_ref().map(|(m, l)| (m, l)),
             masks: ports.masks.as_deref(),
         };
+        let backend = objectsplat_raster::CpuBackend::new(ctx.threads().max(1));
         let settings = EvaluateSettings {
+            backend: &backend,
             mesh: MeshEvalParams {
                 tau,
                 voxel,

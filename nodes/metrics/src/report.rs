@@ -92,6 +92,10 @@ pub struct ScopeMetrics {
     /// SSIM of the same renders.
     #[serde(default, serialize_with = "finite_or_null")]
     pub exported_ssim: Option<f64>,
+    /// The share of the object's true pixels in the test views where the background
+    /// hangs in front of it (see `evaluate`); for the scene, over every object.
+    #[serde(default, serialize_with = "finite_or_null")]
+    pub background_in_front: Option<f64>,
 }
 
 /// An object's mesh scores at one more threshold.
@@ -157,6 +161,7 @@ struct CsvRow<'a> {
     normal_consistency: Option<f64>,
     exported_psnr: Option<f64>,
     exported_ssim: Option<f64>,
+    background_in_front: Option<f64>,
 }
 
 impl<'a> CsvRow<'a> {
@@ -185,6 +190,7 @@ impl<'a> CsvRow<'a> {
             normal_consistency: f(m.normal_consistency),
             exported_psnr: f(m.exported_psnr),
             exported_ssim: f(m.exported_ssim),
+            background_in_front: f(m.background_in_front),
         }
     }
 }

@@ -142,7 +142,7 @@ fn report_averages_images_and_objects_and_round_trips() {
     let lines: Vec<&str> = csv.lines().collect();
     assert_eq!(
         lines[0],
-        "scope,name,id,label,psnr,ssim,lpips,fscore,precision,recall,accuracy,completeness,tau,normal_consistency,exported_psnr,exported_ssim"
+        "scope,name,id,label,psnr,ssim,lpips,fscore,precision,recall,accuracy,completeness,tau,normal_consistency,exported_psnr,exported_ssim,background_in_front"
     );
     // Header, scene, two objects, one extra threshold of object 4, two images.
     assert_eq!(lines.len(), 1 + 1 + 2 + 1 + 2);
