@@ -155,7 +155,12 @@ pub const TYPES: &[ArtifactType] = &[
         defining_file: Some(METRICS_JSON),
         doc: "`metrics.json` — top level: scene averages `psnr`, `ssim`, `lpips` (null when \
               skipped), `fscore`, `precision`, `recall`, `tau`, `normal_consistency` (area-weighted \
-              |cos| between the faces and the true surface nearest them); `objects`: the same per object \
+              |cos| between the faces and the true surface nearest them), and with `evaluate`'s \
+              `exported` input `exported_psnr`, `exported_ssim` (the test views rendered as the \
+              `.glb` holds the scene: opaque, hard-edged, DC colours; null otherwise), \
+              `background_in_front` (with the mesh: the share of the objects' true pixels in the \
+              test views where the background member renders an at least half-opaque surface \
+              nearer than the object by more than `tau`); `objects`: the same per object \
               with `id`, `label`, and `thresholds` (one `{tau, fscore, precision, recall}` per \
               extra threshold of `evaluate`'s `object_taus`, default 5 and 2 cm; absent in \
               older reports); per-image entries — and `metrics.csv` (extra thresholds as \

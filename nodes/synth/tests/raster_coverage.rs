@@ -49,8 +49,7 @@ fn oracle(
     y: u32,
 ) -> Result<Option<(u32, f64, f64)>, ()> {
     let (px, py) = (x as f64 + 0.5, y as f64 + 0.5);
-    let mut best: Option<(u32, f64, f64)> = None;
-    let mut tie = false;
+    let mut covering: Vec<(u32, f64, f64)> = Vec::new();
     for (f, face) in faces.iter().enumerate() {
         let w = face.map(|v| DVec3::from(positions[v as usize].map(f64::from)));
         let p = w.map(|v| {
@@ -72,15 +71,20 @@ fn oracle(
         }
         let iz = plane_inv_depth(camera, w, px, py).ok_or(())?;
         let tol = inv_depth_tolerance(camera, w, px, py).ok_or(())?;
-        match best {
-            Some((_, b, btol)) if (b - iz).abs() <= tol + btol => tie = true,
-            Some((_, b, _)) if b > iz => {}
-            _ => {
-                tie = false;
-                best = Some((f as u32, iz, tol));
-            }
-        }
+        covering.push((f as u32, iz, tol));
     }
+    // The nearest, unless another covering face lies within the tolerances of it
+    // (checked against every one: a face tied with a candidate that a nearer face
+    // later displaced may still be tied with that nearer face).
+    let best = covering
+        .iter()
+        .copied()
+        .max_by(|a, b| a.1.total_cmp(&b.1));
+    let tie = best.is_some_and(|(bf, b, btol)| {
+        covering
+            .iter()
+            .any(|&(f, iz, tol)| f != bf && (b - iz).abs() <= tol + btol)
+    });
     if tie { Err(()) } else { Ok(best) }
 }
 
