@@ -76,10 +76,7 @@ fn oracle(
     // The nearest, unless another covering face lies within the tolerances of it
     // (checked against every one: a face tied with a candidate that a nearer face
     // later displaced may still be tied with that nearer face).
-    let best = covering
-        .iter()
-        .copied()
-        .max_by(|a, b| a.1.total_cmp(&b.1));
+    let best = covering.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1));
     let tie = best.is_some_and(|(bf, b, btol)| {
         covering
             .iter()

@@ -7,7 +7,8 @@
 //! - [`delaunay`] + [`connectivity`]: the restricted Delaunay connectivity step;
 //! - [`init`]: triangles from sparse points, and a component's point selection;
 //! - [`point_depth`] and [`depth_smoothness`]: depth at the measured points and the
-//!   background's planar prior, the two geometric losses.
+//!   background's planar prior, the two geometric losses;
+//! - [`free_space`]: faces the training views saw measured points through.
 
 // Negated comparisons are deliberate: NaN must fail every acceptance test.
 // Numerical loops index several parallel arrays with one index.
@@ -21,6 +22,7 @@ pub mod densify;
 pub mod depth_smoothness;
 mod device_steps;
 pub mod face_stats;
+pub mod free_space;
 mod host_steps;
 pub mod hull;
 pub mod init;

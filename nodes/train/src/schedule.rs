@@ -92,6 +92,11 @@ pub struct Schedule {
 
     /// After training, faces whose max blending weight over the training views is ≤ this are removed.
     pub final_prune_threshold: f64,
+    /// A depth-supervised component (the background, by default) also loses, at
+    /// every prune and at the end, the faces its training views saw measured
+    /// points through at least this many times and more often than they saw
+    /// points on them (see `crate::free_space`); 0 turns this off.
+    pub free_space_min_sightings: u64,
 
     /// Weight of the depth loss at a background component's measured points
     /// (see `crate::point_depth`); 0 turns it off.
@@ -197,6 +202,7 @@ impl Schedule {
             connectivity_at: at(11_000) + 1,
             connectivity_cleanup_threshold: 0.02,
             final_prune_threshold: 0.5,
+            free_space_min_sightings: 2,
             point_depth_weight: 1.0,
             object_point_depth_weight: 0.0,
             point_depth_start: 0,

@@ -25,8 +25,10 @@ use crate::connectivity::{ConnectivityOptions, restricted_delaunay};
 use crate::densify::{DensifyPolicy, prune_faces, select_faces_to_split, subdivide_faces};
 use crate::device_steps::DeviceSteps;
 use crate::face_stats::FaceWeights;
+use crate::free_space::sightings;
 use crate::host_steps::HostSteps;
 use crate::init::{InitSettings, init_model};
+use crate::point_depth::PointDepth;
 use crate::schedule::Schedule;
 use crate::steps::{StepInput, StepLoss, StepRunner, Subject, TrainingState};
 use anyhow::{Context, Result, bail};
@@ -565,6 +567,23 @@ pub fn train_component_with_hook(
     );
     let train_cameras: Vec<&objectsplat_core::Camera> =
         train.iter().map(|&i| &data.views[i].camera).collect();
+    // The measured points each training view sees, for the free-space rule.
+    let seen_points = (depth_supervised && s.free_space_min_sightings > 0)
+        .then(|| PointDepth::new(&data.depth_points, data));
+    let floating = |model: &Model<f32>| -> Option<Vec<bool>> {
+        let points = seen_points.as_ref()?;
+        let views: Vec<_> = train
+            .iter()
+            .map(|&v| (&data.views[v].camera, points.of_view(v)))
+            .collect();
+        let min = u32::try_from(s.free_space_min_sightings).unwrap_or(u32::MAX);
+        Some(
+            sightings(model, &views, settings.world_scale)
+                .iter()
+                .map(|s| s.floats(min))
+                .collect(),
+        )
+    };
     let mut best: Option<Snapshot> = None;
     let started = Instant::now();
     // Evaluations before the connectivity step could never be returned (it resets the best).
@@ -687,11 +706,13 @@ pub fn train_component_with_hook(
             };
             let mut sizes = screen_sizes(model, &train_cameras);
             if let Some(threshold) = prune {
+                let floats = floating(model);
                 let keep: Vec<bool> = (0..model.face_count())
                     .map(|f| {
                         model.face_opacity(f) as f64 > threshold
                             && max_weight[f] as f64 > threshold
                             && sizes.extent[f] <= s.prune_max_screen_extent
+                            && !floats.as_ref().is_some_and(|fl| fl[f])
                     })
                     .collect();
                 // Never prune the model away entirely; the held-out score decides what survives.
@@ -966,10 +987,20 @@ pub fn train_component_with_hook(
             &render_settings(&model, settings),
         )?,
     };
+    let floats = floating(&model);
     let keep: Vec<bool> = max_weight
         .iter()
-        .map(|&w| w as f64 > s.final_prune_threshold)
+        .enumerate()
+        .map(|(f, &w)| {
+            w as f64 > s.final_prune_threshold && !floats.as_ref().is_some_and(|fl| fl[f])
+        })
         .collect();
+    if let Some(fl) = &floats {
+        notes.push(format!(
+            "free space: {} faces the training views saw measured points through",
+            fl.iter().filter(|&&f| f).count()
+        ));
+    }
     let removed = keep.iter().filter(|k| !**k).count();
     if removed == keep.len() {
         // Short runs end before opacities saturate; an empty model helps no one.

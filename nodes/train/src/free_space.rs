@@ -1,0 +1,168 @@
+//! Free space: what a training view sees at some depth was not in front of it.
+//!
+//! A measured point that a view sees (`point_depth.rs` keeps, per view, the
+//! points on the component's own pixels that no other point hides) proves the
+//! ray from the camera to it empty. A face that covers such a point's pixel
+//! clearly nearer than the point hangs in that empty space: the camera saw
+//! through it. Faces seen through more often than they are seen on — more of
+//! the points they cover lie behind them than on them — are floaters or sheets
+//! (a wall-coloured triangle in front of the table), which the photometric loss
+//! alone leaves wherever no view shows them against a different colour. Counting
+//! on-surface points too keeps a true surface behind a stray outlier point.
+
+use objectsplat_core::Camera;
+use objectsplat_raster::Model;
+
+/// How far in front of a point a face must lie to be seen through: the larger
+/// of this (metres, times the scene's world scale) and [`RELATIVE_MARGIN`] of
+/// the point's depth, so point noise and a slanted surface's depth range do not count.
+pub const ABSOLUTE_MARGIN: f64 = 0.05;
+pub const RELATIVE_MARGIN: f64 = 0.03;
+
+/// Per face: the points seen through it and the points on it.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Sightings {
+    pub through: u32,
+    pub on: u32,
+}
+
+impl Sightings {
+    /// Seen through at least `min_through` times (≥ 1) and more often than seen on.
+    pub fn floats(&self, min_through: u32) -> bool {
+        self.through >= min_through.max(1) && self.through > self.on
+    }
+}
+
+/// The sightings of every face of `model` over `views`: each a camera and its
+/// kept points (pixel index in the frame, camera depth), sorted by pixel.
+pub fn sightings(
+    model: &Model<f32>,
+    views: &[(&Camera, &[(u32, f32)])],
+    world_scale: f64,
+) -> Vec<Sightings> {
+    let mut out = vec![Sightings::default(); model.face_count()];
+    let mut projected = Vec::with_capacity(model.vertex_count());
+    for &(camera, points) in views {
+        if points.is_empty() {
+            continue;
+        }
+        let width = camera.width as usize;
+        projected.clear();
+        projected.extend(
+            model
+                .vertices
+                .iter()
+                .map(|v| camera.project(glam::DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64))),
+        );
+        for (f, face) in model.faces.iter().enumerate() {
+            let [Some(a), Some(b), Some(c)] = face.map(|v| projected[v as usize]) else {
+                continue;
+            };
+            let area = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
+            if area.abs() < 1e-12 {
+                continue;
+            }
+            // Pixel centres at (x + ½, y + ½) inside the projected triangle.
+            let x0 = (a.0.min(b.0).min(c.0) - 0.5).ceil().max(0.0);
+            let x1 = (a.0.max(b.0).max(c.0) - 0.5)
+                .floor()
+                .min(camera.width as f64 - 1.0);
+            let y0 = (a.1.min(b.1).min(c.1) - 0.5).ceil().max(0.0);
+            let y1 = (a.1.max(b.1).max(c.1) - 0.5)
+                .floor()
+                .min(camera.height as f64 - 1.0);
+            if x0 > x1 || y0 > y1 {
+                continue;
+            }
+            for y in y0 as usize..=y1 as usize {
+                let row_start = (y * width + x0 as usize) as u32;
+                let row_end = (y * width + x1 as usize) as u32;
+                let first = points.partition_point(|&(p, _)| p < row_start);
+                for &(pixel, depth) in points[first..].iter().take_while(|&&(p, _)| p <= row_end) {
+                    let (px, py) = ((pixel as usize % width) as f64 + 0.5, y as f64 + 0.5);
+                    // Screen-space barycentrics; depth interpolates as 1/z.
+                    let wa = ((b.0 - px) * (c.1 - py) - (c.0 - px) * (b.1 - py)) / area;
+                    let wb = ((c.0 - px) * (a.1 - py) - (a.0 - px) * (c.1 - py)) / area;
+                    let wc = 1.0 - wa - wb;
+                    if wa < 0.0 || wb < 0.0 || wc < 0.0 {
+                        continue;
+                    }
+                    let face_depth = 1.0 / (wa / a.2 + wb / b.2 + wc / c.2);
+                    let depth = depth as f64;
+                    let margin = (ABSOLUTE_MARGIN * world_scale).max(RELATIVE_MARGIN * depth);
+                    if face_depth < depth - margin {
+                        out[f].through += 1;
+                    } else if face_depth <= depth + margin {
+                        out[f].on += 1;
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    fn camera() -> Camera {
+        Camera::look_at(
+            64,
+            64,
+            64.0,
+            64.0,
+            DVec3::new(0.0, 0.0, 4.0),
+            DVec3::ZERO,
+            DVec3::Y,
+        )
+    }
+
+    /// Two triangles facing the camera, each covering the image's centre: one at
+    /// z = 0 (4 m away), one at z = 2 (2 m away).
+    fn model() -> Model<f32> {
+        let mut m = Model::<f32>::empty();
+        m.vertices = vec![
+            [-3.0, -3.0, 0.0],
+            [3.0, -3.0, 0.0],
+            [0.0, 3.0, 0.0],
+            [-1.0, -1.0, 2.0],
+            [1.0, -1.0, 2.0],
+            [0.0, 1.0, 2.0],
+        ];
+        m.faces = vec![[0, 1, 2], [3, 4, 5]];
+        m
+    }
+
+    #[test]
+    fn a_face_in_front_of_what_a_view_saw_is_seen_through() {
+        let cam = camera();
+        let m = model();
+        // Points on the far face (depth 4) at pixels inside both faces' projections.
+        let points: Vec<(u32, f32)> = [(30u32, 30u32), (32, 32), (33, 31)]
+            .iter()
+            .map(|&(x, y)| (y * 64 + x, 4.0))
+            .collect();
+        let s = sightings(&m, &[(&cam, &points)], 1.0);
+        assert_eq!(s[0], Sightings { through: 0, on: 3 });
+        assert_eq!(s[1], Sightings { through: 3, on: 0 });
+        assert!(!s[0].floats(2) && s[1].floats(2) && !s[1].floats(4));
+        // Points at the near face's depth: both faces are fine (the far one is behind).
+        let near: Vec<(u32, f32)> = points.iter().map(|&(p, _)| (p, 2.0)).collect();
+        let s = sightings(&m, &[(&cam, &near)], 1.0);
+        assert_eq!(s[1], Sightings { through: 0, on: 3 });
+        assert_eq!(s[0], Sightings { through: 0, on: 0 });
+    }
+
+    #[test]
+    fn a_point_outside_the_projection_or_within_the_margin_does_not_count() {
+        let cam = camera();
+        let m = model();
+        // (2, 2) lies outside both faces; the centre point 4 cm behind the near face.
+        let points = vec![(2 * 64 + 2, 4.0f32), (32 * 64 + 32, 2.04)];
+        let s = sightings(&m, &[(&cam, &points)], 1.0);
+        assert_eq!(s[1], Sightings { through: 0, on: 1 });
+        assert_eq!(s[0].through + s[0].on, 0);
+    }
+}
