@@ -35,7 +35,7 @@ pub struct EvaluateSettings<'a> {
     pub ssim: SsimMode,
     pub lpips: Option<&'a Lpips>,
     pub gt_surface: GtSurface,
-    /// Renders the background member for [`background_in_front`].
+    /// Renders the background member to find where it hangs in front of the objects.
     pub backend: &'a dyn RenderBackend<f32>,
 }
 
