@@ -380,63 +380,22 @@ fn labels(pixels: impl Iterator<Item = [f64; 3]>) -> Vec<usize> {
 
 #[test]
 fn viewer_draws_what_render_draws() {
-    use objectsplat_core::glam;
-    use objectsplat_core::{Camera, Split};
     use objectsplat_scene::render::{Backdrop, render_view};
     let Some(mut browser) = Browser::launch("viewer_draws_what_render_draws") else {
         return;
     };
     // Turned, scaled and moved objects, seen from a frame's camera.
     let tmp = tempfile::tempdir().unwrap();
-    let mut scene = support::small_scene::scene();
-    let edits: Vec<objectsplat_runtime::Value> = [
-        "Rotate(target: Id(7), axis: (1, 0.5, 0), degrees: 70)",
-        "Scale(target: Id(7), factor: 0.8)",
-        "Move(target: Id(7), by: (0.1, -0.2, 0.3))",
-        "Rotate(target: Label(\"chair\"), axis: (0, 0, 1), degrees: 30)",
-    ]
-    .iter()
-    .map(|t| objectsplat_runtime::syntax::parse(t).unwrap().to_value())
-    .collect();
-    objectsplat_scene::apply_edits(&mut scene, &objectsplat_scene::parse_edits(&edits).unwrap())
-        .unwrap();
-    let scene_dir = tmp.path().join("scene");
-    objectsplat_scene::save_scene(&scene, &scene_dir).unwrap();
-    let frames = tmp.path().join("frames");
-    let capture = Camera::look_at(
-        320,
-        240,
-        300.0,
-        300.0,
-        glam::DVec3::new(1.2, -2.4, 1.6),
-        glam::DVec3::new(0.0, 0.0, 0.3),
-        glam::DVec3::Z,
+    let scene = support::viewer_page::edited(
+        support::small_scene::scene(),
+        &[
+            "Rotate(target: Id(7), axis: (1, 0.5, 0), degrees: 70)",
+            "Scale(target: Id(7), factor: 0.8)",
+            "Move(target: Id(7), by: (0.1, -0.2, 0.3))",
+            "Rotate(target: Label(\"chair\"), axis: (0, 0, 1), degrees: 30)",
+        ],
     );
-    std::fs::create_dir_all(frames.join("images")).unwrap();
-    objectsplat_core::Image::from_fn(320, 240, 3, |_, _, _| 0.5)
-        .save_png8(&frames.join("images/f0.png"))
-        .unwrap();
-    objectsplat_core::Frames::write_json(
-        &frames,
-        &[objectsplat_core::Frame::new(
-            "f0",
-            "images/f0.png",
-            &capture,
-            Split::Train,
-        )],
-    )
-    .unwrap();
-    let run = run_node(
-        &objectsplat_scene::nodes::Viewer,
-        &[("scene", &scene_dir), ("frames", &frames)],
-        "()",
-        &tmp.path().join("viewer"),
-        None,
-    )
-    .unwrap();
-    let dir = run.outputs["file"].clone();
-    let (_, view) = objectsplat_export::viewer::read_viewer(&dir).unwrap();
-    let start = view.camera.unwrap();
+    let (dir, start) = support::viewer_page::viewer_of(&scene, tmp.path());
 
     let page_path = dir.join(PAGE_HTML);
     let mut page = browser.open(&page_path, WIDTH, HEIGHT);
@@ -445,16 +404,7 @@ fn viewer_draws_what_render_draws() {
     let shot = page.screenshot(rect);
     let (w, h) = shot.dimensions();
     // The same pinhole camera: the viewer's eye, target and vertical field of view.
-    let fy = h as f64 / 2.0 / (start.fov_y_degrees.to_radians() / 2.0).tan();
-    let camera = Camera::look_at(
-        w,
-        h,
-        fy,
-        fy,
-        glam::DVec3::from_array(start.eye),
-        glam::DVec3::from_array(start.target),
-        glam::DVec3::Z,
-    );
+    let camera = support::viewer_page::page_camera(&start, w, h);
     let merged = scene.merged_model().unwrap().model;
     let rendered = render_view(
         &merged,

@@ -7,9 +7,7 @@
 mod support;
 
 use objectsplat_core::artifact::PAGE_HTML;
-use objectsplat_core::{Camera, Split, glam};
 use objectsplat_raster::{Model, SH_COEFFS};
-use objectsplat_runtime::testing::run_node;
 use objectsplat_scene::render::{Backdrop, render_view};
 use support::chromium::{Browser, numbers};
 
@@ -64,52 +62,14 @@ fn viewer_draws_the_sh_bands_as_the_renderer_does() {
     for (k, member) in scene.objects.iter_mut().enumerate() {
         with_bands(&mut member.model, k as u32);
     }
-    let edits: Vec<objectsplat_runtime::Value> = [
-        "Rotate(target: Id(7), axis: (1, 0.5, 0), degrees: 70)",
-        "Move(target: Id(7), by: (0.1, -0.2, 0.3))",
-    ]
-    .iter()
-    .map(|t| objectsplat_runtime::syntax::parse(t).unwrap().to_value())
-    .collect();
-    objectsplat_scene::apply_edits(&mut scene, &objectsplat_scene::parse_edits(&edits).unwrap())
-        .unwrap();
-    let scene_dir = tmp.path().join("scene");
-    objectsplat_scene::save_scene(&scene, &scene_dir).unwrap();
-    let frames = tmp.path().join("frames");
-    let capture = Camera::look_at(
-        320,
-        240,
-        300.0,
-        300.0,
-        glam::DVec3::new(1.2, -2.4, 1.6),
-        glam::DVec3::new(0.0, 0.0, 0.3),
-        glam::DVec3::Z,
+    let scene = support::viewer_page::edited(
+        scene,
+        &[
+            "Rotate(target: Id(7), axis: (1, 0.5, 0), degrees: 70)",
+            "Move(target: Id(7), by: (0.1, -0.2, 0.3))",
+        ],
     );
-    std::fs::create_dir_all(frames.join("images")).unwrap();
-    objectsplat_core::Image::from_fn(320, 240, 3, |_, _, _| 0.5)
-        .save_png8(&frames.join("images/f0.png"))
-        .unwrap();
-    objectsplat_core::Frames::write_json(
-        &frames,
-        &[objectsplat_core::Frame::new(
-            "f0",
-            "images/f0.png",
-            &capture,
-            Split::Train,
-        )],
-    )
-    .unwrap();
-    let run = run_node(
-        &objectsplat_scene::nodes::Viewer,
-        &[("scene", &scene_dir), ("frames", &frames)],
-        "()",
-        &tmp.path().join("viewer"),
-        None,
-    )
-    .unwrap();
-    let dir = run.outputs["file"].clone();
-    let (_, view) = objectsplat_export::viewer::read_viewer(&dir).unwrap();
-    let start = view.camera.unwrap();
+    let (dir, start) = support::viewer_page::viewer_of(&scene, tmp.path());
 
     let mut page = browser.open(&dir.join(PAGE_HTML), WIDTH, HEIGHT);
     page.eval("window.objectsplat.ready");
@@ -120,16 +80,7 @@ fn viewer_draws_the_sh_bands_as_the_renderer_does() {
     let errors = page.errors();
     assert!(errors.is_empty(), "console errors: {errors:#?}");
     let (w, h) = shot.dimensions();
-    let fy = h as f64 / 2.0 / (start.fov_y_degrees.to_radians() / 2.0).tan();
-    let camera = Camera::look_at(
-        w,
-        h,
-        fy,
-        fy,
-        glam::DVec3::from_array(start.eye),
-        glam::DVec3::from_array(start.target),
-        glam::DVec3::Z,
-    );
+    let camera = support::viewer_page::page_camera(&start, w, h);
     let page_rgb: Vec<f32> = shot
         .pixels()
         .flat_map(|p| [0, 1, 2].map(|k| p.0[k] as f32 / 255.0))

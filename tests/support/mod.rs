@@ -9,3 +9,4 @@ pub mod plugin_build;
 pub mod slurm;
 pub mod small_scene;
 pub mod tiny_room;
+pub mod viewer_page;

@@ -7,10 +7,9 @@
 mod common;
 
 use objectsplat_core::artifact::METRICS_JSON;
-use objectsplat_core::{Mesh, ObjectLabels, Split, write_mesh_artifact};
+use objectsplat_core::{ObjectLabels, Split, write_mesh_artifact};
 use objectsplat_evaluate::Evaluate;
 use objectsplat_scene::load_scene;
-use objectsplat_scene::surface::visible_mesh;
 
 #[test]
 fn a_wall_moved_in_front_of_the_lamp_covers_the_lamp_alone() {
@@ -20,24 +19,8 @@ fn a_wall_moved_in_front_of_the_lamp_covers_the_lamp_alone() {
     let frames = common::write_frames_from(tmp.path(), cam, &[("t0", Split::Test)]);
     // Ground truth: the composed scene's own surfaces, with object ids.
     let scene = load_scene(&scene_dir).unwrap();
-    let mut gt = Mesh {
-        positions: vec![],
-        faces: vec![],
-        colors: None,
-        object_ids: Some(vec![]),
-    };
-    for o in &scene.objects {
-        let m = visible_mesh(&o.model);
-        let base = gt.positions.len() as u32;
-        gt.positions.extend(&m.positions);
-        gt.faces.extend(m.faces.iter().map(|f| f.map(|v| v + base)));
-        // The wall keeps an id of its own (1); only the scene's objects are scored.
-        let id = o.entry.id.map_or(1, i32::from);
-        gt.object_ids
-            .as_mut()
-            .unwrap()
-            .extend(std::iter::repeat_n(id, m.positions.len()));
-    }
+    // The wall keeps an id of its own (1); only the scene's objects are scored.
+    let gt = common::surfaces_as_ground_truth(&scene, 1);
     let labels: ObjectLabels = [
         (1, "wall".to_string()),
         (3, "chair".to_string()),

@@ -9,10 +9,9 @@ mod common;
 
 use objectsplat_core::artifact::{METRICS_CSV, METRICS_JSON};
 use objectsplat_core::masks::{IdMap, write_objects};
-use objectsplat_core::{Mesh, ObjectLabels, Split, write_mesh_artifact};
+use objectsplat_core::{ObjectLabels, Split, write_mesh_artifact};
 use objectsplat_evaluate::Evaluate;
 use objectsplat_scene::load_scene;
-use objectsplat_scene::surface::visible_mesh;
 
 const W: u32 = 48;
 const H: u32 = 40;
@@ -67,23 +66,7 @@ fn psnr_and_fscore_match_their_analytic_values() {
     // Ground-truth mesh: the composed scene's own surface with object ids, then the cup
     // moved 2 m away in the prediction.
     let scene = load_scene(&scene_dir).unwrap();
-    let mut gt = Mesh {
-        positions: vec![],
-        faces: vec![],
-        colors: None,
-        object_ids: Some(vec![]),
-    };
-    for o in &scene.objects {
-        let m = visible_mesh(&o.model);
-        let base = gt.positions.len() as u32;
-        gt.positions.extend(&m.positions);
-        gt.faces.extend(m.faces.iter().map(|f| f.map(|v| v + base)));
-        let id = o.entry.id.map_or(-1, i32::from);
-        gt.object_ids
-            .as_mut()
-            .unwrap()
-            .extend(std::iter::repeat_n(id, m.positions.len()));
-    }
+    let gt = common::surfaces_as_ground_truth(&scene, -1);
     let mesh_dir = tmp.path().join("mesh");
     write_mesh_artifact(&mesh_dir, &gt, &labels).unwrap();
     let moved = common::edited(

@@ -56,6 +56,8 @@ pub(crate) struct DeviceSteps<'a> {
     uploads: u64,
     downloads: u64,
     evaluations: u64,
+    /// The measured points each view sees (uploaded; kept for the free-space rule).
+    points: PointDepth,
 }
 
 /// Held-out loss and PSNR from per-view scores, as the host's evaluation
@@ -115,9 +117,10 @@ impl<'a> DeviceSteps<'a> {
                 points: points.of_view(i).to_vec(),
             })
         };
+        let trainer = DeviceTrainer::streamed(backend, views.len(), upload)?;
         Ok(DeviceSteps {
             data,
-            trainer: DeviceTrainer::streamed(backend, views.len(), upload)?,
+            trainer,
             composite: data.occluders.as_ref().map(Composite::new).transpose()?,
             newest: Newest::Host,
             in_flight: VecDeque::new(),
@@ -129,6 +132,7 @@ impl<'a> DeviceSteps<'a> {
             uploads: 0,
             downloads: 0,
             evaluations: 0,
+            points,
         })
     }
 
@@ -355,6 +359,10 @@ impl StepRunner for DeviceSteps<'_> {
 
     fn place(&self) -> &'static str {
         "device"
+    }
+
+    fn seen_points(&self) -> &PointDepth {
+        &self.points
     }
 
     fn summary(&self) -> Option<String> {

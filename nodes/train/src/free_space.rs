@@ -10,6 +10,7 @@
 //! alone leaves wherever no view shows them against a different colour. Counting
 //! on-surface points too keeps a true surface behind a stray outlier point.
 
+use crate::screen::projected_faces;
 use objectsplat_core::Camera;
 use objectsplat_raster::Model;
 
@@ -41,23 +42,13 @@ pub fn sightings(
     world_scale: f64,
 ) -> Vec<Sightings> {
     let mut out = vec![Sightings::default(); model.face_count()];
-    let mut projected = Vec::with_capacity(model.vertex_count());
+    let mut scratch = Vec::with_capacity(model.vertex_count());
     for &(camera, points) in views {
         if points.is_empty() {
             continue;
         }
         let width = camera.width as usize;
-        projected.clear();
-        projected.extend(
-            model
-                .vertices
-                .iter()
-                .map(|v| camera.project(glam::DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64))),
-        );
-        for (f, face) in model.faces.iter().enumerate() {
-            let [Some(a), Some(b), Some(c)] = face.map(|v| projected[v as usize]) else {
-                continue;
-            };
+        for (f, [a, b, c]) in projected_faces(model, camera, &mut scratch) {
             let area = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
             if area.abs() < 1e-12 {
                 continue;

@@ -465,6 +465,10 @@ impl StepRunner for HostSteps<'_> {
         "host"
     }
 
+    fn seen_points(&self) -> &PointDepth {
+        &self.point_depth
+    }
+
     /// None: the run report's backend note already says where host steps ran.
     fn summary(&self) -> Option<String> {
         None

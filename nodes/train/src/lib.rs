@@ -28,6 +28,7 @@ pub mod hull;
 pub mod init;
 pub mod point_depth;
 pub mod schedule;
+mod screen;
 mod steps;
 
 pub use objectsplat_optim::{Adam, LogLinearDecay, Optim, adam};

@@ -5,6 +5,7 @@
 //! The loop (`trainer.rs`) is written once, with no backend branch.
 
 use crate::face_stats::FaceWeights;
+use crate::point_depth::PointDepth;
 use anyhow::Result;
 use objectsplat_optim::Optim;
 use objectsplat_raster::{Model, RenderSettings};
@@ -131,6 +132,9 @@ pub(crate) trait StepRunner {
 
     /// Where the iterations run: "host" or "device".
     fn place(&self) -> &'static str;
+
+    /// The measured points each view of the component sees (none without depth supervision).
+    fn seen_points(&self) -> &PointDepth;
 
     /// A line for the training log where the runner has more to say than the
     /// backend's name: where the iterations ran, and what moved between host and device.

@@ -30,6 +30,7 @@ use crate::host_steps::HostSteps;
 use crate::init::{InitSettings, init_model};
 use crate::point_depth::PointDepth;
 use crate::schedule::Schedule;
+use crate::screen::screen_sizes;
 use crate::steps::{StepInput, StepLoss, StepRunner, Subject, TrainingState};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::{ComponentKind, Points, Split};
@@ -231,52 +232,6 @@ pub fn held_out_score(
     settings: &TrainSettings,
 ) -> Result<f64> {
     Ok(held_out_eval(backend, model, data, settings)?.loss)
-}
-
-/// Per face over a set of cameras (projection only): the largest screen
-/// extent (centroid-to-corner distance, px) and the largest screen inradius
-/// (px), for faces in front of the camera.
-struct ScreenSizes {
-    extent: Vec<f64>,
-    inradius: Vec<f64>,
-}
-
-fn screen_sizes(model: &Model<f32>, cameras: &[&objectsplat_core::Camera]) -> ScreenSizes {
-    let mut sizes = ScreenSizes {
-        extent: vec![0.0; model.face_count()],
-        inradius: vec![0.0; model.face_count()],
-    };
-    let mut projected = Vec::with_capacity(model.vertex_count());
-    for camera in cameras {
-        projected.clear();
-        projected.extend(
-            model
-                .vertices
-                .iter()
-                .map(|v| camera.project(glam::DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64))),
-        );
-        for (f, face) in model.faces.iter().enumerate() {
-            let [Some(a), Some(b), Some(c)] = face.map(|v| projected[v as usize]) else {
-                continue;
-            };
-            let (cx, cy) = ((a.0 + b.0 + c.0) / 3.0, (a.1 + b.1 + c.1) / 3.0);
-            // Pixel distances: far from overflow, so `hypot`'s care (and cost) is not needed.
-            let length = |dx: f64, dy: f64| (dx * dx + dy * dy).sqrt();
-            let e = [a, b, c]
-                .iter()
-                .map(|p| length(p.0 - cx, p.1 - cy))
-                .fold(0.0, f64::max);
-            sizes.extent[f] = sizes.extent[f].max(e);
-            let twice_area = ((b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1)).abs();
-            let perimeter = length(b.0 - a.0, b.1 - a.1)
-                + length(c.0 - b.0, c.1 - b.1)
-                + length(a.0 - c.0, a.1 - c.1);
-            if perimeter > 0.0 {
-                sizes.inradius[f] = sizes.inradius[f].max(twice_area / perimeter);
-            }
-        }
-    }
-    sizes
 }
 
 /// The best model so far on the held-out views.
@@ -567,11 +522,12 @@ pub fn train_component_with_hook(
     );
     let train_cameras: Vec<&objectsplat_core::Camera> =
         train.iter().map(|&i| &data.views[i].camera).collect();
-    // The measured points each training view sees, for the free-space rule.
-    let seen_points = (depth_supervised && s.free_space_min_sightings > 0)
-        .then(|| PointDepth::new(&data.depth_points, data));
-    let floating = |model: &Model<f32>| -> Option<Vec<bool>> {
-        let points = seen_points.as_ref()?;
+    // The free-space rule, over the measured points each training view sees.
+    let free_space = depth_supervised && s.free_space_min_sightings > 0;
+    let floating = |model: &Model<f32>, points: &PointDepth| -> Option<Vec<bool>> {
+        if !free_space {
+            return None;
+        }
         let views: Vec<_> = train
             .iter()
             .map(|&v| (&data.views[v].camera, points.of_view(v)))
@@ -706,7 +662,7 @@ pub fn train_component_with_hook(
             };
             let mut sizes = screen_sizes(model, &train_cameras);
             if let Some(threshold) = prune {
-                let floats = floating(model);
+                let floats = floating(model, runner.seen_points());
                 let keep: Vec<bool> = (0..model.face_count())
                     .map(|f| {
                         model.face_opacity(f) as f64 > threshold
@@ -987,7 +943,7 @@ pub fn train_component_with_hook(
             &render_settings(&model, settings),
         )?,
     };
-    let floats = floating(&model);
+    let floats = floating(&model, runner.seen_points());
     let keep: Vec<bool> = max_weight
         .iter()
         .enumerate()

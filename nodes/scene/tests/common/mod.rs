@@ -206,3 +206,29 @@ pub fn assert_edit_refused(scene: &Path, edits: &str, out: &Path, parts: &[&str]
         assert!(err.contains(part), "{err}");
     }
 }
+
+/// The visible surfaces of `scene`'s members as one ground-truth mesh, each vertex
+/// carrying its member's object id (`background_id` for members without one).
+pub fn surfaces_as_ground_truth(
+    scene: &objectsplat_scene::Scene,
+    background_id: i32,
+) -> objectsplat_core::Mesh {
+    let mut gt = objectsplat_core::Mesh {
+        positions: vec![],
+        faces: vec![],
+        colors: None,
+        object_ids: Some(vec![]),
+    };
+    for o in &scene.objects {
+        let m = objectsplat_scene::surface::visible_mesh(&o.model);
+        let base = gt.positions.len() as u32;
+        gt.positions.extend(&m.positions);
+        gt.faces.extend(m.faces.iter().map(|f| f.map(|v| v + base)));
+        let id = o.entry.id.map_or(background_id, i32::from);
+        gt.object_ids
+            .as_mut()
+            .expect("built with ids above")
+            .extend(std::iter::repeat_n(id, m.positions.len()));
+    }
+    gt
+}
