@@ -211,11 +211,10 @@ fn poses(model: &ColmapModel) -> HashMap<String, (DVec3, DMat3)> {
         .collect()
 }
 
-#[test]
-fn maupertuis_photos_agree_with_the_model_shipped_with_them() {
-    if !colmap_available("maupertuis_photos_agree_with_the_model_shipped_with_them") {
-        return;
-    }
+/// One reconstruction of the Maupertuis sample: the worst relative rotation between
+/// two of its views against the shipped model (degrees), and the worst camera centre
+/// after the best similarity between the two frames (share of their extent).
+fn maupertuis_errors() -> (f64, f64) {
     let dir = tempfile::tempdir().unwrap();
     let sample = fixture("maupertuis");
     // The sample's own intrinsics (its cameras.txt and kapture's sensors.txt agree);
@@ -259,7 +258,26 @@ fn maupertuis_photos_agree_with_the_model_shipped_with_them() {
         "maupertuis: relative rotations within {worst_rotation:.3}°, centres within {:.3} % of their extent",
         worst_centre * 100.0
     );
-    // Measured 0.80° and 0.59 % (COLMAP 3.8, 2026-11-27); COLMAP is not bit-reproducible.
+    (worst_rotation, worst_centre)
+}
+
+#[test]
+fn maupertuis_photos_agree_with_the_model_shipped_with_them() {
+    if !colmap_available("maupertuis_photos_agree_with_the_model_shipped_with_them") {
+        return;
+    }
+    // Measured 0.25–1.02° and 0.15–0.75 % over 11 runs (COLMAP 3.8, 2026-11-27). COLMAP
+    // is not reproducible, its `random_seed` and one thread included, and one run of
+    // about ten registered a view 21° off: a reconstruction may be tried three times.
+    let within = |(rotation, centre): (f64, f64)| rotation <= 3.0 && centre <= 0.03;
+    let mut errors = maupertuis_errors();
+    for _ in 1..3 {
+        if within(errors) {
+            break;
+        }
+        errors = maupertuis_errors();
+    }
+    let (worst_rotation, worst_centre) = errors;
     assert!(
         worst_rotation <= 3.0,
         "relative rotation error {worst_rotation}°"
