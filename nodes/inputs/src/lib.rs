@@ -17,6 +17,8 @@ pub mod scannetpp;
 pub mod scene;
 pub mod sfm_nodes;
 pub mod similarity;
+pub mod stereo;
+pub mod stereo_points;
 pub mod undistort;
 pub mod video;
 

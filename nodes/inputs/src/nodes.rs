@@ -507,6 +507,7 @@ pub fn register(reg: &mut Registry) {
         Arc::new(ImportMasks),
         Arc::new(crate::sfm_nodes::ColmapSfm),
         Arc::new(crate::sfm_nodes::VideoFrames),
+        Arc::new(crate::stereo_points::StereoPoints),
     ] {
         reg.add_node(node).expect("input node kinds are unique");
     }

@@ -9,6 +9,14 @@
 //! (a wall-coloured triangle in front of the table), which the photometric loss
 //! alone leaves wherever no view shows them against a different colour. Counting
 //! on-surface points too keeps a true surface behind a stray outlier point.
+//!
+//! A sighting counts only where, in that view, some face of the model lies on the
+//! point: the camera saw through the face *to a surface the model has*. Where the
+//! model has none there, the point is an outlier or the surface is still missing,
+//! and removing the face in front opens a hole nothing refills. Scanner-like points
+//! lie on every surface, so this changes little there; structure from motion's lie
+//! where features matched, none on a plain wall, and without it the rule removed
+//! whole walls around outliers (docs/benchmarks.md, "Structure from motion").
 
 use crate::screen::projected_faces;
 use objectsplat_core::Camera;
@@ -42,8 +50,12 @@ pub fn sightings(
     world_scale: f64,
 ) -> Vec<Sightings> {
     let mut out = vec![Sightings::default(); model.face_count()];
+    // (view, pixel) of every point some face lies on, and the candidate
+    // see-through sightings, kept until the first list is complete.
+    let mut backed: Vec<(u32, u32)> = Vec::new();
+    let mut through: Vec<(u32, u32, u32)> = Vec::new();
     let mut scratch = Vec::with_capacity(model.vertex_count());
-    for &(camera, points) in views {
+    for (view, &(camera, points)) in views.iter().enumerate() {
         if points.is_empty() {
             continue;
         }
@@ -82,12 +94,20 @@ pub fn sightings(
                     let depth = depth as f64;
                     let margin = (ABSOLUTE_MARGIN * world_scale).max(RELATIVE_MARGIN * depth);
                     if face_depth < depth - margin {
-                        out[f].through += 1;
+                        through.push((view as u32, pixel, f as u32));
                     } else if face_depth <= depth + margin {
                         out[f].on += 1;
+                        backed.push((view as u32, pixel));
                     }
                 }
             }
+        }
+    }
+    backed.sort_unstable();
+    backed.dedup();
+    for (view, pixel, f) in through {
+        if backed.binary_search(&(view, pixel)).is_ok() {
+            out[f as usize].through += 1;
         }
     }
     out
@@ -155,5 +175,20 @@ mod tests {
         let s = sightings(&m, &[(&cam, &points)], 1.0);
         assert_eq!(s[1], Sightings { through: 0, on: 1 });
         assert_eq!(s[0].through + s[0].on, 0);
+    }
+
+    #[test]
+    fn a_point_behind_a_face_counts_only_where_the_model_has_a_surface_on_it() {
+        let cam = camera();
+        let mut m = model();
+        // Without the far face, the far points lie on nothing the model has: an outlier,
+        // or a surface still missing. The near face stays.
+        m.faces = vec![[3, 4, 5]];
+        let points: Vec<(u32, f32)> = [(30u32, 30u32), (32, 32), (33, 31)]
+            .iter()
+            .map(|&(x, y)| (y * 64 + x, 4.0))
+            .collect();
+        let s = sightings(&m, &[(&cam, &points)], 1.0);
+        assert_eq!(s[0], Sightings { through: 0, on: 0 });
     }
 }

@@ -123,7 +123,7 @@ node_ports! {
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("train", "10")
+        NodeSpec::new("train", "13")
             .doc(
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
@@ -299,11 +299,13 @@ impl Node for TrainNode {
         ctx.note("best_score", format!("{:.5}", report.best_score));
         ctx.note("held_out_psnr", format!("{:.2} dB", report.log.final_psnr));
         if report.log.stopped_early {
+            // A finished model's iterations include its finish, which ran after the stop.
+            let stopped_at = report.log.finished_from.unwrap_or(report.iterations_run);
             ctx.note(
                 "early_stop",
                 format!(
-                    "stopped at {} of {}, best at {}",
-                    report.iterations_run, report.log.iterations_budget, report.best_iteration
+                    "stopped at {stopped_at} of {}, best at {}",
+                    report.log.iterations_budget, report.best_iteration
                 ),
             );
         }

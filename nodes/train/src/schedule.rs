@@ -93,7 +93,7 @@ pub struct Schedule {
     /// After training, faces whose max blending weight over the training views is ≤ this are removed.
     pub final_prune_threshold: f64,
     /// A depth-supervised component (the background, by default) also loses, at
-    /// every prune and at the end, the faces its training views saw measured
+    /// every prune during training, the faces its training views saw measured
     /// points through at least this many times and more often than they saw
     /// points on them (see `crate::free_space`); 0 turns this off.
     pub free_space_min_sightings: u64,

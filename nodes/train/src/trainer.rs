@@ -943,20 +943,13 @@ pub fn train_component_with_hook(
             &render_settings(&model, settings),
         )?,
     };
-    let floats = floating(&model, runner.seen_points());
+    // Free space is left to the prunes during training: a face removed here leaves a
+    // hole nothing refills, and on structure from motion's points these removals cost
+    // 0.8 dB (docs/benchmarks.md, "Structure from motion").
     let keep: Vec<bool> = max_weight
         .iter()
-        .enumerate()
-        .map(|(f, &w)| {
-            w as f64 > s.final_prune_threshold && !floats.as_ref().is_some_and(|fl| fl[f])
-        })
+        .map(|&w| w as f64 > s.final_prune_threshold)
         .collect();
-    if let Some(fl) = &floats {
-        notes.push(format!(
-            "free space: {} faces the training views saw measured points through",
-            fl.iter().filter(|&&f| f).count()
-        ));
-    }
     let removed = keep.iter().filter(|k| !**k).count();
     if removed == keep.len() {
         // Short runs end before opacities saturate; an empty model helps no one.
