@@ -74,11 +74,11 @@ pub fn inpaint_background(
             .map(|&v| u8::from(v == OTHER))
             .collect();
         let path = frames.image_path(frame);
-        let rgb = read_rgb8_sized(&path, frame.width, frame.height)?;
+        let rgb = read_rgb8_sized(&path, frame.camera.width, frame.camera.height)?;
         requests.push(FillRequest {
             stem: frame_stem(&frame.name).to_string(),
-            width: frame.width,
-            height: frame.height,
+            width: frame.camera.width,
+            height: frame.camera.height,
             rgb,
             mask,
         });

@@ -249,11 +249,15 @@ pub(crate) fn surface_points(
                     let Some((u, v, _)) = camera.project(world) else {
                         continue;
                     };
-                    if u < 0.0 || v < 0.0 || u >= frame.width as f64 || v >= frame.height as f64 {
+                    if u < 0.0
+                        || v < 0.0
+                        || u >= frame.camera.width as f64
+                        || v >= frame.camera.height as f64
+                    {
                         continue;
                     }
                     // Pixel (i, j) covers [i, i+1) × [j, j+1) in the COLMAP convention.
-                    count(i, v as usize * frame.width as usize + u as usize);
+                    count(i, v as usize * frame.camera.width as usize + u as usize);
                 }
             }
         }
@@ -422,7 +426,7 @@ fn complete_one(
     frame: &Frame,
     params: &SurfaceParams,
 ) -> Result<Option<FrameCompletion>> {
-    let (w, h) = (frame.width as usize, frame.height as usize);
+    let (w, h) = (frame.camera.width as usize, frame.camera.height as usize);
     let support = surface.load_mask(frame)?;
     let mut occluded = vec![false; w * h];
     for other in components {
@@ -437,7 +441,7 @@ fn complete_one(
         }
     }
     let image_path = surface.frames.image_path(frame);
-    let rgb = read_rgb8_sized(&image_path, frame.width, frame.height)?;
+    let rgb = read_rgb8_sized(&image_path, frame.camera.width, frame.camera.height)?;
     complete_frame(&support, &occluded, &rgb, w, h, params).with_context(|| {
         format!(
             "{}: completing frame {:?}",

@@ -132,8 +132,8 @@ fn points_on_rays_to(height: f64, bump: f64) -> Points {
     {
         let ray = rot_t
             * DVec3::new(
-                (x as f64 + 0.5 - frame.cx) / frame.fx,
-                (y as f64 + 0.5 - frame.cy) / frame.fy,
+                (x as f64 + 0.5 - frame.camera.cx) / frame.camera.fx,
+                (y as f64 + 0.5 - frame.camera.cy) / frame.camera.fy,
                 1.0,
             );
         let s = (height - centre.z) / ray.z;

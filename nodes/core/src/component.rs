@@ -117,7 +117,7 @@ impl ComponentFolder {
     /// [`ComponentFolder::load_mask`] as runs.
     pub fn load_labels(&self, frame: &Frame) -> Result<LabelRuns> {
         let mask = self.load_mask(frame)?;
-        LabelRuns::from_plane(frame.width, frame.height, &mask)
+        LabelRuns::from_plane(frame.camera.width, frame.camera.height, &mask)
             .with_context(|| mask_path(&self.dir, frame).display().to_string())
     }
 
@@ -127,7 +127,7 @@ impl ComponentFolder {
         if !path.exists() {
             return Ok(None);
         }
-        read_rgb8_sized(&path, frame.width, frame.height).map(Some)
+        read_rgb8_sized(&path, frame.camera.width, frame.camera.height).map(Some)
     }
 }
 
@@ -145,14 +145,18 @@ pub fn target_path(dir: &Path, frame: &Frame) -> PathBuf {
 
 /// The [`OWN`]/[`OTHER`]/[`IGNORE`] mask of `frame`, checked against the frame's size.
 pub fn read_mask(dir: &Path, frame: &Frame) -> Result<Vec<u8>> {
-    read_gray8(&mask_path(dir, frame), frame.width, frame.height)
+    read_gray8(
+        &mask_path(dir, frame),
+        frame.camera.width,
+        frame.camera.height,
+    )
 }
 
 /// Writes the mask of `frame` (creating `masks/`), replacing any file already there.
 pub fn write_mask(dir: &Path, frame: &Frame, mask: &[u8]) -> Result<()> {
     let path = mask_path(dir, frame);
     create_parent(&path)?;
-    write_gray8(&path, mask, frame.width, frame.height)
+    write_gray8(&path, mask, frame.camera.width, frame.camera.height)
 }
 
 /// Writes the completed target colours (8-bit RGB) of `frame` (creating `targets/`),
@@ -160,7 +164,7 @@ pub fn write_mask(dir: &Path, frame: &Frame, mask: &[u8]) -> Result<()> {
 pub fn write_target(dir: &Path, frame: &Frame, rgb: &[u8]) -> Result<()> {
     let path = target_path(dir, frame);
     create_parent(&path)?;
-    write_rgb8(&path, rgb, frame.width, frame.height)
+    write_rgb8(&path, rgb, frame.camera.width, frame.camera.height)
 }
 
 fn create_parent(path: &Path) -> Result<()> {

@@ -52,13 +52,9 @@ impl SplitPolicy {
 pub struct Frame {
     pub name: String,
     pub image: String,
-    pub width: u32,
-    pub height: u32,
-    pub fx: f64,
-    pub fy: f64,
-    pub cx: f64,
-    pub cy: f64,
-    pub world_to_camera: [[f64; 4]; 4],
+    /// Written as the entry's own `width` … `world_to_camera` fields.
+    #[serde(flatten)]
+    pub camera: Camera,
     pub split: Split,
 }
 
@@ -72,27 +68,13 @@ impl Frame {
         Frame {
             name: name.into(),
             image: image.into(),
-            width: camera.width,
-            height: camera.height,
-            fx: camera.fx,
-            fy: camera.fy,
-            cx: camera.cx,
-            cy: camera.cy,
-            world_to_camera: camera.world_to_camera,
+            camera: *camera,
             split,
         }
     }
 
     pub fn camera(&self) -> Camera {
-        Camera {
-            width: self.width,
-            height: self.height,
-            fx: self.fx,
-            fy: self.fy,
-            cx: self.cx,
-            cy: self.cy,
-            world_to_camera: self.world_to_camera,
-        }
+        self.camera
     }
 }
 
@@ -144,14 +126,14 @@ impl Frames {
     pub fn load_rgb(&self, frame: &Frame) -> Result<Image> {
         let path = self.image_path(frame);
         let img = Image::load(&path)?.to_rgb();
-        if img.width != frame.width || img.height != frame.height {
+        if img.width != frame.camera.width || img.height != frame.camera.height {
             bail!(
                 "{}: image is {}×{} but frames.json says {}×{}",
                 path.display(),
                 img.width,
                 img.height,
-                frame.width,
-                frame.height
+                frame.camera.width,
+                frame.camera.height
             );
         }
         Ok(img)

@@ -249,7 +249,10 @@ pub fn import_with_budget(
             match masks {
                 FrameMasks::Missing => {
                     summary.frames_without_masks.push(frame.name.clone());
-                    (vec![None; (frame.width * frame.height) as usize], vec![])
+                    (
+                        vec![None; (frame.camera.width * frame.camera.height) as usize],
+                        vec![],
+                    )
                 }
                 FrameMasks::Exclusive { ids, labels } => {
                     let found: Vec<(SourceKey, String)> =
@@ -275,7 +278,7 @@ pub fn import_with_budget(
         for (key, label) in frame_labels {
             labels.entry(key).or_insert(label);
         }
-        let mut map = IdMap::new(frame.width, frame.height);
+        let mut map = IdMap::new(frame.camera.width, frame.camera.height);
         let mut area_by_id = vec![0u64; keys_in_order.len() + 1];
         // Runs of one key are long; remember the last lookup instead of hashing every pixel.
         let mut last: Option<(SourceKey, u16)> = None;
@@ -415,7 +418,8 @@ fn resolve(
             });
         }
     }
-    let mut map: Vec<Option<SourceKey>> = vec![None; (frame.width * frame.height) as usize];
+    let mut map: Vec<Option<SourceKey>> =
+        vec![None; (frame.camera.width * frame.camera.height) as usize];
     let mut overlaps = 0u64;
     for c in &cands {
         for (px, &set) in c.mask.data.iter().enumerate() {
@@ -439,7 +443,7 @@ fn fit_to_frame<T: Copy>(
     frame: &Frame,
     origin: &Path,
 ) -> Result<Vec<T>> {
-    let (fw, fh) = (frame.width, frame.height);
+    let (fw, fh) = (frame.camera.width, frame.camera.height);
     if (w, h) == (fw, fh) {
         return Ok(data);
     }
@@ -464,8 +468,8 @@ fn fit_to_frame<T: Copy>(
 fn binary(data: Vec<bool>, w: u32, h: u32, frame: &Frame, origin: &Path) -> Result<BinaryMask> {
     let data = fit_to_frame(data, w, h, frame, origin)?;
     Ok(BinaryMask {
-        width: frame.width,
-        height: frame.height,
+        width: frame.camera.width,
+        height: frame.camera.height,
         data,
     })
 }

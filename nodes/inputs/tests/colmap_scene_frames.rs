@@ -43,14 +43,14 @@ fn frames_are_sorted_split_and_downscaled() {
         let (lens, distortion) = cam.lens().unwrap();
         assert_eq!(distortion, None);
         let (fx, fy, cx, cy) = (lens.fx, lens.fy, lens.cx, lens.cy);
-        assert_eq!((f.width, f.height), (32, 24));
+        assert_eq!((f.camera.width, f.camera.height), (32, 24));
         assert_eq!(
-            (f.fx, f.fy, f.cx, f.cy),
+            (f.camera.fx, f.camera.fy, f.camera.cx, f.camera.cy),
             (fx / 2.0, fy / 2.0, cx / 2.0, cy / 2.0),
             "{}",
             f.name
         );
-        assert_eq!(f.world_to_camera, img.pose.matrix());
+        assert_eq!(f.camera.world_to_camera, img.pose.matrix());
         // A 2×2 box average of the source image.
         let src = objectsplat_core::Image::load(&fixture("images").join(&f.name)).unwrap();
         let got = frames.load_rgb(f).unwrap();

@@ -39,7 +39,7 @@ fn colmap_scene_writes_frames_and_points() {
         frames
             .frames
             .iter()
-            .all(|f| (f.width, f.height) == (32, 24))
+            .all(|f| (f.camera.width, f.camera.height) == (32, 24))
     );
     let pts = Points::read_ply(&run.outputs["points"].join(POINTS_PLY)).unwrap();
     assert_eq!(pts.positions.len(), 6);

@@ -331,7 +331,10 @@ fn nerfstudio_scene_reads_the_scannetpp_json_with_an_images_folder() {
     assert_eq!(ours.frames.len(), 3);
     for (a, b) in ours.frames.iter().zip(&reference.frames) {
         assert_eq!((&a.name, a.split), (&b.name, b.split));
-        assert_eq!((a.fx, a.fy, a.cx, a.cy), (b.fx, b.fy, b.cx, b.cy));
+        assert_eq!(
+            (a.camera.fx, a.camera.fy, a.camera.cx, a.camera.cy),
+            (b.camera.fx, b.camera.fy, b.camera.cx, b.camera.cy)
+        );
         let gap = (a.camera().center() - b.camera().center()).length();
         assert!(gap < 1e-3, "{}: camera centres {gap} m apart", a.name);
         let turn = (a.camera().rotation() - b.camera().rotation())
@@ -480,7 +483,14 @@ fn without_undistorted_images_the_fisheye_ones_are_undistorted_here() {
     .unwrap();
     for f in &frames.frames {
         assert_eq!(
-            (f.width, f.height, f.fx, f.fy, f.cx, f.cy),
+            (
+                f.camera.width,
+                f.camera.height,
+                f.camera.fx,
+                f.camera.fy,
+                f.camera.cx,
+                f.camera.cy
+            ),
             (want.width, want.height, want.fx, want.fy, want.cx, want.cy)
         );
     }

@@ -31,14 +31,19 @@ fn assert_matches(model: &str, frames_dir: &Path) {
     assert_eq!(frames.frames.len(), 1, "{model}");
     let f = &frames.frames[0];
     assert_eq!(
-        (f.width as u64, f.height as u64),
+        (f.camera.width as u64, f.camera.height as u64),
         (
             want["width"].as_u64().unwrap(),
             want["height"].as_u64().unwrap()
         ),
         "{model}: size"
     );
-    for (got, key) in [(f.fx, "fx"), (f.fy, "fy"), (f.cx, "cx"), (f.cy, "cy")] {
+    for (got, key) in [
+        (f.camera.fx, "fx"),
+        (f.camera.fy, "fy"),
+        (f.camera.cx, "cx"),
+        (f.camera.cy, "cy"),
+    ] {
         let w = want[key].as_f64().unwrap();
         assert!((got - w).abs() < 1e-9, "{model}: {key} = {got}, COLMAP {w}");
     }
@@ -127,9 +132,9 @@ fn downscaling_follows_undistortion() {
     let f = &frames.frames[0];
     let want = &expected()["OPENCV_FISHEYE"]["undistorted"];
     // 135×84 → 45×28: intrinsics follow the pixel grid of the undistorted camera.
-    assert_eq!((f.width, f.height), (45, 28));
-    assert!((f.fx - want["fx"].as_f64().unwrap() / 3.0).abs() < 1e-9);
-    assert!((f.cx - want["cx"].as_f64().unwrap() * 45.0 / 135.0).abs() < 1e-9);
+    assert_eq!((f.camera.width, f.camera.height), (45, 28));
+    assert!((f.camera.fx - want["fx"].as_f64().unwrap() / 3.0).abs() < 1e-9);
+    assert!((f.camera.cx - want["cx"].as_f64().unwrap() * 45.0 / 135.0).abs() < 1e-9);
 }
 
 #[test]

@@ -223,15 +223,15 @@ pub fn read_masks(masks_dir: &Path, frames: &[Frame]) -> Result<(Vec<IdMap>, Obj
             bail!("{}: no mask for frame {:?}", path.display(), frame.name);
         }
         let map = IdMap::load(&path)?;
-        if (map.width, map.height) != (frame.width, frame.height) {
+        if (map.width, map.height) != (frame.camera.width, frame.camera.height) {
             bail!(
                 "{}: mask is {}×{} but frame {:?} is {}×{}",
                 path.display(),
                 map.width,
                 map.height,
                 frame.name,
-                frame.width,
-                frame.height
+                frame.camera.width,
+                frame.camera.height
             );
         }
         maps.push(map);
@@ -255,7 +255,7 @@ pub fn partition_folders(
             frames
                 .frames
                 .iter()
-                .map(|f| IdMap::new(f.width, f.height))
+                .map(|f| IdMap::new(f.camera.width, f.camera.height))
                 .collect(),
             ObjectLabels::new(),
         )

@@ -106,17 +106,12 @@ struct ProjectedVertex {
     inv_z: f32,
 }
 
-/// Projection constants shared by both paths.
+/// Projection constants shared by both paths: the camera, and its pose unpacked once.
 #[derive(Debug, Clone, Copy)]
 struct Projector {
+    camera: Camera,
     rotation: [[f64; 3]; 3],
     translation: [f64; 3],
-    fx: f64,
-    fy: f64,
-    cx: f64,
-    cy: f64,
-    width: u32,
-    height: u32,
     near: f64,
 }
 
@@ -130,12 +125,7 @@ impl Projector {
                 [m[2][0], m[2][1], m[2][2]],
             ],
             translation: [m[0][3], m[1][3], m[2][3]],
-            fx: camera.fx,
-            fy: camera.fy,
-            cx: camera.cx,
-            cy: camera.cy,
-            width: camera.width,
-            height: camera.height,
+            camera: *camera,
             near,
         }
     }
@@ -155,17 +145,17 @@ impl Projector {
     #[inline]
     fn pixel_coords(&self, c: [f64; 3]) -> (f64, f64) {
         (
-            self.fx * c[0] / c[2] + self.cx,
-            self.fy * c[1] / c[2] + self.cy,
+            self.camera.fx * c[0] / c[2] + self.camera.cx,
+            self.camera.fy * c[1] / c[2] + self.camera.cy,
         )
     }
 
     #[inline]
     fn inside_guard(&self, u: f64, v: f64) -> bool {
         u >= -GUARD_BAND_PX
-            && u <= self.width as f64 + GUARD_BAND_PX
+            && u <= self.camera.width as f64 + GUARD_BAND_PX
             && v >= -GUARD_BAND_PX
-            && v <= self.height as f64 + GUARD_BAND_PX
+            && v <= self.camera.height as f64 + GUARD_BAND_PX
     }
 
     fn project_vertex(&self, p: [f32; 3]) -> ProjectedVertex {
@@ -189,10 +179,20 @@ impl Projector {
         let g = GUARD_BAND_PX;
         [
             [0.0, 0.0, 1.0, -self.near],
-            [self.fx, 0.0, self.cx + g, 0.0],
-            [-self.fx, 0.0, self.width as f64 + g - self.cx, 0.0],
-            [0.0, self.fy, self.cy + g, 0.0],
-            [0.0, -self.fy, self.height as f64 + g - self.cy, 0.0],
+            [self.camera.fx, 0.0, self.camera.cx + g, 0.0],
+            [
+                -self.camera.fx,
+                0.0,
+                self.camera.width as f64 + g - self.camera.cx,
+                0.0,
+            ],
+            [0.0, self.camera.fy, self.camera.cy + g, 0.0],
+            [
+                0.0,
+                -self.camera.fy,
+                self.camera.height as f64 + g - self.camera.cy,
+                0.0,
+            ],
         ]
     }
 }
@@ -397,10 +397,10 @@ fn push_screen_triangle(
     }
     let xs = [v[0].xy[0], v[1].xy[0], v[2].xy[0]];
     let ys = [v[0].xy[1], v[1].xy[1], v[2].xy[1]];
-    let (Some(x0), Some(x1)) = pixel_span(xs, p.width) else {
+    let (Some(x0), Some(x1)) = pixel_span(xs, p.camera.width) else {
         return;
     };
-    let (Some(y0), Some(y1)) = pixel_span(ys, p.height) else {
+    let (Some(y0), Some(y1)) = pixel_span(ys, p.camera.height) else {
         return;
     };
     // Vertices inside the guard band fit i32 and image coordinates fit u16 (both

@@ -187,7 +187,10 @@ fn frames_follow_the_split_and_images_have_the_declared_size() {
             train
         );
         for (f, img) in s.frames.iter().zip(&s.images) {
-            assert_eq!((f.width, f.height, img.width, img.height), (32, 24, 32, 24));
+            assert_eq!(
+                (f.camera.width, f.camera.height, img.width, img.height),
+                (32, 24, 32, 24)
+            );
             assert_eq!(
                 f.name,
                 format!(

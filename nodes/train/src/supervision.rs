@@ -243,7 +243,7 @@ impl ComponentData {
 /// One frame of a Component folder as a compact [`View`].
 fn read_view(folder: &ComponentFolder, frame: &objectsplat_core::Frame) -> Result<View> {
     let labels = folder.load_labels(frame)?;
-    let (w, h) = (frame.width, frame.height);
+    let (w, h) = (frame.camera.width, frame.camera.height);
     // An object's target differs from the background colour only on its own pixels.
     let window = match folder.info.kind {
         ComponentKind::Object => labels.bounds(|l| l == OWN).unwrap_or([0; 4]),

@@ -639,7 +639,7 @@ fn vertex_colours(
     let mut counts = vec![0u32; positions.len()];
     for frame in &surface.frames.frames {
         let camera = frame.camera();
-        let (w, h) = (frame.width as usize, frame.height as usize);
+        let (w, h) = (frame.camera.width as usize, frame.camera.height as usize);
         let pixels: Vec<Option<usize>> = positions
             .iter()
             .map(|&p| {
@@ -661,7 +661,7 @@ fn vertex_colours(
         } else {
             surface.frames.image_path(frame)
         };
-        let rgb = read_rgb8_sized(&source, frame.width, frame.height)?;
+        let rgb = read_rgb8_sized(&source, frame.camera.width, frame.camera.height)?;
         let mut used = false;
         for (k, pixel) in pixels.iter().enumerate() {
             if let Some(p) = *pixel
