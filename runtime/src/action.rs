@@ -3,7 +3,7 @@
 
 use crate::job::{Job, JobError, JobOutcome, MAX_FAILURE_TEXT, RunOptions, Timing, cached};
 use crate::keys::{compute_key, params_key};
-use crate::node::{Context, InputValue, Outcome, TypeRef};
+use crate::node::{Context, InputValue, Outcome, PortFolders, TypeRef};
 use crate::plan::Plan;
 use crate::report::Status;
 use crate::store::{ActionRecord, Corrupt, Manifest, RanOn, Store, short};
@@ -137,8 +137,10 @@ pub(crate) fn execute_inner(
         let mut ctx = Context {
             job: job.label.clone(),
             item: job.item.as_ref().map(|(n, _)| n.clone()),
-            inputs,
-            outputs: outputs.clone(),
+            folders: PortFolders {
+                inputs,
+                outputs: outputs.clone(),
+            },
             forwarded: BTreeMap::new(),
             params: &node.params,
             notes: vec![],

@@ -31,7 +31,7 @@ pub mod value;
 pub use diag::{Diagnostic, Diagnostics};
 pub use node::{
     CheckedInput, Context, DeclaredPorts, InputValue, Node, NodeSpec, Outcome, ParamError,
-    PortSpec, ProgressSink, TypeRef,
+    PortFolders, PortSpec, ProgressSink, TypeRef,
 };
 pub use params::{NodeParams, ParamSpec, ParamType, Params};
 pub use ports::{Items, NodePorts};

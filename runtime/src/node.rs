@@ -5,7 +5,7 @@
 //! documented encoding of its type (see docs/artifacts.md).
 
 use crate::params::{ParamSpec, ParamType, Params};
-use anyhow::{Result, anyhow, bail};
+use anyhow::{Result, anyhow};
 use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
@@ -281,17 +281,7 @@ pub trait Node: Send + Sync {
     }
 }
 
-/// An input as the node sees it.
-#[derive(Debug, Clone)]
-pub enum InputValue {
-    /// One artifact: its folder.
-    One(PathBuf),
-    /// A collection: a folder with one sub-folder per item, plus the items in order.
-    Items {
-        dir: PathBuf,
-        items: Vec<(String, PathBuf)>,
-    },
-}
+pub use objectsplat_plugin_abi::folders::{InputValue, PortFolders};
 
 /// Receives progress from running nodes (the CLI draws bars from it): `done` of `total`
 /// units of the kind of work `what` names (see [`Context::progress`]).
@@ -309,8 +299,7 @@ impl ProgressSink for NoProgress {
 pub struct Context<'a> {
     pub(crate) job: String,
     pub(crate) item: Option<String>,
-    pub(crate) inputs: BTreeMap<String, InputValue>,
-    pub(crate) outputs: BTreeMap<String, PathBuf>,
+    pub(crate) folders: PortFolders,
     pub(crate) forwarded: BTreeMap<String, String>,
     pub(crate) params: &'a Params,
     pub(crate) notes: Vec<(String, String)>,
@@ -326,51 +315,29 @@ pub struct Context<'a> {
 impl<'a> Context<'a> {
     /// The folder of a single-artifact input (or of the item, under fan-out).
     pub fn input(&self, port: &str) -> Result<&Path> {
-        match self.inputs.get(port) {
-            Some(InputValue::One(p)) => Ok(p),
-            Some(InputValue::Items { .. }) => {
-                bail!("input `{port}` is a collection; use input_items")
-            }
-            None => bail!("input `{port}` is not connected"),
-        }
+        self.folders.input(port)
     }
 
     /// `None` when an optional input is not wired.
     pub fn input_opt(&self, port: &str) -> Option<&Path> {
-        match self.inputs.get(port) {
-            Some(InputValue::One(p)) => Some(p),
-            Some(InputValue::Items { dir, .. }) => Some(dir),
-            None => None,
-        }
+        self.folders.input_opt(port)
     }
 
     /// The items of a collection input, in order: (item name, folder).
     pub fn input_items(&self, port: &str) -> Result<&[(String, PathBuf)]> {
-        match self.inputs.get(port) {
-            Some(InputValue::Items { items, .. }) => Ok(items),
-            Some(InputValue::One(_)) => bail!("input `{port}` is a single artifact; use input"),
-            None => bail!("input `{port}` is not connected"),
-        }
+        self.folders.input_items(port)
     }
 
     /// The empty folder to write an output into. For a collection output (`[T]`),
     /// write one sub-folder per item, named by the item.
     pub fn output(&self, port: &str) -> Result<PathBuf> {
-        self.outputs
-            .get(port)
-            .cloned()
-            .ok_or_else(|| anyhow!("node has no output `{port}`"))
+        self.folders.output(port)
     }
 
     /// Makes an output the very same artifact as an input (no copy), e.g. when a
     /// node passes data through unchanged.
     pub fn forward(&mut self, input: &str, output: &str) -> Result<()> {
-        if !self.inputs.contains_key(input) {
-            bail!("cannot forward: input `{input}` is not connected");
-        }
-        if !self.outputs.contains_key(output) {
-            bail!("cannot forward: no output `{output}`");
-        }
+        self.folders.check_forward(input, output)?;
         self.forwarded.insert(output.to_string(), input.to_string());
         Ok(())
     }

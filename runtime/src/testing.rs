@@ -1,6 +1,6 @@
 //! Running one node outside a graph, for node crates' own tests.
 
-use crate::node::{Context, InputValue, NoProgress, Node, Outcome};
+use crate::node::{Context, InputValue, NoProgress, Node, Outcome, PortFolders};
 use crate::params::Params;
 use crate::syntax;
 use crate::value::Value;
@@ -105,8 +105,10 @@ pub fn run_node(
     let mut ctx = Context {
         job: spec.kind.clone(),
         item: item.map(str::to_string),
-        inputs: input_map,
-        outputs: outputs.clone(),
+        folders: PortFolders {
+            inputs: input_map,
+            outputs: outputs.clone(),
+        },
         forwarded: BTreeMap::new(),
         params: &params,
         notes: vec![],

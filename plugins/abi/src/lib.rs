@@ -4,4 +4,5 @@
 //! declares the same structs and messages (docs/plugins.md).
 
 pub mod abi;
+pub mod folders;
 pub mod protocol;

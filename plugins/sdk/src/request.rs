@@ -2,13 +2,11 @@
 
 use crate::abi::HostV1;
 use crate::protocol::{InputArg, RunRequest};
-use anyhow::{Context as _, Result, anyhow, bail};
+use anyhow::{Context as _, Result, anyhow};
+use objectsplat_plugin_abi::folders::{InputValue, PortFolders};
 use serde::de::DeserializeOwned;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-
-/// An input's folder, plus the `(item name, item folder)` list of a collection.
-type InputFolders = (PathBuf, Option<Vec<(String, PathBuf)>>);
 
 /// One node run. Mirrors the engine's `Context` so built-in nodes port over easily.
 pub struct Request<'h> {
@@ -17,8 +15,7 @@ pub struct Request<'h> {
     item: Option<String>,
     threads: usize,
     scratch: PathBuf,
-    inputs: BTreeMap<String, InputFolders>,
-    outputs: BTreeMap<String, PathBuf>,
+    folders: PortFolders,
     params: BTreeMap<String, String>,
     host: Option<&'h HostV1>,
     pub(crate) notes: Vec<(String, String)>,
@@ -33,9 +30,18 @@ impl<'h> Request<'h> {
             .inputs
             .into_iter()
             .map(|(port, InputArg { dir, items })| {
-                let items =
-                    items.map(|v| v.into_iter().map(|(n, p)| (n, PathBuf::from(p))).collect());
-                (port, (PathBuf::from(dir), items))
+                let dir = PathBuf::from(dir);
+                let value = match items {
+                    Some(items) => InputValue::Items {
+                        dir,
+                        items: items
+                            .into_iter()
+                            .map(|(n, p)| (n, PathBuf::from(p)))
+                            .collect(),
+                    },
+                    None => InputValue::One(dir),
+                };
+                (port, value)
             })
             .collect();
         Request {
@@ -44,12 +50,14 @@ impl<'h> Request<'h> {
             item: msg.item,
             threads: msg.threads.max(1),
             scratch: PathBuf::from(msg.scratch),
-            inputs,
-            outputs: msg
-                .outputs
-                .into_iter()
-                .map(|(k, v)| (k, PathBuf::from(v)))
-                .collect(),
+            folders: PortFolders {
+                inputs,
+                outputs: msg
+                    .outputs
+                    .into_iter()
+                    .map(|(k, v)| (k, PathBuf::from(v)))
+                    .collect(),
+            },
             params: msg.params,
             host,
             notes: vec![],
@@ -104,33 +112,22 @@ impl<'h> Request<'h> {
 
     /// The folder of a single-artifact input (or of the item, under fan-out).
     pub fn input(&self, port: &str) -> Result<&Path> {
-        match self.inputs.get(port) {
-            Some((dir, None)) => Ok(dir),
-            Some((_, Some(_))) => bail!("input `{port}` is a collection; use input_items"),
-            None => bail!("input `{port}` is not connected"),
-        }
+        self.folders.input(port)
     }
 
     /// `None` when an optional input is not wired.
     pub fn input_opt(&self, port: &str) -> Option<&Path> {
-        self.inputs.get(port).map(|(dir, _)| dir.as_path())
+        self.folders.input_opt(port)
     }
 
     /// The items of a collection input, in order: (item name, folder).
     pub fn input_items(&self, port: &str) -> Result<&[(String, PathBuf)]> {
-        match self.inputs.get(port) {
-            Some((_, Some(items))) => Ok(items),
-            Some((_, None)) => bail!("input `{port}` is a single artifact; use input"),
-            None => bail!("input `{port}` is not connected"),
-        }
+        self.folders.input_items(port)
     }
 
     /// The empty folder to write an output into (for `[T]`: one sub-folder per item).
     pub fn output(&self, port: &str) -> Result<PathBuf> {
-        self.outputs
-            .get(port)
-            .cloned()
-            .ok_or_else(|| anyhow!("node has no output `{port}`"))
+        self.folders.output(port)
     }
 
     /// The canonical RON text of a param.
@@ -182,12 +179,7 @@ impl<'h> Request<'h> {
 
     /// Makes an output the very same artifact as an input (no copy).
     pub fn forward(&mut self, input: &str, output: &str) -> Result<()> {
-        if !self.inputs.contains_key(input) {
-            bail!("cannot forward: input `{input}` is not connected");
-        }
-        if !self.outputs.contains_key(output) {
-            bail!("cannot forward: no output `{output}`");
-        }
+        self.folders.check_forward(input, output)?;
         self.forwards.push((input.to_string(), output.to_string()));
         Ok(())
     }

@@ -148,7 +148,7 @@ fn utf8(path: &Path) -> Result<String> {
 
 fn request(kind: &str, ctx: &Context) -> Result<RunRequest> {
     let mut inputs = std::collections::BTreeMap::new();
-    for (port, value) in &ctx.inputs {
+    for (port, value) in &ctx.folders.inputs {
         let arg = match value {
             InputValue::One(dir) => InputArg {
                 dir: utf8(dir)?,
@@ -174,6 +174,7 @@ fn request(kind: &str, ctx: &Context) -> Result<RunRequest> {
         scratch: utf8(&ctx.scratch)?,
         inputs,
         outputs: ctx
+            .folders
             .outputs
             .iter()
             .map(|(k, p)| Ok((k.clone(), utf8(p)?)))
