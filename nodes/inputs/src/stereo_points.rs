@@ -6,7 +6,10 @@ use crate::stereo::{StereoSettings, StereoView, dense_points};
 use anyhow::{Context as _, Result, bail};
 use objectsplat_core::artifact::POINTS_PLY;
 use objectsplat_core::{Frames, Points, Split};
-use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, node_params, node_ports};
+use objectsplat_runtime::{
+    Context, Node, NodeParams, NodeSpec, Outcome, ParamError, ParamType, Params, node_params,
+    node_ports,
+};
 
 node_params! {
     /// The parameters of `stereo_points`.
@@ -73,6 +76,33 @@ impl Node for StereoPoints {
             .doc("Dense points from posed photos by plane-sweep stereo on the CPU, for captures whose only points are structure from motion's (features match where texture is, so plain walls and floors get few). Each training view is matched against its best neighbours by triangulation angle over fronto-parallel planes in the depth range of the sparse points it sees (normalised cross-correlation, the best half of the neighbours averaged); a depth is kept where enough neighbours' depth maps agree, and the points are averaged on a voxel grid. Test views are never read. Output: the sparse points, then the dense ones.")
             .ports::<StereoPointsPorts>()
             .params::<StereoPointsParams>()
+    }
+
+    fn check_params(&self, params: &Params) -> Vec<ParamError> {
+        let Ok(p) = StereoPointsParams::try_read(params) else {
+            // Ill-typed params are reported by the engine's type check.
+            return Vec::new();
+        };
+        let mut problems = Vec::new();
+        if p.window % 2 == 0 {
+            problems.push(ParamError::new(
+                "window",
+                format!(
+                    "{} is even; the window is centred on a pixel, so its side must be odd",
+                    p.window
+                ),
+            ));
+        }
+        if p.min_consistent > p.neighbours {
+            problems.push(ParamError::new(
+                "min_consistent",
+                format!(
+                    "{} exceeds `neighbours` ({}): a depth is checked against that many views at most",
+                    p.min_consistent, p.neighbours
+                ),
+            ));
+        }
+        problems
     }
 
     fn run(&self, ctx: &mut Context) -> Result<Outcome> {
