@@ -17,6 +17,7 @@
 
 use anyhow::{Result, bail};
 use glam::{DMat3, DVec3};
+use objectsplat_core::geometry::bounding_box;
 use objectsplat_core::{Camera, Image, Points};
 use std::collections::BTreeMap;
 use std::sync::Mutex;
@@ -163,9 +164,20 @@ pub fn dense_points(
         _ => DepthMap::empty(views[r].camera.width, views[r].camera.height),
     });
 
+    let posed: Vec<Posed> = views.iter().map(|v| Posed::new(&v.camera)).collect();
     let mut grid = VoxelGrid::new(&sparse_world, settings.max_points);
     let kept = (0..views.len())
-        .map(|r| consistent_points(views, &depth_maps, r, &neighbours[r], settings, &mut grid))
+        .map(|r| {
+            consistent_points(
+                views,
+                &posed,
+                &depth_maps,
+                r,
+                &neighbours[r],
+                settings,
+                &mut grid,
+            )
+        })
         .collect();
     let (points, voxel) = grid.into_points(settings.max_points);
     Ok(StereoResult {
@@ -452,7 +464,8 @@ fn sweep(
         })
         .collect();
 
-    let (r_r, t_r) = (cam.rotation(), cam.translation());
+    let reference = Posed::new(cam);
+    let (r_r, t_r) = (reference.rotation, reference.translation);
     let warps: Vec<Warp> = neighbours
         .iter()
         .map(|&n| {
@@ -466,14 +479,7 @@ fn sweep(
             let t_nr = oc.translation() - r_nr * t_r;
             let m = k_n * r_nr;
             let a = (0..n_px)
-                .map(|p| {
-                    let ray = DVec3::new(
-                        ((p % w) as f64 + 0.5 - cam.cx) / cam.fx,
-                        ((p / w) as f64 + 0.5 - cam.cy) / cam.fy,
-                        1.0,
-                    );
-                    (m * ray).as_vec3().to_array()
-                })
+                .map(|p| (m * reference.ray(p)).as_vec3().to_array())
                 .collect();
             Warp {
                 rays: a,
@@ -604,15 +610,63 @@ fn ncc(sg: f32, sgg: f32, sw: f32, sww: f32, sgw: f32, n: f32) -> f32 {
     ((sgw - sg * sw / n) / (var_g * var_w).sqrt()).clamp(-1.0, 1.0)
 }
 
-/// The back-projection of pixel `p` of `camera` at `depth`.
-fn back_project(camera: &Camera, p: usize, depth: f64) -> DVec3 {
-    let w = camera.width as usize;
-    let ray = DVec3::new(
-        ((p % w) as f64 + 0.5 - camera.cx) / camera.fx,
-        ((p / w) as f64 + 0.5 - camera.cy) / camera.fy,
-        1.0,
-    );
-    camera.rotation().transpose() * (ray * depth - camera.translation())
+/// A camera with its pose unpacked once: the consistency check projects and
+/// back-projects every pixel into several views, and `Camera` rebuilds its rotation
+/// matrix on each call.
+struct Posed {
+    camera: Camera,
+    rotation: DMat3,
+    translation: DVec3,
+}
+
+impl Posed {
+    fn new(camera: &Camera) -> Posed {
+        Posed {
+            camera: *camera,
+            rotation: camera.rotation(),
+            translation: camera.translation(),
+        }
+    }
+
+    /// The camera-space ray through pixel `p`'s centre, at depth 1.
+    fn ray(&self, p: usize) -> DVec3 {
+        let (c, w) = (&self.camera, self.camera.width as usize);
+        DVec3::new(
+            ((p % w) as f64 + 0.5 - c.cx) / c.fx,
+            ((p / w) as f64 + 0.5 - c.cy) / c.fy,
+            1.0,
+        )
+    }
+
+    /// The world point at `depth` along pixel `p`'s ray.
+    fn back_project(&self, p: usize, depth: f64) -> DVec3 {
+        self.rotation.transpose() * (self.ray(p) * depth - self.translation)
+    }
+
+    /// Continuous pixel coordinates and depth of a world point; None behind the camera.
+    fn project(&self, x: DVec3) -> Option<(f64, f64, f64)> {
+        let c = self.rotation * x + self.translation;
+        if c.z <= 0.0 {
+            return None;
+        }
+        let cam = &self.camera;
+        Some((
+            cam.fx * c.x / c.z + cam.cx,
+            cam.fy * c.y / c.z + cam.cy,
+            c.z,
+        ))
+    }
+
+    /// The index of the pixel a world point lands on; None behind the camera or outside
+    /// the image.
+    fn pixel_of(&self, x: DVec3) -> Option<usize> {
+        let (u, v, _) = self.project(x)?;
+        let cam = &self.camera;
+        if !(u >= 0.0 && v >= 0.0 && u < cam.width as f64 && v < cam.height as f64) {
+            return None;
+        }
+        Some(v as usize * cam.width as usize + u as usize)
+    }
 }
 
 /// Adds to `grid` the points of view `r` whose depth at least `min_consistent`
@@ -621,6 +675,7 @@ fn back_project(camera: &Camera, p: usize, depth: f64) -> DVec3 {
 /// how many there were.
 fn consistent_points(
     views: &[StereoView],
+    posed: &[Posed],
     maps: &[DepthMap],
     r: usize,
     neighbours: &[usize],
@@ -628,34 +683,28 @@ fn consistent_points(
     grid: &mut VoxelGrid,
 ) -> usize {
     let mut count = 0;
-    let cam = &views[r].camera;
-    let w = cam.width as usize;
+    let reference = &posed[r];
+    let w = reference.camera.width as usize;
     for (p, &d) in maps[r].depth.iter().enumerate() {
         if d <= 0.0 {
             continue;
         }
-        let x = back_project(cam, p, d as f64);
+        let (d, x) = (d as f64, reference.back_project(p, d as f64));
         let (pu, pv) = ((p % w) as f64 + 0.5, (p / w) as f64 + 0.5);
         let agreeing = neighbours
             .iter()
             .filter(|&&n| {
-                let oc = &views[n].camera;
-                let Some((u, v, _)) = oc.project(x) else {
+                let Some(q) = posed[n].pixel_of(x) else {
                     return false;
                 };
-                if !(u >= 0.0 && v >= 0.0 && u < oc.width as f64 && v < oc.height as f64) {
-                    return false;
-                }
-                let q = v as usize * oc.width as usize + u as usize;
                 let dn = maps[n].depth[q];
                 if dn <= 0.0 {
                     return false;
                 }
-                let back = back_project(oc, q, dn as f64);
-                match cam.project(back) {
+                match reference.project(posed[n].back_project(q, dn as f64)) {
                     Some((u2, v2, z2)) => {
                         (u2 - pu).hypot(v2 - pv) <= s.max_reprojection_px
-                            && ((z2 - d as f64) / d as f64).abs() <= s.max_relative_depth
+                            && ((z2 - d) / d).abs() <= s.max_relative_depth
                     }
                     None => false,
                 }
@@ -702,10 +751,8 @@ impl VoxelGrid {
     /// A grid over the sparse points' box, fine enough that `max_points` voxels
     /// would cover its surface several times over (so coarsening decides the size).
     fn new(sparse: &[DVec3], max_points: usize) -> VoxelGrid {
-        let (lo, hi) = sparse.iter().fold(
-            (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-            |(lo, hi), p| (lo.min(*p), hi.max(*p)),
-        );
+        let (lo, hi) = bounding_box(sparse.iter().map(|p| p.to_array()));
+        let (lo, hi) = (DVec3::from_array(lo), DVec3::from_array(hi));
         let (origin, extent) = if lo.is_finite() && hi.is_finite() {
             (lo, (hi - lo).max_element())
         } else {
