@@ -3,7 +3,7 @@
 
 use anyhow::{Result, bail};
 use clap::{Args, ValueEnum};
-use objectsplat_runtime::exec::Executor;
+use objectsplat_runtime::exec::{Executor, Local};
 use objectsplat_runtime::slurm::{ActionSpec, SlurmConfig, SlurmSettings};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -63,7 +63,7 @@ pub struct PlanArgs {
 }
 
 impl ExecutorArgs {
-    pub fn executor(&self, sets: &[String], plugins: &[PathBuf]) -> Result<Executor> {
+    pub fn executor(&self, sets: &[String], plugins: &[PathBuf]) -> Result<Box<dyn Executor>> {
         let settings = SlurmSettings {
             partition: self.partition.clone(),
             time: self.time.clone(),
@@ -79,7 +79,7 @@ impl ExecutorArgs {
             if settings != SlurmSettings::default() {
                 bail!("--slurm-* options need --executor slurm");
             }
-            return Ok(Executor::Local);
+            return Ok(Box::new(Local));
         }
         if settings.cpus == Some(0) || settings.array_limit == Some(0) {
             bail!("--slurm-cpus and --slurm-array-limit must be at least 1");
@@ -110,7 +110,7 @@ impl ExecutorArgs {
         cfg.plan = plan;
         cfg.retries = self.retries;
         cfg.poll = Duration::from_secs_f64(self.poll);
-        Ok(Executor::Slurm(Box::new(cfg)))
+        Ok(Box::new(cfg))
     }
 }
 

@@ -225,7 +225,7 @@ fn dispatch(cli: Cli) -> Result<ExitCode> {
                     out_dir: Some(out.clone()),
                     observer: observer.clone(),
                 },
-                &executor,
+                executor.as_ref(),
             )?;
             observer.finish();
             eprint!("{}", report.render_table());

@@ -19,7 +19,7 @@
 //! queued, one `squeue` over them, and the cancellation.
 
 use anyhow::{Result, bail};
-use objectsplat_runtime::exec::{self, Executor, RunOptions, Silent};
+use objectsplat_runtime::exec::{self, Executor, Local, RunOptions, Silent};
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::{Plan, build_plan};
 use objectsplat_runtime::report::RunReport;
@@ -92,7 +92,7 @@ fn cpu_seconds() -> (f64, f64) {
     (get(libc::RUSAGE_SELF), get(libc::RUSAGE_CHILDREN))
 }
 
-fn slurm(worker_args: Vec<&str>, hold: bool) -> Result<Executor> {
+fn slurm(worker_args: Vec<&str>, hold: bool) -> Result<SlurmConfig> {
     let exe = std::env::current_exe()?;
     let mut cfg = SlurmConfig::new(
         std::iter::once(exe.into_os_string())
@@ -104,10 +104,15 @@ fn slurm(worker_args: Vec<&str>, hold: bool) -> Result<Executor> {
     if hold {
         cfg.settings.args.push("--hold".into());
     }
-    Ok(Executor::Slurm(Box::new(cfg)))
+    Ok(cfg)
 }
 
-fn run_graph(dir: &Path, n: usize, cache: &str, executor: &Executor) -> Result<(RunReport, f64)> {
+fn run_graph(
+    dir: &Path,
+    n: usize,
+    cache: &str,
+    executor: &dyn Executor,
+) -> Result<(RunReport, f64)> {
     let graph = dir.join("bench.ron");
     std::fs::write(
         &graph,
@@ -151,7 +156,7 @@ fn main() -> Result<()> {
     let dir = tempfile::tempdir_in(std::env::current_dir()?)?;
     match mode {
         "run" => {
-            let (local, t_local) = run_graph(dir.path(), n, "cache-local", &Executor::Local)?;
+            let (local, t_local) = run_graph(dir.path(), n, "cache-local", &Local)?;
             let cpu0 = cpu_seconds();
             let (report, t) = run_graph(
                 dir.path(),

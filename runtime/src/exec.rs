@@ -4,12 +4,13 @@
 //! rerun: `explain`).
 
 use crate::action::execute;
+use crate::executor::{Batch, Pass};
+pub use crate::executor::{Executor, Local};
 use crate::job::{Job, JobError, JobOutcome, Timing, cached};
 pub use crate::job::{Observer, RunOptions, Silent};
 use crate::keys::{compute_key, params_key};
-use crate::plan::{Plan, PlanNode};
+use crate::plan::Plan;
 use crate::report::{ItemReport, NodeReport, RunReport, Status};
-use crate::slurm::{SlurmConfig, SlurmSettings};
 use crate::store::{ActionRecord, Corrupt, Digest, Manifest, RanOn, Store};
 use anyhow::{Result, anyhow};
 use std::collections::BTreeMap;
@@ -17,29 +18,6 @@ use std::path::Path;
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
-
-/// Where the actions that miss the cache are computed.
-#[derive(Debug, Clone, Default)]
-pub enum Executor {
-    /// In this process, on `-j` worker threads.
-    #[default]
-    Local,
-    /// Fan-out items, and nodes with a `slurm` field, as Slurm jobs; the rest here.
-    Slurm(Box<SlurmConfig>),
-}
-
-impl Executor {
-    /// The job options for `node` when it runs on Slurm; `None` when it runs here.
-    pub fn slurm_settings(&self, plan: &Plan, node: &PlanNode) -> Option<SlurmSettings> {
-        let Executor::Slurm(cfg) = self else {
-            return None;
-        };
-        let own = node.slurm.clone().unwrap_or_default();
-        let settings = plan.slurm.overridden_by(&cfg.settings).overridden_by(&own);
-        let asks = node.fans_out || node.slurm.is_some();
-        (asks && settings.local != Some(true)).then_some(settings)
-    }
-}
 
 #[derive(Default)]
 struct NodeState {
@@ -65,7 +43,7 @@ struct NodeState {
 
 /// Runs the plan's targets with every action computed in this process.
 pub fn run(plan: &Plan, store: &Store, opts: &RunOptions) -> Result<RunReport> {
-    run_on(plan, store, opts, &Executor::Local)
+    run_on(plan, store, opts, &Local)
 }
 
 /// Runs the plan's targets, computing what misses the cache with `executor`.
@@ -73,21 +51,19 @@ pub fn run_on(
     plan: &Plan,
     store: &Store,
     opts: &RunOptions,
-    executor: &Executor,
+    executor: &dyn Executor,
 ) -> Result<RunReport> {
     let start = Instant::now();
     let mut warnings = Vec::new();
-    // Ctrl-C must cancel the cluster jobs, not orphan them.
-    let _signals =
-        matches!(executor, Executor::Slurm(_)).then(crate::slurm::interrupt::Guard::install);
+    let _held = executor.hold();
     // A corrupt cache entry found mid-run is deleted; the next pass recomputes it. Every
     // such pass deletes at least one entry, so this terminates; the cap guards against a
     // disk that corrupts what we write.
     for _pass in 0..1000 {
         let (mut report, corrupt) = run_pass(plan, store, opts, executor, &mut warnings)?;
-        if crate::slurm::interrupt::interrupted() && _signals.is_some() {
+        if let Some(why) = executor.interruption() {
             return Err(anyhow!(
-                "interrupted: this run's Slurm jobs were cancelled{}",
+                "{why}{}",
                 report
                     .first_failure()
                     .map(|f| format!(" ({f})"))
@@ -125,7 +101,7 @@ fn run_pass(
     plan: &Plan,
     store: &Store,
     opts: &RunOptions,
-    executor: &Executor,
+    executor: &dyn Executor,
     warnings: &mut Vec<String>,
 ) -> Result<(RunReport, bool)> {
     let needed = plan.needed();
@@ -154,20 +130,19 @@ fn run_pass(
                 }
             });
         }
-        // Actions for Slurm go to one thread that submits, watches and resubmits them.
-        let batch_tx = match executor {
-            Executor::Local => None,
-            Executor::Slurm(cfg) => {
-                let (batch_tx, batch_rx) =
-                    crossbeam::channel::unbounded::<crate::slurm::executor::Batch>();
-                let res_tx = res_tx.clone();
-                let cancel = &cancel;
-                s.spawn(move |_| {
-                    crate::slurm::executor::track(plan, store, opts, cfg, batch_rx, res_tx, cancel)
-                });
-                Some(batch_tx)
-            }
-        };
+        // The executor's batches go to one thread of its own (Slurm: it submits, watches
+        // and resubmits their jobs).
+        let (batch_tx, batch_rx) = crossbeam::channel::unbounded::<Batch>();
+        {
+            let res_tx = res_tx.clone();
+            let pass = Pass {
+                plan,
+                store,
+                opts,
+                cancel: &cancel,
+            };
+            s.spawn(move |_| executor.serve(pass, batch_rx, res_tx));
+        }
         drop(res_tx);
         let mut in_flight = 0usize;
         // Ready queue: a node is dispatched once every input edge's source has settled.
@@ -281,7 +256,7 @@ fn run_pass(
                         }
                     };
                     let (kind, version) = (&node.reg.spec.kind, &node.reg.spec.version);
-                    let on_slurm = executor.slurm_settings(plan, node);
+                    let taken = executor.takes(plan, node);
                     let mut remote = Vec::new();
                     for item in items {
                         let key = compute_key(kind, version, &pk, &inputs, item.as_ref());
@@ -331,7 +306,7 @@ fn run_pass(
                                     label,
                                     queued_at: Instant::now(),
                                 };
-                                if on_slurm.is_some() {
+                                if taken {
                                     remote.push(job);
                                 } else {
                                     job_tx
@@ -341,16 +316,14 @@ fn run_pass(
                             }
                         }
                     }
-                    // One batch per node: its missing items become one job array.
-                    if let (Some(settings), Some(tx)) = (on_slurm, &batch_tx)
-                        && !remote.is_empty()
-                    {
-                        tx.send(crate::slurm::executor::Batch {
-                            node: i,
-                            settings,
-                            jobs: remote,
-                        })
-                        .map_err(|_| anyhow!("the Slurm thread stopped"))?;
+                    // One batch per node (Slurm: its missing items become one job array).
+                    if !remote.is_empty() {
+                        batch_tx
+                            .send(Batch {
+                                node: i,
+                                jobs: remote,
+                            })
+                            .map_err(|_| anyhow!("the executor's thread stopped"))?;
                     }
                     if st.pending == 0 {
                         finish_node(plan, store, i, st, each.is_some());

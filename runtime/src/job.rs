@@ -40,7 +40,7 @@ pub struct RunOptions {
 }
 
 /// What one job (a node, or one item of a fanned-out node) needs.
-pub(crate) struct Job {
+pub struct Job {
     pub node: usize,
     pub item: Option<(String, Digest)>,
     pub key: String,
@@ -51,7 +51,7 @@ pub(crate) struct Job {
     pub queued_at: Instant,
 }
 
-pub(crate) struct JobOutcome {
+pub struct JobOutcome {
     pub node: usize,
     pub item: Option<String>,
     pub result: Result<ActionRecord, JobError>,
@@ -65,14 +65,14 @@ pub(crate) struct JobOutcome {
 /// One job's time: its own run (the producing run's, for a cache hit) and how long it
 /// waited for a worker before that.
 #[derive(Clone, Copy, Default)]
-pub(crate) struct Timing {
+pub struct Timing {
     pub seconds: f64,
     pub queued: f64,
     /// When a worker took it up (`None`: answered from the cache by the scheduler).
     pub started: Option<Instant>,
 }
 
-pub(crate) enum JobError {
+pub enum JobError {
     Failed(String),
     Corrupt(String),
 }

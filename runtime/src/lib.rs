@@ -7,6 +7,7 @@ pub(crate) mod action;
 pub mod check;
 pub mod diag;
 pub mod exec;
+pub mod executor;
 pub mod explain;
 pub mod graph;
 pub mod host;

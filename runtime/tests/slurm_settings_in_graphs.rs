@@ -3,7 +3,7 @@
 //! with file:line:column.
 
 mod common;
-use objectsplat_runtime::exec::Executor;
+use objectsplat_runtime::exec::{Executor, Local};
 use objectsplat_runtime::graph::GraphSource;
 use objectsplat_runtime::plan::{Plan, build_plan};
 use objectsplat_runtime::slurm::{SlurmConfig, SlurmSettings};
@@ -39,11 +39,10 @@ fn settings_merge_from_graph_command_line_and_node() {
         time: Some("30".into()),
         ..Default::default()
     };
-    let slurm = Executor::Slurm(Box::new(cfg));
+    let slurm = cfg;
     let node = |id: &str| &p.nodes[p.index(id).unwrap()];
-    let a = slurm
-        .slurm_settings(&p, node("a"))
-        .expect("a asks for Slurm");
+    let a = slurm.settings_for(&p, node("a")).expect("a asks for Slurm");
+    assert!(slurm.takes(&p, node("a")));
     assert_eq!(
         a.sbatch_args(),
         [
@@ -56,10 +55,12 @@ fn settings_merge_from_graph_command_line_and_node() {
         ]
     );
     // No `slurm` field and no fan-out: stays local; `local: true` too.
-    assert!(slurm.slurm_settings(&p, node("b")).is_none());
-    assert!(slurm.slurm_settings(&p, node("c")).is_none());
+    assert!(slurm.settings_for(&p, node("b")).is_none());
+    assert!(!slurm.takes(&p, node("b")));
+    assert!(slurm.settings_for(&p, node("c")).is_none());
+    assert!(!slurm.takes(&p, node("c")));
     // The local executor sends nothing anywhere.
-    assert!(Executor::Local.slurm_settings(&p, node("a")).is_none());
+    assert!(!Local.takes(&p, node("a")));
 }
 
 #[test]

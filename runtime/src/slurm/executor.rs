@@ -11,8 +11,9 @@
 use super::claims::{Claim, Claimed, Claims};
 use super::commands::{self, JobState};
 use super::{ActionResult, ActionSpec, SlurmConfig, SlurmSettings};
+use crate::executor::{Batch, Executor, Pass};
 use crate::job::{Job, JobError, JobOutcome, RunOptions, Timing, cached};
-use crate::plan::Plan;
+use crate::plan::{Plan, PlanNode};
 use crate::report::Status;
 use crate::store::{ActionRecord, RanOn, Store};
 use anyhow::{Context as _, Result};
@@ -20,15 +21,8 @@ use crossbeam::channel::{Receiver, RecvTimeoutError, Sender};
 use std::collections::{BTreeMap, BTreeSet};
 use std::fs;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
-
-/// One node's actions that missed the cache, with the job options for them.
-pub(crate) struct Batch {
-    pub node: usize,
-    pub settings: SlurmSettings,
-    pub jobs: Vec<Job>,
-}
 
 /// How often result folders are looked at.
 const TICK: Duration = Duration::from_millis(200);
@@ -100,17 +94,47 @@ struct Tracker<'a> {
     squeue_failures: u32,
 }
 
+impl SlurmConfig {
+    /// The job options for `node` when it runs on Slurm (graph < command line < node);
+    /// `None` when it runs in the coordinating process: it neither fans out nor has a
+    /// `slurm` field, or that field says `local: true`.
+    pub fn settings_for(&self, plan: &Plan, node: &PlanNode) -> Option<SlurmSettings> {
+        let own = node.slurm.clone().unwrap_or_default();
+        let settings = plan.slurm.overridden_by(&self.settings).overridden_by(&own);
+        let asks = node.fans_out || node.slurm.is_some();
+        (asks && settings.local != Some(true)).then_some(settings)
+    }
+}
+
+impl Executor for SlurmConfig {
+    fn takes(&self, plan: &Plan, node: &PlanNode) -> bool {
+        self.settings_for(plan, node).is_some()
+    }
+
+    fn serve(&self, pass: Pass<'_>, batches: Receiver<Batch>, results: Sender<JobOutcome>) {
+        track(pass, self, batches, results);
+    }
+
+    /// Ctrl-C must cancel the cluster jobs, not orphan them.
+    fn hold(&self) -> Option<Box<dyn std::any::Any>> {
+        Some(Box::new(super::interrupt::Guard::install()))
+    }
+
+    fn interruption(&self) -> Option<String> {
+        super::interrupt::interrupted()
+            .then(|| "interrupted: this run's Slurm jobs were cancelled".to_string())
+    }
+}
+
 /// The Slurm thread's body (see the module doc). Ends when the coordinator closes
 /// `batches` with nothing outstanding; cancels what is outstanding if it closes early.
-pub(crate) fn track(
-    plan: &Plan,
-    store: &Store,
-    opts: &RunOptions,
-    cfg: &SlurmConfig,
-    batches: Receiver<Batch>,
-    results: Sender<JobOutcome>,
-    cancel: &AtomicBool,
-) {
+fn track(pass: Pass<'_>, cfg: &SlurmConfig, batches: Receiver<Batch>, results: Sender<JobOutcome>) {
+    let Pass {
+        plan,
+        store,
+        opts,
+        cancel,
+    } = pass;
     let run_id = format!(
         "{}-{}-{}",
         crate::host::host_name()
@@ -215,6 +239,17 @@ impl Tracker<'_> {
 
     /// Claims each action and submits the ones this run holds as one array.
     fn accept(&mut self, batch: Batch) {
+        // The scheduler sends only what `takes` accepted, so settings exist; a node
+        // without them would be a scheduler bug, reported on each job rather than hidden.
+        let Some(settings) = self
+            .cfg
+            .settings_for(self.plan, &self.plan.nodes[batch.node])
+        else {
+            for job in batch.jobs {
+                self.send_failure(job, "sent to Slurm without Slurm settings".into());
+            }
+            return;
+        };
         let mut mine = Vec::new();
         for job in batch.jobs {
             self.opts.observer.job_started(&job.label);
@@ -234,13 +269,13 @@ impl Tracker<'_> {
                     self.watched.push(Watched {
                         job,
                         claim,
-                        settings: batch.settings.clone(),
+                        settings: settings.clone(),
                     });
                 }
                 Err(e) => self.send_failure(job, format!("cannot claim it for this run: {e:#}")),
             }
         }
-        self.submit_new(batch.node, &batch.settings, mine);
+        self.submit_new(batch.node, &settings, mine);
     }
 
     fn max_array(&mut self) -> usize {
