@@ -28,7 +28,7 @@ fn viewer_page() -> (tempfile::TempDir, PathBuf) {
     let scene = tmp.path().join("scene");
     support::small_scene::write(&scene);
     let run = run_node(
-        &objectsplat_scene::nodes::Viewer,
+        &objectsplat_export::nodes::Viewer,
         &[("scene", &scene)],
         "(title: \"small scene\")",
         &tmp.path().join("viewer"),

@@ -47,7 +47,7 @@ pub fn viewer_of(scene: &Scene, tmp: &Path) -> (PathBuf, ViewerCamera) {
     )
     .unwrap();
     let run = run_node(
-        &objectsplat_scene::nodes::Viewer,
+        &objectsplat_export::nodes::Viewer,
         &[("scene", &scene_dir), ("frames", &frames)],
         "()",
         &tmp.join("viewer"),

@@ -17,6 +17,7 @@ pub fn builtin_registry() -> Registry {
     objectsplat_command::register(&mut reg);
     objectsplat_report::register(&mut reg);
     objectsplat_scene::register(&mut reg);
+    objectsplat_export::register(&mut reg);
     objectsplat_evaluate::register(&mut reg);
     objectsplat_train::register(&mut reg);
     reg

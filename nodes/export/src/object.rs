@@ -1,8 +1,8 @@
 //! The export input: one component's mesh with sRGB vertex colours, and its validation.
 
-use crate::placement::Placement;
 use anyhow::{Result, bail, ensure};
 use objectsplat_core::ComponentInfo;
+use objectsplat_scene::Placement;
 
 /// Per-vertex colours as stored by the capture: sRGB-encoded.
 #[derive(Debug, Clone, PartialEq)]

@@ -16,7 +16,7 @@
 //!   background). A target that matches nothing is an error naming the edit.
 //! - Edits apply in list order; each sees the result of the previous ones.
 //! - Rigid edits (`Move`, `Rotate`, `Scale`, the offset of a `Duplicate`) change the
-//!   member's [`Placement`](objectsplat_export::Placement), not its model: the model
+//!   member's [`Placement`](crate::Placement), not its model: the model
 //!   stays in the frame it was trained in and the placement maps it into the world
 //!   (the exported `.glb` node carries it as its transform).
 //! - `Rotate` and `Scale` act about the member's pivot: its centroid (mean vertex
@@ -320,10 +320,7 @@ fn resolve(scene: &Scene, target: &Target) -> Result<Vec<usize>> {
 }
 
 /// Replaces the member's placement by `f` of its current one.
-fn replace_placement(
-    object: &mut SceneObject,
-    f: impl Fn(objectsplat_export::Placement) -> objectsplat_export::Placement,
-) {
+fn replace_placement(object: &mut SceneObject, f: impl Fn(crate::Placement) -> crate::Placement) {
     object.entry.placement = Some(f(object.placement()));
 }
 

@@ -10,12 +10,12 @@
 //! - `fills/<frame stem>.png` (optional, written by `edit_scene`): background images
 //!   that `render` shows wherever no triangle covers a pixel.
 
+use crate::Placement;
 use crate::sh_rotation::ShRotation;
 use anyhow::{Context, Result, bail, ensure};
 use glam::DMat3;
 use objectsplat_core::artifact::{SCENE_JSON, SCENE_OBJECTS_DIR};
 use objectsplat_core::{ComponentInfo, ComponentKind};
-use objectsplat_export::Placement;
 use objectsplat_raster::{Model, load_model, save_model};
 use serde::{Deserialize, Serialize};
 use std::borrow::Cow;

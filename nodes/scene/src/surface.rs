@@ -1,9 +1,7 @@
 //! A model's visible surface as a plain mesh, for mesh metrics and export.
 
 use objectsplat_core::Mesh;
-use objectsplat_export::ShColors;
 use objectsplat_raster::model::inverse_sigmoid;
-use objectsplat_raster::sh::{SH_DC, coeff_count};
 use objectsplat_raster::{FINISHED_SIGMA, Model, RenderSettings};
 
 /// The opacity floor of an exported model: as close to 1 as the activation allows,
@@ -19,33 +17,6 @@ pub fn visible_faces(model: &Model<f32>) -> Vec<[u32; 3]> {
         .filter(|&f| f64::from(model.face_opacity(f)) >= threshold)
         .map(|f| model.faces[f])
         .collect()
-}
-
-/// The display colour of each vertex (sRGB in [0, 1]): the SH DC term, as `model.ply` shows it.
-pub fn display_colors(model: &Model<f32>) -> Vec<[f32; 3]> {
-    model
-        .sh
-        .iter()
-        .map(|rows| rows[0].map(|dc| (0.5 + SH_DC * f64::from(dc)).clamp(0.0, 1.0) as f32))
-        .collect()
-}
-
-/// The view-dependent colour of each vertex as an export carries it: the SH
-/// coefficients up to the model's degree, in the model's frame (none at degree 0,
-/// where the display colour says everything).
-pub fn sh_colors(model: &Model<f32>) -> Option<ShColors> {
-    if model.sh_degree == 0 {
-        return None;
-    }
-    let per_vertex = coeff_count(model.sh_degree);
-    Some(ShColors {
-        degree: model.sh_degree,
-        coefficients: model
-            .sh
-            .iter()
-            .flat_map(|rows| rows[..per_vertex].iter().copied())
-            .collect(),
-    })
 }
 
 /// The visible faces over all vertices (unused vertices are harmless to sampling).

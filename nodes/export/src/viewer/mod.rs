@@ -18,12 +18,12 @@
 //! `{rgb}`), `edits()` → the RON text; also `transform(name)` → the member's node
 //! transform and `undo()`.
 
-use crate::placement::Placement;
 use anyhow::{Context, Result, ensure};
 use base64::Engine as _;
 use objectsplat_core::ComponentKind;
 use objectsplat_core::artifact::PAGE_HTML;
 use objectsplat_core::artifact::SCENE_GLB;
+use objectsplat_scene::Placement;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 

@@ -8,14 +8,14 @@
 // rotation is for other tools and is not applied here. Each member is drawn from the
 // mesh of its .glb node (vertices relative to the member's pivot) under the member's
 // placement, kept in full precision from the JSON: the placement arithmetic below
-// repeats objectsplat-export's `placement.rs` operation for operation, so an edit done
+// repeats objectsplat-scene's `placement.rs` operation for operation, so an edit done
 // here and the same edit replayed by `edit_scene` give the same doubles.
 (function () {
   "use strict";
 
   const root = document.currentScript.closest(".osv");
 
-  // ---- placement arithmetic (mirrors nodes/export/src/placement.rs) ----
+  // ---- placement arithmetic (mirrors nodes/scene/src/placement.rs) ----
 
   function quatFromAxisAngle(axis, degrees) {
     const length = Math.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);

@@ -2,13 +2,15 @@
 //! member; a duplicated object doubles its label's triangles, a removed one disappears
 //! while the others keep their triangles.
 
+// The composed scenes these tests export are built as the scene crate's tests build them.
+#[path = "../../scene/tests/common/mod.rs"]
 mod common;
 
 use objectsplat_core::Mesh;
 use objectsplat_core::artifact::SCENE_GLB;
 use objectsplat_export::glb::triangles_per_node;
+use objectsplat_export::nodes::ExportGltf;
 use objectsplat_runtime::testing::run_node;
-use objectsplat_scene::nodes::ExportGltf;
 use std::collections::BTreeMap;
 use std::path::Path;
 

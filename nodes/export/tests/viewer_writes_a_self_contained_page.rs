@@ -3,13 +3,15 @@
 //! scene's edit record and a starting camera from the first frame, looking at the objects.
 //! (The page itself is exercised in a browser by the workspace's `viewer_*` tests.)
 
+// The composed scenes these tests export are built as the scene crate's tests build them.
+#[path = "../../scene/tests/common/mod.rs"]
 mod common;
 
 use objectsplat_core::Split;
 use objectsplat_core::artifact::{PAGE_HTML, SCENE_GLB};
+use objectsplat_export::nodes::{ExportGltf, Viewer};
 use objectsplat_export::viewer::{ViewerScene, read_viewer};
 use objectsplat_scene::load_scene;
-use objectsplat_scene::nodes::{ExportGltf, Viewer};
 
 #[test]
 fn viewer_folder_holds_page_glb_and_scene_description() {

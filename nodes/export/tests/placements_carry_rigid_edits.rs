@@ -5,12 +5,14 @@
 //! record replays to the same scene; `export_gltf` writes each placement as the node's
 //! transform with the vertices relative to the pivot, and the PLYs in the world.
 
+// The composed scenes these tests export are built as the scene crate's tests build them.
+#[path = "../../scene/tests/common/mod.rs"]
 mod common;
 
 use objectsplat_core::Mesh;
 use objectsplat_core::artifact::{MODEL_JSON, MODEL_PLY, SCENE_GLB, SCENE_JSON};
 use objectsplat_export::Placement;
-use objectsplat_scene::nodes::ExportGltf;
+use objectsplat_export::nodes::ExportGltf;
 use objectsplat_scene::{Scene, load_scene};
 use serde_json::Value;
 use std::path::Path;
