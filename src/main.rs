@@ -163,7 +163,7 @@ fn parse_overrides(sets: &[String]) -> Result<Vec<Override>> {
 }
 
 fn registry_with(plugins: &[PathBuf]) -> Result<Registry> {
-    let mut reg = objectsplat_nodes::builtin_registry();
+    let mut reg = objectsplat_catalogue::builtin_registry();
     for p in plugins {
         objectsplat_runtime::plugin::load(&mut reg, p)
             .map_err(|e| anyhow!("plugin {}: {e}", p.display()))?;

@@ -160,7 +160,7 @@ fn colorkey_plugin_is_listed_with_its_interface_and_runs_through_the_host() {
 
     // This test binary cannot host plugin processes; the objectsplat binary can.
     objectsplat_runtime::plugin::set_host_program(PathBuf::from(env!("CARGO_BIN_EXE_objectsplat")));
-    let mut reg = objectsplat_nodes::builtin_registry();
+    let mut reg = objectsplat_catalogue::builtin_registry();
     objectsplat_runtime::plugin::load(&mut reg, &lib).unwrap();
     // Loading the same library again is a no-op, not a collision.
     objectsplat_runtime::plugin::load(&mut reg, &lib).unwrap();

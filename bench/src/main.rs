@@ -186,7 +186,7 @@ fn paper(args: &PaperArgs) -> Result<()> {
     if args.scenes.is_empty() || args.seeds.is_empty() || args.splits.is_empty() {
         bail!("--scenes, --seeds and --splits each need at least one value");
     }
-    let registry = objectsplat_nodes::builtin_registry();
+    let registry = objectsplat_catalogue::builtin_registry();
     let store = Store::open(&args.cache)?;
     let jobs = args
         .jobs

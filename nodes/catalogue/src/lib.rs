@@ -1,6 +1,5 @@
 //! The built-in node catalogue: every artifact type and every built-in stage.
 
-pub mod imaging;
 pub mod types;
 
 use objectsplat_runtime::Registry;
@@ -9,7 +8,7 @@ use objectsplat_runtime::Registry;
 pub fn builtin_registry() -> Registry {
     let mut reg = Registry::new();
     types::register(&mut reg);
-    imaging::register(&mut reg);
+    objectsplat_images::register(&mut reg);
     objectsplat_inputs::register(&mut reg);
     objectsplat_synth::register(&mut reg);
     objectsplat_masks::register(&mut reg);

@@ -1,4 +1,4 @@
-//! Generic image nodes: load, load a mask, resize, save.
+//! Generic image nodes: `load_image`, `load_mask`, `resize_image`, `save_image`.
 
 use anyhow::{Result, bail};
 use objectsplat_core::Image;
