@@ -16,8 +16,8 @@
 
 mod support;
 
+use objectsplat_core::TRAINING_TIMES;
 use objectsplat_core::artifact::{MODEL_PLY, TRAINING_JSON};
-use objectsplat_raster::TRAINING_TIMES;
 use objectsplat_report::{RUN_DATA_FILE, RUN_SCRIPT_FILE};
 use objectsplat_runtime::graph::{GraphSource, parse_graph};
 use objectsplat_runtime::outdir::LOCK_FILE;

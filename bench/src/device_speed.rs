@@ -18,7 +18,7 @@
 
 use crate::run_report::node;
 use anyhow::{Context, Result, bail};
-use objectsplat_raster::{TRAINING_TIMES, TrainingLog, TrainingTimes};
+use objectsplat_core::{TRAINING_TIMES, TrainingLog, TrainingTimes};
 use serde::Serialize;
 use serde_json::Value;
 use std::fmt::Write as _;

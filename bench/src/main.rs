@@ -17,8 +17,8 @@ mod train_speed;
 
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand};
+use objectsplat_core::{TRAINING_TIMES, TrainingLog, TrainingTimes};
 use objectsplat_metrics::report::MetricsReport;
-use objectsplat_raster::{TRAINING_TIMES, TrainingLog, TrainingTimes};
 use objectsplat_report::plot::{PlotSpec, Series, line_plot_svg};
 use objectsplat_runtime::exec::{self, RunOptions, Silent};
 use objectsplat_runtime::graph::GraphSource;

@@ -356,7 +356,7 @@ pub fn quality(args: &QualityArgs) -> Result<()> {
                     entries
                         .filter_map(|e| e.ok())
                         .filter_map(|e| {
-                            objectsplat_raster::TrainingLog::load(&e.path())
+                            objectsplat_core::TrainingLog::load(&e.path())
                                 .ok()
                                 .flatten()
                         })

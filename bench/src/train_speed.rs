@@ -19,8 +19,9 @@
 //! of a loop of independent 8-lane fused multiply-adds on the same threads.
 
 use anyhow::{Context, Result, bail};
+use objectsplat_core::TrainingLog;
 use objectsplat_raster::cpu::{Background, CpuWorkspace};
-use objectsplat_raster::{CpuBackend, OutputGrads, RenderSettings, TrainingLog, load_model};
+use objectsplat_raster::{CpuBackend, OutputGrads, RenderSettings, load_model};
 use objectsplat_synth::scene::{SyntheticParams, orbit_cameras};
 use serde::Serialize;
 use std::fmt::Write as _;

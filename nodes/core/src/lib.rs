@@ -15,6 +15,7 @@ pub mod label_runs;
 pub mod masks;
 pub mod mesh_io;
 pub mod ply;
+pub mod training_log;
 pub mod visibility;
 
 pub use camera::Camera;
@@ -27,3 +28,4 @@ pub use label_runs::LabelRuns;
 pub use masks::{IdMap, ObjectLabels};
 pub use mesh_io::{read_mesh_artifact, write_mesh_artifact};
 pub use ply::Ply;
+pub use training_log::{EvalRecord, StepRecord, TRAINING_TIMES, TrainingLog, TrainingTimes};

@@ -22,11 +22,9 @@ pub mod model_io;
 pub mod parallel;
 pub mod real;
 pub mod sh;
-pub mod training_log;
 
 pub use backend::{OutputGrads, RenderBackend, RenderOutput, RenderSettings, SavedForward};
 pub use cpu::{CpuBackend, Kernel, render_model};
 pub use model::{FINISHED_SIGMA, Model, ModelGrads, SH_COEFFS};
 pub use model_io::{load_model, save_model};
 pub use real::Real;
-pub use training_log::{EvalRecord, StepRecord, TRAINING_TIMES, TrainingLog, TrainingTimes};

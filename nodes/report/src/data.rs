@@ -3,8 +3,8 @@
 //! (scene + per-object metrics), the graph's edges, test views as image paths, and the
 //! trained models' `training.json`.
 
+use objectsplat_core::TrainingLog;
 use objectsplat_metrics::report::MetricsReport;
-use objectsplat_raster::TrainingLog;
 use serde::{Deserialize, Serialize};
 use std::path::PathBuf;
 
@@ -90,8 +90,8 @@ pub struct ItemRun {
     pub status: NodeStatus,
     pub seconds: f64,
     /// What the item's run measured about itself (for a cached item, the producing run's):
-    /// a `train` item's [`objectsplat_raster::TrainingTimes`], under
-    /// [`objectsplat_raster::TRAINING_TIMES`].
+    /// a `train` item's [`objectsplat_core::TrainingTimes`], under
+    /// [`objectsplat_core::TRAINING_TIMES`].
     #[serde(default, skip_serializing_if = "serde_json::Map::is_empty")]
     pub measurements: serde_json::Map<String, serde_json::Value>,
 }

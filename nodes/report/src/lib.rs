@@ -18,8 +18,8 @@ pub use data::{
     ViewTriplet,
 };
 pub use node::register;
+pub use objectsplat_core::{EvalRecord, StepRecord, TrainingLog};
 pub use objectsplat_metrics::report::{MetricsReport, ObjectMetrics, ScopeMetrics};
-pub use objectsplat_raster::{EvalRecord, StepRecord, TrainingLog};
 pub use page::{REPORT_FILE, render_report, report_html};
 pub use run_summary::{
     RUN_DATA_FILE, RUN_SCRIPT_FILE, RUN_SUMMARY_BEGIN, RUN_SUMMARY_END, inject_run_summary,

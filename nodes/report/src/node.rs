@@ -10,8 +10,8 @@
 use crate::{MetricsReport, ModelTraining, ReportData, ViewTriplet, render_report};
 use anyhow::{Context as _, Result};
 use objectsplat_core::Frames;
+use objectsplat_core::TrainingLog;
 use objectsplat_core::frames::{Split, frame_stem};
-use objectsplat_raster::TrainingLog;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, node_ports};
 use std::path::Path;
 use std::sync::Arc;

@@ -6,8 +6,8 @@
 
 use crate::data::ModelTraining;
 use crate::plot::{PlotSpec, Series, line_plot_svg};
+use objectsplat_core::TrainingLog;
 use objectsplat_export::escape::escape;
-use objectsplat_raster::TrainingLog;
 use std::fmt::Write;
 
 /// Keeps finite points; says how many were left out so nothing disappears silently.

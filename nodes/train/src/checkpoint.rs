@@ -11,7 +11,8 @@
 use crate::adam::Adam;
 use crate::face_stats::FaceWeights;
 use anyhow::{Context, Result, bail};
-use objectsplat_raster::{EvalRecord, Model, StepRecord, TrainingTimes, load_model, save_model};
+use objectsplat_core::{EvalRecord, StepRecord, TrainingTimes};
+use objectsplat_raster::{Model, load_model, save_model};
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};

@@ -5,10 +5,11 @@ use crate::schedule::Schedule;
 use crate::trainer::{Checkpoint, ComponentData, SelectOn, TrainSettings, train_component};
 use anyhow::Context as _;
 use anyhow::{Result, bail};
+use objectsplat_core::TRAINING_TIMES;
 use objectsplat_core::artifact::POINTS_PLY;
 use objectsplat_core::visibility::Visibility;
 use objectsplat_core::{ComponentFolder, ComponentKind, Points};
-use objectsplat_raster::{Model, TRAINING_TIMES, load_model, save_model};
+use objectsplat_raster::{Model, load_model, save_model};
 use objectsplat_runtime::{
     Context, Node, NodeSpec, Outcome, ParamError, ParamType, Params, Registry, node_ports,
 };

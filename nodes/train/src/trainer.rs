@@ -34,10 +34,9 @@ use crate::screen::screen_sizes;
 use crate::steps::{StepInput, StepLoss, StepRunner, Subject, TrainingState};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::{ComponentKind, Points, Split};
+use objectsplat_core::{EvalRecord, StepRecord, TrainingLog, TrainingTimes};
 use objectsplat_optim::{LearningRates, Optim};
-use objectsplat_raster::{
-    EvalRecord, Model, RenderBackend, RenderSettings, StepRecord, TrainingLog, TrainingTimes,
-};
+use objectsplat_raster::{Model, RenderBackend, RenderSettings};
 use objectsplat_wgpu::WgpuBackend;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};

@@ -3,7 +3,7 @@
 mod common;
 
 use objectsplat_core::artifact::POINTS_PLY;
-use objectsplat_raster::{TRAINING_TIMES, TrainingTimes};
+use objectsplat_core::{TRAINING_TIMES, TrainingTimes};
 use objectsplat_runtime::testing::{NodeRun, run_node};
 use objectsplat_train::node::TrainNode;
 use std::collections::BTreeMap;
@@ -81,7 +81,7 @@ fn train_node_writes_a_model_and_its_training_log() {
     let model = objectsplat_raster::load_model(&run.outputs["model"]).unwrap();
     assert!(model.face_count() > 0);
     // The training log travels with the model.
-    let log = objectsplat_raster::TrainingLog::load(&run.outputs["model"])
+    let log = objectsplat_core::TrainingLog::load(&run.outputs["model"])
         .unwrap()
         .expect("training.json next to the model");
     assert_eq!(log.iterations_budget, 30);

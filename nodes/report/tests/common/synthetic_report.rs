@@ -2,7 +2,7 @@
 //! views written as PNGs, the training logs of tests/fixtures/models and run-time points.
 
 use objectsplat_core::Image;
-use objectsplat_raster::TRAINING_TIMES;
+use objectsplat_core::TRAINING_TIMES;
 use objectsplat_report::*;
 use std::path::{Path, PathBuf};
 

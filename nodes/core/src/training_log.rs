@@ -5,8 +5,8 @@
 //! its log points is a [`TrainingTimes`], which the `train` node reports as a
 //! measurement of its run (the run record, not the artifact).
 
+use crate::artifact::TRAINING_JSON;
 use anyhow::{Context, Result, bail};
-use objectsplat_core::artifact::TRAINING_JSON;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
