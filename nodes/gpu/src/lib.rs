@@ -1,6 +1,6 @@
 //! The GPU platform ObjectSplat's kernels run on, with no 3D knowledge: adapter selection
 //! (hardware GPU, then Mesa lavapipe), the shared device, WGSL validation and buffer
-//! readback. The rasterizer backend (`objectsplat-wgpu`) and the face-id rasterizer of
+//! readback. The rasterizer backend (`objectsplat-raster-gpu`) and the face-id rasterizer of
 //! ground-truth masks (`objectsplat-masks`) both use it.
 //!
 //! Nothing here panics when no adapter exists: every failure is an `Err`

@@ -1,6 +1,6 @@
 //! Adam over a mesh model's parameter tensors, declared once for both
 //! trainers: the host trainer updates the model in place with [`Optim::step`],
-//! the device trainer (objectsplat-wgpu) keeps the same state on the GPU
+//! the device trainer (objectsplat-raster-gpu) keeps the same state on the GPU
 //! between host events and reads its settings, rates and moments from here.
 //!
 //! - [`adam`]: Adam with per-group learning rates and row-resizable state;

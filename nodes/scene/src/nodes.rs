@@ -313,7 +313,7 @@ impl Node for Render {
         let orbit_count: i64 = p.orbit_count;
         let backend: String = p.backend;
         let background: Vec<f64> = p.background;
-        let (renderer, why) = objectsplat_wgpu::backend_for(&backend, ctx.threads())?;
+        let (renderer, why) = objectsplat_raster_gpu::backend_for(&backend, ctx.threads())?;
         ctx.note("backend", why);
         let &[r, g, b] = background.as_slice() else {
             bail!(

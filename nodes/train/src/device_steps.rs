@@ -23,8 +23,8 @@ use objectsplat_core::component::OWN;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::{CROP_MARGIN, DEFAULT_LAMBDA_DSSIM};
 use objectsplat_raster::{Model, RenderSettings};
-use objectsplat_wgpu::WgpuBackend;
-use objectsplat_wgpu::training::{
+use objectsplat_raster_gpu::WgpuBackend;
+use objectsplat_raster_gpu::training::{
     DepthWeights, DeviceTrainer, Step, StepResult, Trained, TrainingView, ViewScore,
 };
 use std::collections::VecDeque;
@@ -396,7 +396,7 @@ mod tests {
     //! StepRunner interface: the same steps (loss, moved parameters, face
     //! statistics) and the same evaluations, for an object and for the
     //! background behind frozen occluders with both depth terms, within the
-    //! device tolerances of objectsplat-wgpu's tests; and the depth terms'
+    //! device tolerances of objectsplat-raster-gpu's tests; and the depth terms'
     //! device gradient against the host's analytic gradient and against
     //! finite differences of the host's loss, on the device's own render.
     use super::*;

@@ -208,7 +208,7 @@ impl Node for TrainNode {
         let state_every: f64 = p.state_every_s;
         let overrides: BTreeMap<String, f64> = p.schedule;
         let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
-        let (backend, why) = objectsplat_wgpu::backend_for(&backend_name, ctx.threads())?;
+        let (backend, why) = objectsplat_raster_gpu::backend_for(&backend_name, ctx.threads())?;
         ctx.note("backend", why);
         let points_path = ports.points.join(POINTS_PLY);
         let all_points = Points::read_ply(&points_path)?;

@@ -37,7 +37,7 @@ use objectsplat_core::{ComponentKind, Points, Split};
 use objectsplat_core::{EvalRecord, StepRecord, TrainingLog, TrainingTimes};
 use objectsplat_optim::{LearningRates, Optim};
 use objectsplat_raster::{Model, RenderBackend, RenderSettings};
-use objectsplat_wgpu::WgpuBackend;
+use objectsplat_raster_gpu::WgpuBackend;
 use rand::seq::SliceRandom;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;

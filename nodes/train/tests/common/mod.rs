@@ -208,9 +208,9 @@ pub fn parameter_bits(m: &objectsplat_raster::Model<f32>) -> Vec<u32> {
 
 /// The wgpu backend on the shared adapter, or `None` after printing why the test
 /// is skipped; with `OBJECTSPLAT_REQUIRE_ADAPTER=1` a missing adapter fails instead.
-pub fn wgpu_backend() -> Option<objectsplat_wgpu::WgpuBackend> {
+pub fn wgpu_backend() -> Option<objectsplat_raster_gpu::WgpuBackend> {
     use objectsplat_gpu::{AdapterChoice, GpuContext};
-    use objectsplat_wgpu::WgpuBackend;
+    use objectsplat_raster_gpu::WgpuBackend;
     let err = match GpuContext::shared(AdapterChoice::Auto) {
         Ok((ctx, _)) => return Some(WgpuBackend::new(ctx).unwrap()),
         Err(err) => err,

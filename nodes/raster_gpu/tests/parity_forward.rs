@@ -4,7 +4,7 @@
 mod support;
 
 use objectsplat_raster::CpuBackend;
-use objectsplat_wgpu::{KernelConfig, WgpuBackend};
+use objectsplat_raster_gpu::{KernelConfig, WgpuBackend};
 use support::{context, paired_outputs, parity_scenes};
 
 fn max_abs_diff(a: &[f32], b: &[f32]) -> (f32, usize) {

@@ -1,14 +1,14 @@
 //! Every WGSL program of the crate parses and validates with naga (no adapter needed),
 //! in both float-accumulation variants.
 use objectsplat_gpu::validate_wgsl;
-use objectsplat_wgpu::FloatAtomics;
-use objectsplat_wgpu::raster::raster_sources;
+use objectsplat_raster_gpu::FloatAtomics;
+use objectsplat_raster_gpu::raster::raster_sources;
 
 #[test]
 fn every_shader_validates() {
-    validate_wgsl("scan.wgsl", objectsplat_wgpu::scan::SCAN_WGSL).unwrap();
-    validate_wgsl("sort.wgsl", objectsplat_wgpu::sort::SORT_WGSL).unwrap();
-    use objectsplat_wgpu::training::{ADAM_WGSL, DEPTH_WGSL, FACES_WGSL, LOSS_WGSL};
+    validate_wgsl("scan.wgsl", objectsplat_raster_gpu::scan::SCAN_WGSL).unwrap();
+    validate_wgsl("sort.wgsl", objectsplat_raster_gpu::sort::SORT_WGSL).unwrap();
+    use objectsplat_raster_gpu::training::{ADAM_WGSL, DEPTH_WGSL, FACES_WGSL, LOSS_WGSL};
     for (name, source) in [
         ("training/loss.wgsl", LOSS_WGSL),
         ("training/adam.wgsl", ADAM_WGSL),

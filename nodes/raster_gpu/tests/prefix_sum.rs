@@ -1,7 +1,7 @@
 //! The GPU exclusive prefix sum equals a sequential CPU scan.
 mod support;
 
-use objectsplat_wgpu::scan::GpuScan;
+use objectsplat_raster_gpu::scan::GpuScan;
 use support::{Rng, context};
 
 fn cpu_exclusive_scan(values: &[u32]) -> Vec<u32> {

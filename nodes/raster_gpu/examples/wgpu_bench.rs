@@ -1,7 +1,7 @@
 //! Forward+backward iterations per second, wgpu backend against the CPU
 //! backend (2 threads), same scenes, same run.
 //!
-//! `cargo run --release -p objectsplat-wgpu --example wgpu_bench` runs 320×240 with
+//! `cargo run --release -p objectsplat-raster-gpu --example wgpu_bench` runs 320×240 with
 //! 2k and 20k faces and 1752×1168 with 100k; `-- --case FACES WIDTH HEIGHT`
 //! runs one case (e.g. `--case 1000000 1752 1168` on a real GPU);
 //! `--no-cpu` skips the CPU side. Prints one Markdown table row per case.
@@ -23,8 +23,8 @@ use objectsplat_raster::loss::{CROP_MARGIN, DEFAULT_LAMBDA_DSSIM, Dims, photomet
 use objectsplat_raster::{
     CpuBackend, Model, OutputGrads, RenderBackend, RenderSettings, SH_COEFFS,
 };
-use objectsplat_wgpu::WgpuBackend;
-use objectsplat_wgpu::training::{DepthWeights, DeviceTrainer, Step, Trained, TrainingView};
+use objectsplat_raster_gpu::WgpuBackend;
+use objectsplat_raster_gpu::training::{DepthWeights, DeviceTrainer, Step, Trained, TrainingView};
 use std::time::{Duration, Instant};
 
 /// A xorshift64 generator of uniform numbers in [0, 1): scenes without files.

@@ -5,7 +5,7 @@
 mod support;
 
 use objectsplat_raster::{CpuBackend, RenderBackend, RenderSettings};
-use objectsplat_wgpu::{FloatAtomics, WgpuBackend};
+use objectsplat_raster_gpu::{FloatAtomics, WgpuBackend};
 use support::{
     Rng, context, every_output, facing_origin, push_triangle, relative_difference, upstream,
 };

@@ -10,7 +10,7 @@ use glam::DVec3;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::DEFAULT_LAMBDA_DSSIM;
 use objectsplat_raster::{CpuBackend, RenderBackend, RenderSettings};
-use objectsplat_wgpu::training::{Step, Trained, TrainingView};
+use objectsplat_raster_gpu::training::{Step, Trained, TrainingView};
 use support::{
     CpuLoss, FROZEN, Scene, backend, cpu_loss, facing_origin, footprint, loaded_trainer,
     object_view, small_object_scene,

@@ -1,8 +1,8 @@
 //! The GPU radix sort equals a stable CPU sort by key (ties keep input order).
 mod support;
 
-use objectsplat_wgpu::scan::GpuScan;
-use objectsplat_wgpu::sort::{GpuSort, key_bits};
+use objectsplat_raster_gpu::scan::GpuScan;
+use objectsplat_raster_gpu::sort::{GpuSort, key_bits};
 use support::{Rng, context};
 
 fn cpu_stable_sort(keys: &[u32], values: &[u32], bits: u32) -> (Vec<u32>, Vec<u32>) {

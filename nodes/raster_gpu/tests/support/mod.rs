@@ -274,7 +274,7 @@ pub fn relative_difference(a: &[f32], b: &[f32], floor: f64) -> f64 {
 
 use objectsplat_optim::LearningRates;
 use objectsplat_raster::loss::DEFAULT_LAMBDA_DSSIM;
-use objectsplat_wgpu::training::{DepthWeights, Step, TrainingView};
+use objectsplat_raster_gpu::training::{DepthWeights, Step, TrainingView};
 
 /// One training view of `scene`: a flat grey target, every pixel at `weight`.
 pub fn flat_view(scene: &Scene, weight: f32) -> TrainingView {
@@ -361,8 +361,8 @@ pub fn footprint() -> Region {
 use objectsplat_optim::Optim;
 use objectsplat_raster::loss::{LossGrad, photometric};
 use objectsplat_raster::{CpuBackend, OutputGrads, RenderBackend, RenderOutput, SavedForward};
-use objectsplat_wgpu::WgpuBackend;
-use objectsplat_wgpu::training::{DeviceTrainer, Trained};
+use objectsplat_raster_gpu::WgpuBackend;
+use objectsplat_raster_gpu::training::{DeviceTrainer, Trained};
 
 /// The wgpu backend on the shared context, or `None` after printing why the test is skipped.
 pub fn backend() -> Option<WgpuBackend> {

@@ -7,7 +7,7 @@
 mod support;
 
 use objectsplat_raster::{CpuBackend, RenderBackend, SH_COEFFS};
-use objectsplat_wgpu::{FloatAtomics, KernelConfig, WgpuBackend};
+use objectsplat_raster_gpu::{FloatAtomics, KernelConfig, WgpuBackend};
 use support::{Rng, context, every_output, parity_scenes, relative_difference, upstream};
 
 const TOLERANCE: f64 = 1e-3;

@@ -3,7 +3,7 @@
 mod support;
 
 use objectsplat_raster::{CpuBackend, OutputGrads, RenderBackend, RenderSettings};
-use objectsplat_wgpu::backend_for;
+use objectsplat_raster_gpu::backend_for;
 use support::{Rng, backend, context, facing_origin, random_soup};
 
 #[test]

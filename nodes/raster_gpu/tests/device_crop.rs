@@ -10,8 +10,8 @@ use objectsplat_optim::{LearningRates, Optim};
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::DEFAULT_LAMBDA_DSSIM;
 use objectsplat_raster::{Model, RenderSettings};
-use objectsplat_wgpu::WgpuBackend;
-use objectsplat_wgpu::training::{DeviceTrainer, Step, StepResult, TrainingView};
+use objectsplat_raster_gpu::WgpuBackend;
+use objectsplat_raster_gpu::training::{DeviceTrainer, Step, StepResult, TrainingView};
 use support::{
     FROZEN, Scene, backend, cpu_loss, footprint, fresh_optim, loaded_trainer, object_view,
     relative_difference, small_object_scene,

@@ -5,7 +5,7 @@
 mod support;
 
 use objectsplat_optim::Optim;
-use objectsplat_wgpu::training::{DeviceTrainer, Step, Trained, TrainingView};
+use objectsplat_raster_gpu::training::{DeviceTrainer, Step, Trained, TrainingView};
 use support::{
     FROZEN, Rng, backend, cpu_loss, flat_view, fresh_optim, loaded_trainer, parity_scenes,
     relative_difference, step_at,

@@ -6,7 +6,7 @@ mod support;
 
 use objectsplat_optim::{AdamGroup, LearningRates};
 use objectsplat_raster::{CpuBackend, Model, OutputGrads, RenderBackend};
-use objectsplat_wgpu::training::{Step, TrainingView};
+use objectsplat_raster_gpu::training::{Step, TrainingView};
 use support::{
     Rng, backend, cpu_loss, flat_view, fresh_optim, loaded_trainer, parity_scenes,
     relative_difference, step_at,

@@ -2,7 +2,7 @@
 //! reason is clear, and "auto" falls back to the CPU backend while "wgpu"
 //! is an error. Runs in a child process so the variable affects nothing else.
 use objectsplat_gpu::{AdapterChoice, GpuContext};
-use objectsplat_wgpu::backend_for;
+use objectsplat_raster_gpu::backend_for;
 
 const CHILD_ENV: &str = "OBJECTSPLAT_WGPU_FALLBACK_CHILD";
 
