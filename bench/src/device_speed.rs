@@ -16,14 +16,12 @@
 //! Optionally runs the demo graph's `objects` and `train` nodes on each backend.
 //! `scripts/gpu-bench.sh` drives it on a GPU machine.
 
-use crate::run_report::node;
+use crate::run_report::{node, run_command, run_to_report, training_record};
 use anyhow::{Context, Result, bail};
-use objectsplat_core::{TRAINING_TIMES, TrainingLog, TrainingTimes};
 use serde::Serialize;
 use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
 
@@ -160,7 +158,7 @@ struct GpuMemoryPoller {
 }
 
 fn gpu_memory_used_mib() -> Option<u64> {
-    let out = Command::new("nvidia-smi")
+    let out = std::process::Command::new("nvidia-smi")
         .args(["--query-gpu=memory.used", "--format=csv,noheader,nounits"])
         .output()
         .ok()?;
@@ -233,17 +231,7 @@ fn run(
         std::fs::remove_dir_all(dir)?;
     }
     std::fs::create_dir_all(dir)?;
-    let json = dir.join("report.json");
-    let mut command = Command::new(binary);
-    command
-        .arg("run")
-        .arg(graph)
-        .arg("--cache")
-        .arg(cache)
-        .arg("--out")
-        .arg(dir.join("out"))
-        .arg("--json")
-        .arg(&json);
+    let (mut command, json) = run_command(binary, graph, cache, dir);
     if let Jobs::OneAtATime(threads) = jobs {
         command
             .args(["-j", "1", "--threads"])
@@ -252,17 +240,7 @@ fn run(
     for set in sets {
         command.arg("--set").arg(set);
     }
-    let status = command
-        .status()
-        .with_context(|| format!("cannot start {}", binary.display()))?;
-    if !status.success() {
-        bail!(
-            "{} run {} failed ({status})",
-            binary.display(),
-            graph.display()
-        );
-    }
-    crate::run_report::read(&json)
+    run_to_report(command, &json, binary, graph)
 }
 
 fn parse_size(size: &str) -> Result<(u32, u32)> {
@@ -332,16 +310,7 @@ pub fn device_speed(args: &DeviceSpeedArgs) -> Result<()> {
                 for item in trained {
                     let component = item["name"].as_str().unwrap_or("?").to_string();
                     let dir = run_dir.join("out").join(id).join("model").join(&component);
-                    let log = TrainingLog::load(&dir)?
-                        .with_context(|| format!("no training log in {}", dir.display()))?;
-                    let times = item["measurements"]
-                        .get(TRAINING_TIMES)
-                        .map(TrainingTimes::from_json)
-                        .transpose()
-                        .with_context(|| format!("{id}[{component}] in the run report"))?
-                        .with_context(|| {
-                            format!("{id}[{component}]: the run report has no training times")
-                        })?;
+                    let (log, times) = training_record(item, &dir, id, &component)?;
                     let ips = times.iterations_per_second().unwrap_or(f64::NAN);
                     let device_steps = log.notes.iter().any(|n| n.contains(DEVICE_NOTE));
                     eprintln!(

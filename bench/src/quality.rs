@@ -8,13 +8,13 @@
 //! the old single-train-node graph), and writes a Markdown table of composed
 //! test PSNR/SSIM, F-score at τ = 5 cm and 2 cm, and training time.
 
-use anyhow::{Context, Result, bail};
+use crate::run_report::{run_command, run_to_report};
+use anyhow::{Context, Result};
 use objectsplat_metrics::report::{MetricsReport, ScopeMetrics};
 use serde::Serialize;
 use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 #[derive(clap::Args)]
 pub struct QualityArgs {
@@ -257,29 +257,12 @@ pub fn run_graph(binary: &Path, graph: &Path, dir: &Path, jobs: usize) -> Result
         std::fs::remove_dir_all(dir)?;
     }
     std::fs::create_dir_all(dir)?;
-    let json = dir.join("report.json");
-    let status = Command::new(binary)
-        .arg("run")
-        .arg(graph)
-        .arg("--cache")
-        .arg(dir.join("cache"))
-        .arg("--out")
-        .arg(dir.join("out"))
+    let (mut command, json) = run_command(binary, graph, &dir.join("cache"), dir);
+    command
         .arg("-j")
         .arg(jobs.to_string())
-        .arg("--json")
-        .arg(&json)
-        .env("OBJECTSPLAT_NO_GPU", "1")
-        .status()
-        .with_context(|| format!("cannot start {}", binary.display()))?;
-    if !status.success() {
-        bail!(
-            "{} run {} failed ({status})",
-            binary.display(),
-            graph.display()
-        );
-    }
-    crate::run_report::read(&json)
+        .env("OBJECTSPLAT_NO_GPU", "1");
+    run_to_report(command, &json, binary, graph)
 }
 
 /// The scene-level scores of a metrics node's output, if it ran.

@@ -11,14 +11,12 @@
 //! load time from the nodes' seconds (frames decoded, masks rasterized and
 //! split, visibility computed, on every core).
 
-use crate::run_report::node;
+use crate::run_report::{node, run_command, training_record};
 use anyhow::{Context, Result, bail};
-use objectsplat_core::{TRAINING_TIMES, TrainingLog, TrainingTimes};
 use serde::Serialize;
 use serde_json::Value;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 #[derive(clap::Args)]
 pub struct ScaleArgs {
@@ -126,16 +124,9 @@ fn run_measured(
     jobs: usize,
 ) -> Result<(Value, u64)> {
     std::fs::create_dir_all(dir)?;
-    let json = dir.join("report.json");
-    let child = Command::new(binary)
-        .arg("run")
-        .arg(graph)
-        .arg("--cache")
-        .arg(cache)
-        .arg("--out")
-        .arg(dir.join("out"))
-        .args(["-j", &jobs.to_string(), "--json"])
-        .arg(&json)
+    let (mut command, json) = run_command(binary, graph, cache, dir);
+    let child = command
+        .args(["-j", &jobs.to_string()])
         .env("OBJECTSPLAT_NO_GPU", "1")
         .spawn()
         .with_context(|| format!("cannot start {}", binary.display()))?;
@@ -235,14 +226,7 @@ pub fn scale(args: &ScaleArgs) -> Result<()> {
                     .join("train/out")
                     .join("background/model")
                     .join(&component);
-                let log = TrainingLog::load(&model)?
-                    .with_context(|| format!("no training log in {}", model.display()))?;
-                let times = item["measurements"]
-                    .get(TRAINING_TIMES)
-                    .map(TrainingTimes::from_json)
-                    .transpose()
-                    .with_context(|| format!("{id}[{component}] in the run report"))?
-                    .with_context(|| format!("{id}[{component}]: no training times"))?;
+                let (log, times) = training_record(item, &model, id, &component)?;
                 let memory = item["notes"]["memory"].as_str().unwrap_or("").to_string();
                 let frames = cache_frames(&dir, &component)?;
                 components.push(ComponentRow {
