@@ -36,15 +36,30 @@ pub fn register(reg: &mut Registry) {
     }
 }
 
-/// The scene points, when the optional `points` input is wired.
-fn optional_points(dir: Option<&Path>) -> Result<Option<Points>> {
-    dir.map(|dir| Points::read_ply(&dir.join(objectsplat_core::artifact::POINTS_PLY)))
-        .transpose()
+/// The scene's points and their visibility, as far as the optional `points` and
+/// `visibility` inputs are wired.
+struct WiredPoints {
+    points: Option<Points>,
+    visibility: Option<Visibility>,
 }
 
-/// The scene's point visibility, when the optional `visibility` input is wired.
-fn optional_visibility(dir: Option<&Path>) -> Result<Option<Visibility>> {
-    dir.map(Visibility::read).transpose()
+impl WiredPoints {
+    fn read(points: Option<&Path>, visibility: Option<&Path>) -> Result<WiredPoints> {
+        Ok(WiredPoints {
+            points: points
+                .map(|dir| Points::read_ply(&dir.join(objectsplat_core::artifact::POINTS_PLY)))
+                .transpose()?,
+            visibility: visibility.map(Visibility::read).transpose()?,
+        })
+    }
+
+    /// The points with their visibility checked against them; `None` without points.
+    fn scene_points(&self) -> Result<Option<ScenePoints<'_>>> {
+        self.points
+            .as_ref()
+            .map(|p| ScenePoints::new(p, self.visibility.as_ref()))
+            .transpose()
+    }
 }
 
 fn connectivity(n: i64) -> Result<Connectivity> {
@@ -278,12 +293,8 @@ impl Node for SurfaceCompletionNode {
         };
         // Validates the capture even though the components carry their own frames.
         Frames::read(&ports.frames)?;
-        let points = optional_points(ports.points.as_deref())?;
-        let visibility = optional_visibility(ports.visibility.as_deref())?;
-        let scene_points = points
-            .as_ref()
-            .map(|p| ScenePoints::new(p, visibility.as_ref()))
-            .transpose()?;
+        let wired = WiredPoints::read(ports.points.as_deref(), ports.visibility.as_deref())?;
+        let scene_points = wired.scene_points()?;
         let items = ports.components;
         ctx.progress(0, 1, "completing support surfaces");
         let report = complete_surfaces(&items, scene_points, &params, &ports.components_out)?;
@@ -343,12 +354,8 @@ impl Node for CompleteSurfacesNode {
         let params: SurfaceMeshParams = ctx.params_as()?;
         // Validates the capture; the components carry their own frames.
         Frames::read(&ports.frames)?;
-        let points = optional_points(ports.points.as_deref())?;
-        let visibility = optional_visibility(ports.visibility.as_deref())?;
-        let scene_points = points
-            .as_ref()
-            .map(|p| ScenePoints::new(p, visibility.as_ref()))
-            .transpose()?;
+        let wired = WiredPoints::read(ports.points.as_deref(), ports.visibility.as_deref())?;
+        let scene_points = wired.scene_points()?;
         let mut scene = objectsplat_scene::load_scene(&ports.scene)?;
         let items = ports.components;
         ctx.progress(0, 1, "completing support surfaces in 3D");
