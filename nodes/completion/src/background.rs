@@ -45,10 +45,7 @@ pub fn inpaint_background(
     out: &Path,
     scratch: &Path,
 ) -> Result<BackgroundReport> {
-    let components: Vec<ComponentFolder> = items
-        .iter()
-        .map(|(name, dir)| ComponentFolder::read_item(name, dir))
-        .collect::<Result<_>>()?;
+    let components = ComponentFolder::read_items(items)?;
     let Some(background) = components
         .iter()
         .find(|c| c.info.kind == ComponentKind::Background)

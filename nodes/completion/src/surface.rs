@@ -330,10 +330,7 @@ pub fn complete_surfaces(
     params: &SurfaceParams,
     out: &Path,
 ) -> Result<CompletionReport> {
-    let components: Vec<ComponentFolder> = items
-        .iter()
-        .map(|(name, dir)| ComponentFolder::read_item(name, dir))
-        .collect::<Result<_>>()?;
+    let components = ComponentFolder::read_items(items)?;
     let mut surfaces = Vec::new();
     for c in &components {
         if c.info.kind != ComponentKind::Object {

@@ -105,6 +105,14 @@ impl ComponentFolder {
         })
     }
 
+    /// Every item of a collection, in its order.
+    pub fn read_items(items: &[(String, PathBuf)]) -> Result<Vec<ComponentFolder>> {
+        items
+            .iter()
+            .map(|(name, dir)| Self::read_item(name, dir))
+            .collect()
+    }
+
     pub fn has_frame(&self, name: &str) -> bool {
         self.frames.frames.iter().any(|f| f.name == name)
     }

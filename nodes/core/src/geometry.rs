@@ -5,6 +5,24 @@
 //! none); faces as `vertex_indices` lists — plus `objects.json` (id → label) when
 //! annotated. Points artifact (a folder): `points.ply` with `x,y,z` + `red,green,blue`.
 
+/// The cross product of a triangle's edges `b − a` and `c − a`: its normal, as long as
+/// twice its area (exactly zero for collinear corners).
+pub fn triangle_cross([a, b, c]: &[[f64; 3]; 3]) -> [f64; 3] {
+    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
+    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+    [
+        u[1] * v[2] - u[2] * v[1],
+        u[2] * v[0] - u[0] * v[2],
+        u[0] * v[1] - u[1] * v[0],
+    ]
+}
+
+/// A triangle's area.
+pub fn triangle_area(corners: &[[f64; 3]; 3]) -> f64 {
+    let n = triangle_cross(corners);
+    0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+}
+
 /// The axis-aligned bounding box of `points` as (min corner, max corner); (+∞, −∞) when
 /// there are none.
 pub fn bounding_box(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f64; 3]) {
@@ -78,4 +96,18 @@ impl Mesh {
 pub struct Points {
     pub positions: Vec<[f32; 3]>,
     pub colors: Vec<[u8; 3]>,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_right_triangle_has_half_the_product_of_its_legs_and_collinear_corners_none() {
+        let t = [[1.0, 1.0, 1.0], [4.0, 1.0, 1.0], [1.0, 5.0, 1.0]];
+        assert_eq!(triangle_cross(&t), [0.0, 0.0, 12.0]);
+        assert_eq!(triangle_area(&t), 6.0);
+        let line = [[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [2.0, 4.0, 6.0]];
+        assert_eq!(triangle_cross(&line), [0.0; 3]);
+    }
 }

@@ -211,11 +211,11 @@ impl Points {
         Ok(Points { positions, colors })
     }
 
-    pub fn write_ply(&self, path: &Path) -> Result<()> {
+    /// One colour per point and finite positions.
+    pub fn validate(&self) -> Result<()> {
         if self.colors.len() != self.positions.len() {
             bail!(
-                "{}: {} colours for {} points",
-                path.display(),
+                "{} colours for {} points",
                 self.colors.len(),
                 self.positions.len()
             );
@@ -225,8 +225,17 @@ impl Points {
             .iter()
             .position(|p| p.iter().any(|v| !v.is_finite()))
         {
-            bail!("{}: point {i} has a non-finite coordinate", path.display());
+            bail!(
+                "point {i} has a non-finite coordinate {:?}",
+                self.positions[i]
+            );
         }
+        Ok(())
+    }
+
+    pub fn write_ply(&self, path: &Path) -> Result<()> {
+        self.validate()
+            .with_context(|| format!("{}: cannot write points", path.display()))?;
         let ply = Ply::new(vec![with_colors(
             xyz_element(&self.positions),
             &self.colors,

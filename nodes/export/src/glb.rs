@@ -13,13 +13,13 @@
 //! extras: other glTF viewers show `COLOR_0`, ours the trained appearance.
 
 use crate::color::{srgb_to_linear, srgb8_to_linear};
-use crate::object::{CleanMesh, ExportObject, SrgbColors, clean_mesh};
+use crate::object::{CleanMesh, ExportObject, SrgbColors, clean_mesh, ensure_unique_names};
 use anyhow::{Context, Result, ensure};
 use gltf_json as json;
 use json::validation::Checked::Valid;
 use json::validation::USize64;
 use objectsplat_core::ComponentKind;
-use std::collections::{BTreeMap, HashSet};
+use std::collections::BTreeMap;
 use std::path::Path;
 
 /// Rotation (xyzw) taking the capture's Z-up world to glTF's Y-up: −90° about +X.
@@ -145,14 +145,7 @@ pub fn build_glb(
     objects: &[ExportObject],
     asset_extras: Option<&serde_json::Value>,
 ) -> Result<(Vec<u8>, Vec<ExportedComponent>)> {
-    let mut seen_names = HashSet::new();
-    for o in objects {
-        ensure!(
-            seen_names.insert(o.component.name.as_str()),
-            "component {} appears twice in the export",
-            o.component.name
-        );
-    }
+    ensure_unique_names(objects)?;
     let mut root = json::Root::default();
     root.asset.generator = Some(format!("objectsplat-export {}", env!("CARGO_PKG_VERSION")));
     if let Some(extras) = asset_extras {

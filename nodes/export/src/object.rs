@@ -2,6 +2,7 @@
 
 use anyhow::{Result, bail, ensure};
 use objectsplat_core::ComponentInfo;
+use objectsplat_core::geometry::triangle_cross;
 use objectsplat_scene::Placement;
 
 /// Per-vertex colours as stored by the capture: sRGB-encoded.
@@ -253,6 +254,19 @@ pub(crate) fn clean_mesh(object: &ExportObject) -> Result<CleanMesh> {
     })
 }
 
+/// Every component at most once: its name becomes a file and a glTF node name.
+pub fn ensure_unique_names(objects: &[ExportObject]) -> Result<()> {
+    let mut names = std::collections::HashSet::new();
+    for o in objects {
+        ensure!(
+            names.insert(o.component.name.as_str()),
+            "component {} appears twice in the export",
+            o.component.name
+        );
+    }
+    Ok(())
+}
+
 /// A face is degenerate when two corners share an index or its corners are exactly collinear.
 fn is_degenerate(face: &[u32; 3], positions: &[[f32; 3]]) -> bool {
     let [a, b, c] = *face;
@@ -260,13 +274,7 @@ fn is_degenerate(face: &[u32; 3], positions: &[[f32; 3]]) -> bool {
         return true;
     }
     let p = |i: u32| positions[i as usize].map(f64::from);
-    let (pa, pb, pc) = (p(a), p(b), p(c));
-    let u = [pb[0] - pa[0], pb[1] - pa[1], pb[2] - pa[2]];
-    let v = [pc[0] - pa[0], pc[1] - pa[1], pc[2] - pa[2]];
-    let cross = [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ];
-    cross.iter().all(|&x| x == 0.0)
+    triangle_cross(&[p(a), p(b), p(c)])
+        .iter()
+        .all(|&x| x == 0.0)
 }

@@ -2,10 +2,9 @@
 //! frame (Z up) with 8-bit sRGB colours, written in the Mesh encoding of `objectsplat-core`
 //! (binary little-endian, `float x,y,z`, `uchar red,green,blue`, `list uchar int vertex_indices`).
 
-use crate::object::{ExportObject, SrgbColors, clean_mesh};
-use anyhow::{Context, Result, ensure};
+use crate::object::{ExportObject, SrgbColors, clean_mesh, ensure_unique_names};
+use anyhow::{Context, Result};
 use objectsplat_core::Mesh;
-use std::collections::HashSet;
 use std::path::{Path, PathBuf};
 
 /// The component as a core [`Mesh`]: degenerate faces and unused vertices removed,
@@ -43,14 +42,7 @@ pub fn write_component_ply(path: &Path, object: &ExportObject) -> Result<()> {
 
 /// Writes `<dir>/<component name>.ply` for every component; returns the paths in input order.
 pub fn write_component_plys(dir: &Path, objects: &[ExportObject]) -> Result<Vec<PathBuf>> {
-    let mut names = HashSet::new();
-    for o in objects {
-        ensure!(
-            names.insert(o.component.name.as_str()),
-            "component {} appears twice in the export",
-            o.component.name
-        );
-    }
+    ensure_unique_names(objects)?;
     std::fs::create_dir_all(dir)
         .with_context(|| format!("{}: cannot create folder", dir.display()))?;
     objects

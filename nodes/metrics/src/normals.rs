@@ -12,27 +12,18 @@ use crate::mesh_eval::{GtFilter, MeshEvalParams};
 use crate::surface::{SampleCount, sample_surface};
 use anyhow::{Result, bail};
 use objectsplat_core::Mesh;
+use objectsplat_core::geometry::triangle_cross;
 
 /// Unit normals of `mesh`'s faces; `None` for a face with no area.
 fn face_normals(mesh: &Mesh) -> Vec<Option<[f64; 3]>> {
     mesh.faces
         .iter()
         .map(|f| {
-            let [a, b, c] = f.map(|v| mesh.positions[v as usize].map(f64::from));
-            let (u, v) = (sub(b, a), sub(c, a));
-            let n = [
-                u[1] * v[2] - u[2] * v[1],
-                u[2] * v[0] - u[0] * v[2],
-                u[0] * v[1] - u[1] * v[0],
-            ];
+            let n = triangle_cross(&f.map(|v| mesh.positions[v as usize].map(f64::from)));
             let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
             (len > 0.0 && len.is_finite()).then(|| n.map(|x| x / len))
         })
         .collect()
-}
-
-fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
 }
 
 /// Points on a surface and, for each, its face's unit normal.

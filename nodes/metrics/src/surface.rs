@@ -2,6 +2,7 @@
 
 use anyhow::{Result, bail};
 use objectsplat_core::Mesh;
+use objectsplat_core::geometry::triangle_area;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
@@ -95,15 +96,4 @@ pub fn sample_surface(
         out.faces.push(face as u32);
     }
     Ok(out)
-}
-
-pub fn triangle_area([a, b, c]: &[[f64; 3]; 3]) -> f64 {
-    let e1 = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let e2 = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let cross = [
-        e1[1] * e2[2] - e1[2] * e2[1],
-        e1[2] * e2[0] - e1[0] * e2[2],
-        e1[0] * e2[1] - e1[1] * e2[0],
-    ];
-    0.5 * (cross[0] * cross[0] + cross[1] * cross[1] + cross[2] * cross[2]).sqrt()
 }

@@ -5,6 +5,7 @@
 //! vertices; pruning compacts them) and report what the optimizer state must do.
 
 use anyhow::{Result, bail};
+use objectsplat_core::geometry::triangle_area;
 use objectsplat_raster::Model;
 use objectsplat_raster::model::inverse_sigmoid;
 use rand::Rng;
@@ -42,15 +43,7 @@ pub fn sample_without_replacement(
 }
 
 fn face_area(model: &Model<f32>, f: usize) -> f64 {
-    let [a, b, c] = model.faces[f].map(|i| model.vertices[i as usize].map(|x| x as f64));
-    let u = [b[0] - a[0], b[1] - a[1], b[2] - a[2]];
-    let v = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
-    let n = [
-        u[1] * v[2] - u[2] * v[1],
-        u[2] * v[0] - u[0] * v[2],
-        u[0] * v[1] - u[1] * v[0],
-    ];
-    0.5 * (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt()
+    triangle_area(&model.faces[f].map(|i| model.vertices[i as usize].map(|x| x as f64)))
 }
 
 /// How densification chooses faces (see `Schedule` for the reference values).

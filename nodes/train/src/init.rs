@@ -91,20 +91,7 @@ pub fn init_model(points: &Points, settings: &InitSettings) -> Result<Model<f32>
     if points.positions.is_empty() {
         bail!("no points to initialize from");
     }
-    if points.colors.len() != points.positions.len() {
-        bail!(
-            "{} points but {} colours",
-            points.positions.len(),
-            points.colors.len()
-        );
-    }
-    if let Some(i) = points
-        .positions
-        .iter()
-        .position(|p| p.iter().any(|c| !c.is_finite()))
-    {
-        bail!("point {i} {:?} is not finite", points.positions[i]);
-    }
+    points.validate()?;
     if !(settings.opacity > 0.0 && settings.opacity < 1.0) {
         bail!("initial opacity {} must lie in (0, 1)", settings.opacity);
     }

@@ -183,30 +183,15 @@ pub fn complete_scene_surfaces(
 }
 
 fn check_params(p: &SurfaceMeshParams) -> Result<()> {
-    let in_unit = |v: f64| v.is_finite() && v > 0.0 && v <= 1.0;
-    if !in_unit(p.planarity_tolerance) {
-        bail!(
-            "planarity_tolerance = {} must be in (0, 1]",
-            p.planarity_tolerance
-        );
-    }
-    if !in_unit(p.min_plane_fraction) {
-        bail!(
-            "min_plane_fraction = {} must be in (0, 1]",
-            p.min_plane_fraction
-        );
-    }
-    if !in_unit(p.contact_tolerance) {
-        bail!(
-            "contact_tolerance = {} must be in (0, 1]",
-            p.contact_tolerance
-        );
-    }
-    if !in_unit(p.max_hole_fraction) {
-        bail!(
-            "max_hole_fraction = {} must be in (0, 1]",
-            p.max_hole_fraction
-        );
+    for (name, v) in [
+        ("planarity_tolerance", p.planarity_tolerance),
+        ("min_plane_fraction", p.min_plane_fraction),
+        ("contact_tolerance", p.contact_tolerance),
+        ("max_hole_fraction", p.max_hole_fraction),
+    ] {
+        if !(v.is_finite() && v > 0.0 && v <= 1.0) {
+            bail!("{name} = {v} must be in (0, 1]");
+        }
     }
     if !(p.cell_scale.is_finite() && p.cell_scale > 0.0 && p.cell_scale <= 100.0) {
         bail!("cell_scale = {} must be in (0, 100]", p.cell_scale);
