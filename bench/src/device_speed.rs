@@ -274,10 +274,7 @@ pub fn device_speed(args: &DeviceSpeedArgs) -> Result<()> {
         .filter(|s| !s.is_empty())
         .map(|s| parse_size(s).map(|wh| (s.clone(), wh)))
         .collect::<Result<Vec<_>>>()?;
-    let threads = args
-        .threads
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .max(1);
+    let threads = crate::threads_or_all_cores(args.threads);
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let (mut items, mut runs) = (Vec::new(), Vec::new());

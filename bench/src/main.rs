@@ -188,10 +188,7 @@ fn paper(args: &PaperArgs) -> Result<()> {
     }
     let registry = objectsplat_catalogue::builtin_registry();
     let store = Store::open(&args.cache)?;
-    let jobs = args
-        .jobs
-        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
-        .max(1);
+    let jobs = threads_or_all_cores(args.jobs);
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create {}", args.out.display()))?;
     let pipelines: Vec<&Pipeline> = PIPELINES
@@ -612,4 +609,10 @@ fn join(values: &[u64]) -> String {
         .map(u64::to_string)
         .collect::<Vec<_>>()
         .join(",")
+}
+
+/// `n`, or every core when not given; at least 1.
+pub fn threads_or_all_cores(n: Option<usize>) -> usize {
+    n.unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1)
 }

@@ -60,11 +60,7 @@ impl ComponentInfo {
 
     /// Reads `component.json` from a Component folder.
     pub fn read(dir: &Path) -> Result<ComponentInfo> {
-        let path = dir.join(COMPONENT_JSON);
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("{}: cannot read", path.display()))?;
-        serde_json::from_str(&text)
-            .with_context(|| format!("{}: not a valid component description", path.display()))
+        crate::files::read_json(&dir.join(COMPONENT_JSON), "component description")
     }
 
     /// Writes `component.json` into a Component folder.

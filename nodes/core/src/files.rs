@@ -5,6 +5,13 @@
 use anyhow::{Context, Result};
 use std::path::Path;
 
+/// Reads the JSON file at `path` as a `what` (named in the error when it does not parse).
+pub fn read_json<T: serde::de::DeserializeOwned>(path: &Path, what: &str) -> Result<T> {
+    let text = std::fs::read_to_string(path)
+        .with_context(|| format!("{}: cannot read", path.display()))?;
+    serde_json::from_str(&text).with_context(|| format!("{}: not a valid {what}", path.display()))
+}
+
 /// `dst` holds `src`'s bytes: a hard link, or a copy across file systems.
 pub fn link_or_copy(src: &Path, dst: &Path) -> Result<()> {
     if std::fs::hard_link(src, dst).is_err() {

@@ -88,10 +88,7 @@ pub struct Frames {
 impl Frames {
     pub fn read(dir: &Path) -> Result<Frames> {
         let path = dir.join(FRAMES_JSON);
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("{}: cannot read", path.display()))?;
-        let frames: Vec<Frame> = serde_json::from_str(&text)
-            .with_context(|| format!("{}: not a valid frames list", path.display()))?;
+        let frames: Vec<Frame> = crate::files::read_json(&path, "frames list")?;
         let mut seen = std::collections::HashSet::new();
         for f in &frames {
             if !seen.insert(&f.name) {

@@ -210,11 +210,7 @@ impl MetricsReport {
     }
 
     pub fn read(dir: &Path) -> Result<MetricsReport> {
-        let path = dir.join(METRICS_JSON);
-        let text = std::fs::read_to_string(&path)
-            .with_context(|| format!("{}: cannot read", path.display()))?;
-        serde_json::from_str(&text)
-            .with_context(|| format!("{}: not a valid metrics file", path.display()))
+        objectsplat_core::files::read_json(&dir.join(METRICS_JSON), "metrics file")
     }
 
     pub fn to_csv(&self) -> Result<String> {

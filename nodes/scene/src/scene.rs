@@ -303,10 +303,7 @@ pub fn save_scene(scene: &Scene, dir: &Path) -> Result<()> {
 /// Reads a Scene folder written by [`save_scene`] and validates it.
 pub fn load_scene(dir: &Path) -> Result<Scene> {
     let path = dir.join(SCENE_JSON);
-    let text = std::fs::read_to_string(&path)
-        .with_context(|| format!("{}: cannot read", path.display()))?;
-    let json: SceneJson = serde_json::from_str(&text)
-        .with_context(|| format!("{}: not a valid scene description", path.display()))?;
+    let json: SceneJson = objectsplat_core::files::read_json(&path, "scene description")?;
     let mut objects = Vec::with_capacity(json.objects.len());
     for entry in json.objects {
         // Checked before the name is used as a path, so it cannot leave the folder.
