@@ -256,6 +256,14 @@ fn small_edge_function(p: vec2<i32>, q: vec2<i32>, pixel: vec2<i32>) -> vec2<u32
     return vec2<u32>(bitcast<u32>(e), select(0u, 0xffffffffu, e < 0));
 }
 
+// The edge function of `p`→`q` at `pixel`, in the precision the triangle's size calls for.
+fn edge_at(small: bool, p: vec2<i32>, q: vec2<i32>, pixel: vec2<i32>) -> vec2<u32> {
+    if small {
+        return small_edge_function(p, q, pixel);
+    }
+    return edge_function(p, q, pixel);
+}
+
 // The three edge weights at `pixel`, and whether the top-left rule puts it inside.
 fn weights_at(t: Triangle, pixel: vec2<i32>) -> Weights {
     var out: Weights;
@@ -266,27 +274,15 @@ fn weights_at(t: Triangle, pixel: vec2<i32>) -> Weights {
     let flags = t.iz_area_face_bias.w;
     let small = (flags & FLAG_SMALL) != 0u;
     // Weight k is the edge function of the edge opposite vertex k.
-    if small {
-        out.w0 = small_edge_function(b, c, pixel);
-    } else {
-        out.w0 = edge_function(b, c, pixel);
-    }
+    out.w0 = edge_at(small, b, c, pixel);
     if !inside_edge(out.w0, (flags & 1u) != 0u) {
         return out;
     }
-    if small {
-        out.w1 = small_edge_function(c, a, pixel);
-    } else {
-        out.w1 = edge_function(c, a, pixel);
-    }
+    out.w1 = edge_at(small, c, a, pixel);
     if !inside_edge(out.w1, (flags & 2u) != 0u) {
         return out;
     }
-    if small {
-        out.w2 = small_edge_function(a, b, pixel);
-    } else {
-        out.w2 = edge_function(a, b, pixel);
-    }
+    out.w2 = edge_at(small, a, b, pixel);
     out.covered = inside_edge(out.w2, (flags & 4u) != 0u);
     return out;
 }

@@ -941,19 +941,8 @@ impl WgpuBackend {
     ) -> Result<&'p Rendered> {
         let ctx = &*self.ctx;
         let mut params = self.raster_params(model, camera, settings, background)?;
-        pool.last = None;
-        pool.ensure_model(ctx, model.vertex_count, model.face_count);
-        let mut rec = Recorder::new(ctx, uniforms);
-        self.encode_preprocess(&mut rec, pool, model, &params);
-        rec.enc
-            .copy_buffer_to_buffer(&pool.frame, 0, &pool.staging, 0, FRAME_BYTES);
-        rec.submit();
-        let frame: Vec<u32> = bytemuck::pod_collect_to_vec(&map_and_copy(
-            ctx,
-            &pool.staging,
-            (FRAME_READ_WORDS * 4) as u64,
-        )?);
-        pool.syncs += 1;
+        let frame =
+            self.preprocess_and_read_frame(pool, uniforms, model, &params, FRAME_READ_WORDS)?;
         let entry_count = frame[0] as usize;
         let region = PixelRect {
             x0: frame[1],
@@ -1040,17 +1029,33 @@ impl WgpuBackend {
         let ctx = &*self.ctx;
         let params =
             self.raster_params(model, camera, settings, BackgroundSource::Uniform([0.0; 3]))?;
+        let frame = self.preprocess_and_read_frame(pool, uniforms, model, &params, 1)?;
+        ctx.check_errors("measuring a render's tile entries")?;
+        Ok(frame[0] as usize)
+    }
+
+    /// Runs the preprocessing pass (a fresh frame: no render is current) and reads the
+    /// first `words` words of the frame record back: the one host round trip of a render.
+    fn preprocess_and_read_frame(
+        &self,
+        pool: &mut RasterPool,
+        uniforms: &mut UniformArena,
+        model: &ModelBuffers,
+        params: &RasterParams,
+        words: usize,
+    ) -> Result<Vec<u32>> {
+        let ctx = &*self.ctx;
         pool.last = None;
         pool.ensure_model(ctx, model.vertex_count, model.face_count);
         let mut rec = Recorder::new(ctx, uniforms);
-        self.encode_preprocess(&mut rec, pool, model, &params);
+        self.encode_preprocess(&mut rec, pool, model, params);
         rec.enc
             .copy_buffer_to_buffer(&pool.frame, 0, &pool.staging, 0, FRAME_BYTES);
         rec.submit();
-        let frame: Vec<u32> = bytemuck::pod_collect_to_vec(&map_and_copy(ctx, &pool.staging, 4)?);
+        let frame =
+            bytemuck::pod_collect_to_vec(&map_and_copy(ctx, &pool.staging, (words * 4) as u64)?);
         pool.syncs += 1;
-        ctx.check_errors("measuring a render's tile entries")?;
-        Ok(frame[0] as usize)
+        Ok(frame)
     }
 
     /// Reads a forward pass's image and face statistics back to the host.

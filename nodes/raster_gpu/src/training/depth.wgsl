@@ -63,6 +63,20 @@ fn region() -> Region {
 
 var<workgroup> counts: array<u32, 256>;
 
+// The sum of every invocation's `n` over the workgroup, the same in all of them (call from
+// uniform control flow).
+fn workgroup_count(lid: u32, n: u32) -> u32 {
+    counts[lid] = n;
+    workgroupBarrier();
+    for (var stride = 128u; stride > 0u; stride >>= 1u) {
+        if (lid < stride) {
+            counts[lid] += counts[lid + stride];
+        }
+        workgroupBarrier();
+    }
+    return workgroupUniformLoad(&counts[0]);
+}
+
 // The region index of a view pixel, or NONE outside the region.
 fn region_index(r: Region, pixel: u32) -> u32 {
     let x = pixel % params.width;
@@ -91,15 +105,7 @@ fn point_depth(@builtin(local_invocation_index) lid: u32) {
             inside += 1u;
         }
     }
-    counts[lid] = inside;
-    workgroupBarrier();
-    for (var stride = 128u; stride > 0u; stride >>= 1u) {
-        if (lid < stride) {
-            counts[lid] += counts[lid + stride];
-        }
-        workgroupBarrier();
-    }
-    let count = workgroupUniformLoad(&counts[0]);
+    let count = workgroup_count(lid, inside);
     if (count == 0u) {
         return;
     }
@@ -168,16 +174,9 @@ fn planar_count(@builtin(workgroup_id) wid: vec3<u32>, @builtin(num_workgroups) 
         let y = i32(p / r.width);
         n = u32(run_counts(r, x, y, 1, 0)) + u32(run_counts(r, x, y, 0, 1));
     }
-    counts[lid] = n;
-    workgroupBarrier();
-    for (var stride = 128u; stride > 0u; stride >>= 1u) {
-        if (lid < stride) {
-            counts[lid] += counts[lid + stride];
-        }
-        workgroupBarrier();
-    }
-    if (lid == 0u && counts[0] > 0u) {
-        atomicAdd(&runs[0], counts[0]);
+    let total = workgroup_count(lid, n);
+    if (lid == 0u && total > 0u) {
+        atomicAdd(&runs[0], total);
     }
 }
 
