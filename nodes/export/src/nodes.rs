@@ -16,11 +16,16 @@ use std::sync::Arc;
 
 /// The scene as `.glb` bytes (what `export_gltf` writes) and what each node holds.
 pub fn scene_glb(scene: &Scene) -> Result<(Vec<u8>, Vec<ExportedComponent>)> {
+    glb_of(scene, &export_objects(scene))
+}
+
+/// The `.glb` of `objects`, the scene's members as [`export_objects`] gives them.
+fn glb_of(scene: &Scene, objects: &[ExportObject]) -> Result<(Vec<u8>, Vec<ExportedComponent>)> {
     let extras = serde_json::json!({
         "generator": "objectsplat export_gltf",
         "members": scene.objects.len(),
     });
-    build_glb(&export_objects(scene), Some(&extras))
+    build_glb(objects, Some(&extras))
 }
 
 /// `export_gltf`: the scene as one .glb plus one PLY per member.
@@ -68,7 +73,7 @@ impl Node for ExportGltf {
         let out = ports.file;
         ctx.progress(0, 2, "writing scene.glb");
         let glb_path = out.join(SCENE_GLB);
-        let (bytes, written) = scene_glb(&scene)
+        let (bytes, written) = glb_of(&scene, &objects)
             .with_context(|| format!("{}: cannot export the scene", glb_path.display()))?;
         std::fs::write(&glb_path, bytes)
             .with_context(|| format!("{}: cannot write .glb", glb_path.display()))?;
