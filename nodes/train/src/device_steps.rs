@@ -532,7 +532,8 @@ mod tests {
     }
 
     fn state(model: &Model<f32>) -> TrainingState {
-        let schedule = Schedule::new(100, &serde_json::Map::new()).unwrap();
+        // The short budget's world-unit rates, as the trainer resolves them at 24 mm per pixel.
+        let schedule = Schedule::scaled(100).for_footprint(0.024).unwrap();
         TrainingState {
             model: model.clone(),
             optim: Optim::new(schedule.learning_rates(0), model.vertex_count()).unwrap(),

@@ -124,7 +124,7 @@ node_ports! {
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("train", "13")
+        NodeSpec::new("train", "14")
             .doc(
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
@@ -312,8 +312,8 @@ impl Node for TrainNode {
         }
         ctx.note("faces", report.model.face_count());
         ctx.note("memory", memory_note(&data));
-        for n in &report.notes {
-            ctx.note("schedule", n);
+        if !report.notes.is_empty() {
+            ctx.note("schedule", report.notes.join("; "));
         }
         save_model(&report.model, &ports.model)?;
         report.log.save(&ports.model)?;

@@ -5,7 +5,9 @@
 //! (periods never below 1); thresholds and fractions do not scale. The vertex
 //! learning rates do, between two measured points: the reference's
 //! 1.5e-3 → 1.5e-5 at 30k iterations, and 4e-3 → 4e-4 at 3k iterations and
-//! below (log-interpolated in the budget between them). At short budgets the
+//! below (log-interpolated in the budget between them); both are held as steps
+//! in pixels at the footprint they were measured at and turned back into world
+//! units per component ([`Schedule::for_footprint`]). At short budgets the
 //! reference rates leave triangles too little travel to tile the surfaces: on
 //! the synthetic room (160×120, dense split) they gave 14.9 dB held-out PSNR
 //! at 3000 iterations against 27.5 dB with 4e-3 → 4e-4 (docs/benchmarks.md).
@@ -28,9 +30,16 @@ pub const REFERENCE_ITERATIONS: u64 = 30_000;
 pub struct Schedule {
     pub iterations: u64,
 
-    /// Vertex learning rate, decaying log-linearly over the run.
+    /// Vertex learning rate in world units, decaying log-linearly over the
+    /// run; 0 (the default) derives it from the `vertex_step_*_px` fields and
+    /// the component's pixel footprint (see [`Schedule::for_footprint`]).
     pub lr_vertices_start: f64,
     pub lr_vertices_end: f64,
+    /// The vertex learning rate in pixels at the component's surfaces: Adam
+    /// moves a vertex about this far on screen per step, whatever the scene's
+    /// units, the frames' resolution or the component's distance.
+    pub vertex_step_start_px: f64,
+    pub vertex_step_end_px: f64,
     pub lr_sh_dc: f64,
     /// The higher SH bands learn at `lr_sh_dc / sh_rest_lr_divisor`.
     pub sh_rest_lr_divisor: f64,
@@ -135,6 +144,20 @@ pub struct Schedule {
 /// The budget at and below which the short-budget vertex learning rates apply.
 pub const SHORT_BUDGET: u64 = 3_000;
 
+/// The vertex learning rates in world units where they were measured: the
+/// reference's at 30k iterations, and the short budget's on the synthetic
+/// room's background at 160×120 (module docs).
+const REFERENCE_LR_START: f64 = 1.5e-3;
+const REFERENCE_LR_END: f64 = 1.5e-5;
+const SHORT_LR_START: f64 = 4e-3;
+const SHORT_LR_END: f64 = 4e-4;
+/// [`SHORT_LR_START`] in pixels: that background's pixel footprint is
+/// 24.1 mm ([`crate::screen::pixel_footprint`]). The same step in pixels is what
+/// the room's objects at 320×240 measured best at (their footprint 6–9 mm:
+/// 1e-3 m, where 4e-3 m gave 2.4–4.4 dB less on the table, chair and bin and
+/// 3.1 dB less on the ball; docs/benchmarks.md).
+const SHORT_VERTEX_STEP_PX: f64 = 0.166;
+
 /// `(short, reference)` log-interpolated in the budget between
 /// [`SHORT_BUDGET`] and [`REFERENCE_ITERATIONS`] (clamped outside).
 fn by_budget(iterations: u64, short: f64, reference: f64) -> f64 {
@@ -169,8 +192,18 @@ impl Schedule {
         let every = |r| scale_every(r, iterations);
         Schedule {
             iterations,
-            lr_vertices_start: by_budget(iterations, 4e-3, 1.5e-3),
-            lr_vertices_end: by_budget(iterations, 4e-4, 1.5e-5),
+            lr_vertices_start: 0.0,
+            lr_vertices_end: 0.0,
+            vertex_step_start_px: by_budget(
+                iterations,
+                SHORT_VERTEX_STEP_PX,
+                SHORT_VERTEX_STEP_PX * REFERENCE_LR_START / SHORT_LR_START,
+            ),
+            vertex_step_end_px: by_budget(
+                iterations,
+                SHORT_VERTEX_STEP_PX * SHORT_LR_END / SHORT_LR_START,
+                SHORT_VERTEX_STEP_PX * REFERENCE_LR_END / SHORT_LR_START,
+            ),
             lr_sh_dc: 1.6e-3,
             sh_rest_lr_divisor: 20.0,
             lr_opacity: 0.03,
@@ -237,8 +270,8 @@ impl Schedule {
 
     pub fn validate(&self) -> Result<()> {
         let positive = [
-            ("lr_vertices_start", self.lr_vertices_start),
-            ("lr_vertices_end", self.lr_vertices_end),
+            ("vertex_step_start_px", self.vertex_step_start_px),
+            ("vertex_step_end_px", self.vertex_step_end_px),
             ("sh_rest_lr_divisor", self.sh_rest_lr_divisor),
             ("sigma_start", self.sigma_start),
             ("sigma_end", self.sigma_end),
@@ -249,6 +282,8 @@ impl Schedule {
             }
         }
         let non_negative = [
+            ("lr_vertices_start", self.lr_vertices_start),
+            ("lr_vertices_end", self.lr_vertices_end),
             ("lr_sh_dc", self.lr_sh_dc),
             ("lr_opacity", self.lr_opacity),
             ("floor_base", self.floor_base),
@@ -298,7 +333,26 @@ impl Schedule {
         Ok(())
     }
 
-    /// The learning rates at iteration `it` (only the vertices' decay).
+    /// The schedule with its vertex learning rates in world units for a
+    /// component whose surfaces the training views see at `metres_per_px`
+    /// (world units per pixel: depth over focal length); rates set in world
+    /// units are kept.
+    pub fn for_footprint(&self, metres_per_px: f64) -> Result<Schedule> {
+        if !(metres_per_px.is_finite() && metres_per_px > 0.0) {
+            bail!("pixel footprint {metres_per_px} must be finite and positive");
+        }
+        let mut s = self.clone();
+        if s.lr_vertices_start == 0.0 {
+            s.lr_vertices_start = s.vertex_step_start_px * metres_per_px;
+        }
+        if s.lr_vertices_end == 0.0 {
+            s.lr_vertices_end = s.vertex_step_end_px * metres_per_px;
+        }
+        Ok(s)
+    }
+
+    /// The learning rates at iteration `it` (only the vertices' decay), of a
+    /// schedule whose vertex rates are in world units ([`Schedule::for_footprint`]).
     pub fn learning_rates(&self, it: u64) -> objectsplat_optim::LearningRates {
         objectsplat_optim::LearningRates {
             positions: self.lr_vertices(it),

@@ -63,3 +63,71 @@ pub(crate) fn screen_sizes(model: &Model<f32>, cameras: &[&Camera]) -> ScreenSiz
     }
     sizes
 }
+
+/// World units per pixel where `cameras` see the vertices of `model`: the
+/// median, over every vertex that projects inside a camera's image, of its
+/// depth over that camera's focal length. `None` when no vertex is in view.
+pub(crate) fn pixel_footprint(model: &Model<f32>, cameras: &[&Camera]) -> Option<f64> {
+    let mut footprints = Vec::new();
+    for camera in cameras {
+        let focal = 0.5 * (camera.fx + camera.fy);
+        let (w, h) = (camera.width as f64, camera.height as f64);
+        for v in &model.vertices {
+            let p = glam::DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
+            if let Some((x, y, depth)) = camera.project(p)
+                && (0.0..w).contains(&x)
+                && (0.0..h).contains(&y)
+            {
+                footprints.push(depth / focal);
+            }
+        }
+    }
+    if footprints.is_empty() {
+        return None;
+    }
+    let mid = footprints.len() / 2;
+    let (_, median, _) = footprints.select_nth_unstable_by(mid, f64::total_cmp);
+    Some(*median)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec3;
+
+    /// A 100×100 camera at the origin looking down +z with focal length 50.
+    fn camera() -> Camera {
+        Camera::look_at(100, 100, 50.0, 50.0, DVec3::ZERO, DVec3::Z, -DVec3::Y)
+    }
+
+    fn model(vertices: &[[f32; 3]]) -> Model<f32> {
+        Model {
+            vertices: vertices.to_vec(),
+            ..Model::empty()
+        }
+    }
+
+    #[test]
+    fn footprint_is_the_median_depth_over_the_focal_length() {
+        // Depths 1, 2 and 4 on the axis, one point behind the camera and one
+        // outside the image (x = 3 at depth 1 projects to pixel 200): neither counts.
+        let m = model(&[
+            [0.0, 0.0, 1.0],
+            [0.0, 0.0, 2.0],
+            [0.0, 0.0, 4.0],
+            [0.0, 0.0, -3.0],
+            [3.0, 0.0, 1.0],
+        ]);
+        let c = camera();
+        assert_eq!(pixel_footprint(&m, &[&c]), Some(2.0 / 50.0));
+        // Two views of the same points: the same median.
+        assert_eq!(pixel_footprint(&m, &[&c, &c]), Some(2.0 / 50.0));
+    }
+
+    #[test]
+    fn no_vertex_in_view_has_no_footprint() {
+        let m = model(&[[0.0, 0.0, -1.0], [5.0, 0.0, 1.0]]);
+        assert_eq!(pixel_footprint(&m, &[&camera()]), None);
+        assert_eq!(pixel_footprint(&model(&[]), &[&camera()]), None);
+    }
+}

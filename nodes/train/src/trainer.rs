@@ -30,7 +30,7 @@ use crate::host_steps::HostSteps;
 use crate::init::{InitSettings, init_model};
 use crate::point_depth::PointDepth;
 use crate::schedule::Schedule;
-use crate::screen::screen_sizes;
+use crate::screen::{pixel_footprint, screen_sizes};
 use crate::steps::{StepInput, StepLoss, StepRunner, Subject, TrainingState};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::{ComponentKind, Points, Split};
@@ -427,8 +427,7 @@ pub fn train_component_with_hook(
     settings: &TrainSettings,
     hook: &mut dyn StepHook,
 ) -> Result<TrainReport> {
-    let s = &settings.schedule;
-    s.validate()?;
+    settings.schedule.validate()?;
     if !(settings.world_scale.is_finite() && settings.world_scale > 0.0) {
         bail!(
             "world_scale {} must be finite and positive",
@@ -451,6 +450,18 @@ pub fn train_component_with_hook(
         },
     )
     .with_context(|| format!("initializing component {:?}", data.name))?;
+    let train_cameras: Vec<&objectsplat_core::Camera> =
+        train.iter().map(|&i| &data.views[i].camera).collect();
+    // The initial surface's distance from the cameras sets how far a vertex
+    // step moves on screen; the rates are fixed for the run from it.
+    let footprint = pixel_footprint(&model, &train_cameras).with_context(|| {
+        format!(
+            "component {:?}: no initial point projects into a training view",
+            data.name
+        )
+    })?;
+    let resolved = settings.schedule.for_footprint(footprint)?;
+    let s = &resolved;
     let optim = Optim::new(
         LearningRates {
             positions: s.lr_vertices_start,
@@ -466,7 +477,12 @@ pub fn train_component_with_hook(
     let depth_weight = s.point_depth_weight_for(data.kind);
     let depth_supervised = depth_weight > 0.0 && !data.depth_points.is_empty();
     let smoothness_weight = s.depth_smoothness_weight_for(data.kind);
-    let mut notes = Vec::new();
+    let mut notes = vec![format!(
+        "vertex learning rate {:.2e} → {:.2e} ({:.1} mm per pixel at the initial surface)",
+        s.lr_vertices_start,
+        s.lr_vertices_end,
+        footprint / settings.world_scale * 1e3
+    )];
     if depth_supervised {
         notes.push(format!(
             "depth loss at {} measured points, weight {depth_weight}",
@@ -519,8 +535,6 @@ pub fn train_component_with_hook(
         settings.background_randomization,
         data.views.len()
     );
-    let train_cameras: Vec<&objectsplat_core::Camera> =
-        train.iter().map(|&i| &data.views[i].camera).collect();
     // The free-space rule, over the measured points each training view sees.
     let free_space = depth_supervised && s.free_space_min_sightings > 0;
     let floating = |model: &Model<f32>, points: &PointDepth| -> Option<Vec<bool>> {

@@ -43,28 +43,64 @@ fn reference_budget_gives_the_reference_numbers() {
     let want: Vec<u64> = (2..=19).map(|k| k * 500).collect();
     assert_eq!(densify, want, "1000, 1500, …, 9500");
     assert_eq!(s.densify_count(1000), 230);
+    let s = s.for_footprint(short_footprint()).unwrap();
     assert!((s.lr_vertices(0) - 1.5e-3).abs() < 1e-15);
     assert!((s.lr_vertices(30_000) - 1.5e-5).abs() < 1e-15);
     assert_eq!(s.final_prune_threshold, 0.5);
 }
 
+/// The pixel footprint (world units per pixel) at which the short budget's
+/// vertex step is 4e-3 world units: where the world-unit rates were measured.
+fn short_footprint() -> f64 {
+    4e-3 / Schedule::scaled(3000).vertex_step_start_px
+}
+
 /// Short budgets get larger vertex learning rates: 4e-3 → 4e-4 at 3000 iterations and
-/// below, the reference's at 30k, log-interpolated in between.
+/// below (at the footprint they were measured at), the reference's at 30k,
+/// log-interpolated in between.
 #[test]
 fn vertex_learning_rates_follow_the_budget() {
+    let world = |budget: u64| {
+        let s = Schedule::scaled(budget)
+            .for_footprint(short_footprint())
+            .unwrap();
+        (s.lr_vertices_start, s.lr_vertices_end)
+    };
     for budget in [200, 1000, 3000] {
-        let s = Schedule::scaled(budget);
-        assert!((s.lr_vertices_start - 4e-3).abs() < 1e-15, "{budget}");
-        assert!((s.lr_vertices_end - 4e-4).abs() < 1e-15, "{budget}");
+        let (start, end) = world(budget);
+        assert!((start - 4e-3).abs() < 1e-15, "{budget}");
+        assert!((end - 4e-4).abs() < 1e-15, "{budget}");
     }
-    let mid = Schedule::scaled(9487); // √(3000 · 30000): half-way in log budget
-    assert!((mid.lr_vertices_start - (4e-3f64 * 1.5e-3).sqrt()).abs() < 1e-4 * 4e-3);
-    assert!((mid.lr_vertices_end - (4e-4f64 * 1.5e-5).sqrt()).abs() < 1e-4 * 4e-4);
-    let long = Schedule::scaled(100_000);
-    assert_eq!(
-        (long.lr_vertices_start, long.lr_vertices_end),
-        (1.5e-3, 1.5e-5)
-    );
+    let (start, end) = world(9487); // √(3000 · 30000): half-way in log budget
+    assert!((start - (4e-3f64 * 1.5e-3).sqrt()).abs() < 1e-4 * 4e-3);
+    assert!((end - (4e-4f64 * 1.5e-5).sqrt()).abs() < 1e-4 * 4e-4);
+    let (start, end) = world(100_000);
+    assert!((start - 1.5e-3).abs() < 1e-15 && (end - 1.5e-5).abs() < 1e-15);
+}
+
+/// The rates are a step in pixels: a component twice as far away (or seen at
+/// half the resolution) gets twice the world-unit rate; rates given in world
+/// units are kept as given; a footprint that is not a positive number is refused.
+#[test]
+fn vertex_learning_rates_scale_with_the_pixel_footprint() {
+    let s = Schedule::scaled(3000);
+    let near = s.for_footprint(0.01).unwrap();
+    let far = s.for_footprint(0.02).unwrap();
+    assert!((far.lr_vertices_start - 2.0 * near.lr_vertices_start).abs() < 1e-15);
+    assert!((far.lr_vertices_end - 2.0 * near.lr_vertices_end).abs() < 1e-15);
+    assert!((near.lr_vertices_start - s.vertex_step_start_px * 0.01).abs() < 1e-15);
+    let given = Schedule::new(
+        3000,
+        json!({"lr_vertices_start": 1e-3}).as_object().unwrap(),
+    )
+    .unwrap()
+    .for_footprint(0.02)
+    .unwrap();
+    assert_eq!(given.lr_vertices_start, 1e-3);
+    assert!((given.lr_vertices_end - far.lr_vertices_end).abs() < 1e-15);
+    for bad in [0.0, -1.0, f64::NAN, f64::INFINITY] {
+        assert!(s.for_footprint(bad).is_err(), "{bad}");
+    }
 }
 
 #[test]
@@ -84,6 +120,7 @@ fn six_hundred_iterations_scale_every_iteration_count() {
     let want: Vec<u64> = (2..=19).map(|k| k * 10).collect();
     assert_eq!(densify, want);
     assert!((s.sigma(600) - 1e-4).abs() < 1e-15);
+    let s = s.for_footprint(short_footprint()).unwrap();
     // Half-way through the run the rate is the geometric mean of its ends (4e-3, 4e-4).
     assert!((s.lr_vertices(300) - (4e-3f64 * 4e-4).sqrt()).abs() < 1e-12);
 }
