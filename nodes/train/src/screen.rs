@@ -64,15 +64,23 @@ pub(crate) fn screen_sizes(model: &Model<f32>, cameras: &[&Camera]) -> ScreenSiz
     sizes
 }
 
+/// At most about this many (vertex, view) pairs enter [`pixel_footprint`]'s
+/// median: a background of 300k initial vertices in 384 views would otherwise
+/// hold ~10⁸ values (GBs) for one number.
+const FOOTPRINT_SAMPLES: usize = 1 << 20;
+
 /// World units per pixel where `cameras` see the vertices of `model`: the
 /// median, over every vertex that projects inside a camera's image, of its
-/// depth over that camera's focal length. `None` when no vertex is in view.
+/// depth over that camera's focal length (every k-th vertex when vertices ×
+/// views exceed [`FOOTPRINT_SAMPLES`]). `None` when no vertex is in view.
 pub(crate) fn pixel_footprint(model: &Model<f32>, cameras: &[&Camera]) -> Option<f64> {
+    let pairs = model.vertices.len().saturating_mul(cameras.len());
+    let stride = pairs.div_ceil(FOOTPRINT_SAMPLES).max(1);
     let mut footprints = Vec::new();
     for camera in cameras {
         let focal = 0.5 * (camera.fx + camera.fy);
         let (w, h) = (camera.width as f64, camera.height as f64);
-        for v in &model.vertices {
+        for v in model.vertices.iter().step_by(stride) {
             let p = glam::DVec3::new(v[0] as f64, v[1] as f64, v[2] as f64);
             if let Some((x, y, depth)) = camera.project(p)
                 && (0.0..w).contains(&x)
@@ -122,6 +130,20 @@ mod tests {
         assert_eq!(pixel_footprint(&m, &[&c]), Some(2.0 / 50.0));
         // Two views of the same points: the same median.
         assert_eq!(pixel_footprint(&m, &[&c, &c]), Some(2.0 / 50.0));
+    }
+
+    #[test]
+    fn a_large_model_is_sampled_with_the_same_median() {
+        // 600k vertices in 2 views exceed the sample bound, so every 2nd vertex is read;
+        // a third of the vertices lie at depth 1, the rest at depth 3: median 3 / 50.
+        let vertices: Vec<[f32; 3]> = (0..600_000)
+            .map(|i| [0.0, 0.0, if i % 3 == 0 { 1.0 } else { 3.0 }])
+            .collect();
+        let c = camera();
+        assert_eq!(
+            pixel_footprint(&model(&vertices), &[&c, &c]),
+            Some(3.0 / 50.0)
+        );
     }
 
     #[test]
