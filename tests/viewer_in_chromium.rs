@@ -411,6 +411,7 @@ fn viewer_draws_what_render_draws() {
         &camera,
         &Backdrop::Uniform([0.16, 0.17, 0.19]),
         &objectsplat_raster::CpuBackend::new(1),
+        1,
     )
     .unwrap();
     if let Some(keep) = std::env::var_os("OBJECTSPLAT_KEEP_SCREENSHOT") {

@@ -91,6 +91,7 @@ fn viewer_draws_the_sh_bands_as_the_renderer_does() {
             &camera,
             &Backdrop::Uniform(BACKDROP),
             &objectsplat_raster::CpuBackend::new(2),
+            1,
         )
         .unwrap()
         .to_rgb()

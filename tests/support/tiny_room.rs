@@ -4,6 +4,7 @@
 //! units: the trainer's default is a step in pixels, and at 32×24 a pixel spans 5–7 cm,
 //! so the default's steps are three times these; 40 iterations leave a handful of faces
 //! either way, and these tests need them where the viewer looks, not a judged training.
+//! Its frames take one sample per pixel (`supersample: 1`), and so does its training.
 
 /// The trained room's graph (`scene`, `masks`, `parts`, `train`) with `nodes` added (RON
 /// map entries reading `scene.*` and `train.model`), building `targets` (a RON list).
@@ -16,7 +17,8 @@ pub fn graph(nodes: &str, targets: &str) -> String {
     "parts":    (kind: "partition", inputs: (frames: "scene.frames", masks: "masks.masks")),
     "train":    (kind: "train", inputs: (component: each("parts.components"), points: "scene.points"),
                  params: (iterations: 40, backend: "cpu",
-                          schedule: {{"lr_vertices_start": 4e-3, "lr_vertices_end": 4e-4}})),
+                          schedule: {{"lr_vertices_start": 4e-3, "lr_vertices_end": 4e-4,
+                                     "supersample": 1, "object_supersample": 1}})),
 {nodes}
   }},
   targets: {targets},

@@ -156,6 +156,7 @@ fn main() {
                 &frame.camera(),
                 &Backdrop::Uniform([0.0; 3]),
                 &CpuBackend::new(2),
+                1,
             )
             .unwrap();
             total += psnr(&render, &frames.load_rgb(frame).unwrap(), None).unwrap();

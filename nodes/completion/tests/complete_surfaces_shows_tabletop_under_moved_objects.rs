@@ -44,6 +44,7 @@ fn look(scene: &Scene, camera: &Camera, pixels: &[usize]) -> (f64, [f64; 3]) {
         camera,
         &Backdrop::Uniform(BACKDROP),
         &CpuBackend::new(2),
+        1,
     )
     .unwrap();
     let mut backdrop = 0;

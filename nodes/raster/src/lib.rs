@@ -9,6 +9,7 @@
 //!   implementation, generic over [`Real`] (f32 for speed, f64 for checks).
 //! - [`loss`]: L1, SSIM and `0.8·L1 + 0.2·(1 − SSIM)` with gradients and
 //!   per-pixel weights.
+//! - [`supersample`]: `s × s` samples per pixel, box-filtered (forward and adjoint).
 
 // Numerical kernels index several parallel fixed-size arrays with one index,
 // and use negated comparisons on purpose so that NaN fails every acceptance test.
@@ -22,6 +23,7 @@ pub mod model_io;
 pub mod parallel;
 pub mod real;
 pub mod sh;
+pub mod supersample;
 
 pub use backend::{OutputGrads, RenderBackend, RenderOutput, RenderSettings, SavedForward};
 pub use cpu::{CpuBackend, Kernel, render_model};

@@ -279,6 +279,9 @@ objectsplat_runtime::node_params! {
         /// trained: the models as trained (soft edges, view-dependent colour); exported:
         /// as the .glb holds them (visible faces only, opaque, hard-edged, DC colours)
         appearance: String = "\"trained\"" as ParamType::enumeration(&["trained", "exported"]),
+        /// samples per pixel side (1, 2 or 4), box-filtered as a camera integrates over its
+        /// pixels: hard-edged triangles at one sample alias
+        supersample: i64 = "2" as ParamType::int_range(1, 4),
     }
 }
 
@@ -300,7 +303,7 @@ node_ports! {
 
 impl Node for Render {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("render", "3")
+        NodeSpec::new("render", "4")
             .doc("Renders the (composed or edited) scene: all members' triangles in one pass, the renderer's depth order deciding; as trained, or (appearance: exported) as the .glb holds it — visible faces only, opaque, hard-edged, DC colours. Views: the frames' test/train/all cameras (PNG per frame, <frame stem>.png) or an orbit (orbit_000.png …) around the objects at the frames' mean height and distance. Where no triangle covers a pixel it shows the background fill of that frame (the `fills` input, else the scene's stored fills), else the `background` colour.")
             .ports::<RenderPorts>()
             .params::<RenderParams>()
@@ -313,6 +316,9 @@ impl Node for Render {
         let orbit_count: i64 = p.orbit_count;
         let backend: String = p.backend;
         let background: Vec<f64> = p.background;
+        let supersample = p.supersample as u32;
+        objectsplat_raster::supersample::validate(supersample)
+            .context("parameter `supersample`")?;
         let (renderer, why) = objectsplat_raster_gpu::backend_for(&backend, ctx.threads())?;
         ctx.note("backend", why);
         let &[r, g, b] = background.as_slice() else {
@@ -383,12 +389,10 @@ impl Node for Render {
                 }
                 None => Backdrop::Uniform(uniform),
             };
-            let image =
-                render_view(&merged, camera, &backdrop, renderer.as_ref()).with_context(|| {
-                    match fill {
-                        Some(p) => format!("view {stem} (background fill {})", p.display()),
-                        None => format!("view {stem}"),
-                    }
+            let image = render_view(&merged, camera, &backdrop, renderer.as_ref(), supersample)
+                .with_context(|| match fill {
+                    Some(p) => format!("view {stem} (background fill {})", p.display()),
+                    None => format!("view {stem}"),
                 })?;
             image.save_png8(&out.join(format!("{stem}.png")))?;
         }

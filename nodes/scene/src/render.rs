@@ -5,7 +5,7 @@ use crate::scene::Scene;
 use anyhow::{Context, Result, bail, ensure};
 use glam::DVec3;
 use objectsplat_core::{Camera, ComponentKind, Frame, Image};
-use objectsplat_raster::{Model, RenderBackend, RenderSettings};
+use objectsplat_raster::{Model, RenderBackend, RenderOutput, RenderSettings, supersample};
 
 /// What shows where no triangle covers a pixel.
 pub enum Backdrop<'a> {
@@ -14,19 +14,25 @@ pub enum Backdrop<'a> {
     Image(&'a Image),
 }
 
-/// Renders `model` (typically [`Scene::merged_model`]) from `camera` with the model's σ and degree.
+/// Renders `model` (typically [`Scene::merged_model`]) from `camera` with the model's σ and
+/// degree, at `supersample²` samples per pixel box-filtered (1: one sample).
 pub fn render_view(
     model: &Model<f32>,
     camera: &Camera,
     backdrop: &Backdrop,
     backend: &dyn RenderBackend<f32>,
+    supersample: u32,
 ) -> Result<Image> {
     camera
         .validate()
         .map_err(|e| anyhow::anyhow!("invalid camera: {e}"))?;
-    let pixels = camera.width as usize * camera.height as usize;
+    supersample::validate(supersample)?;
+    let s = supersample as usize;
+    let (width, height) = (camera.width as usize, camera.height as usize);
     let background: Vec<f32> = match backdrop {
-        Backdrop::Uniform(rgb) => (0..pixels * 3).map(|i| rgb[i % 3]).collect(),
+        Backdrop::Uniform(rgb) => (0..width * height * s * s * 3)
+            .map(|i| rgb[i % 3])
+            .collect(),
         Backdrop::Image(image) => {
             ensure!(
                 (image.width, image.height) == (camera.width, camera.height),
@@ -38,12 +44,28 @@ pub fn render_view(
             );
             let rgb = image.to_rgb();
             rgb.check_finite("background image")?;
-            rgb.data
+            // Every sample of a pixel shows the pixel's fill.
+            let mut fine = Vec::with_capacity(rgb.data.len() * s * s);
+            for y in 0..height * s {
+                let row = &rgb.data[(y / s) * width * 3..(y / s + 1) * width * 3];
+                for pixel in row.chunks_exact(3) {
+                    for _ in 0..s {
+                        fine.extend_from_slice(pixel);
+                    }
+                }
+            }
+            fine
         }
     };
     let settings = RenderSettings::for_model(model);
-    let (out, _) = backend.forward(model, camera, &settings, &background)?;
-    ensure!(out.all_finite(), "the renderer produced non-finite values");
+    let (fine_camera, settings) = supersample::fine_view(camera, &settings, supersample);
+    let (fine, _) = backend.forward(model, &fine_camera, &settings, &background)?;
+    ensure!(fine.all_finite(), "the renderer produced non-finite values");
+    if supersample == 1 {
+        return Ok(fine.color_image());
+    }
+    let mut out = RenderOutput::default();
+    supersample::downsample_into(&fine, supersample, &mut out)?;
     Ok(out.color_image())
 }
 

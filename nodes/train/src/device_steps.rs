@@ -599,7 +599,7 @@ mod tests {
         let cpu = CpuBackend::new(2);
         let inputs = inputs(&model, points, planar);
         let depth = points > 0.0;
-        let mut host = HostSteps::new(&cpu, &data, true, depth).unwrap();
+        let mut host = HostSteps::new(&cpu, &data, true, depth, 1).unwrap();
         let (host_losses, host_state) = run(&mut host, &model, &inputs);
         let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, depth).unwrap();
         let (device_losses, device_state) = run(&mut device, &model, &inputs);
@@ -660,7 +660,7 @@ mod tests {
             for crop in [true, false] {
                 let mut device =
                     DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], crop, false).unwrap();
-                let mut host = HostSteps::new(&cpu, &data, crop, false).unwrap();
+                let mut host = HostSteps::new(&cpu, &data, crop, false, 1).unwrap();
                 for views in [&[3usize][..], &[0, 1, 2, 3][..]] {
                     for subject in [Subject::Training(&state), Subject::Other(&model)] {
                         let got =

@@ -24,13 +24,14 @@ use objectsplat_raster::cpu::{Background, CpuWorkspace};
 use objectsplat_raster::loss::{
     CROP_MARGIN, DEFAULT_LAMBDA_DSSIM, Dims, Normalization, PhotometricLoss,
 };
+use objectsplat_raster::supersample;
 use objectsplat_raster::{
     CpuBackend, Model, ModelGrads, OutputGrads, RenderBackend, RenderOutput, RenderSettings,
     SavedForward,
 };
 
-/// A renderer with its reusable buffers.
-enum Renderer<'a> {
+/// A backend with its reusable buffers.
+enum Backend<'a> {
     Cpu {
         backend: CpuBackend,
         ws: Box<CpuWorkspace<f32>>,
@@ -46,17 +47,17 @@ struct OtherRenderer<'a> {
     grads: ModelGrads<f32>,
 }
 
-impl<'a> Renderer<'a> {
+impl<'a> Backend<'a> {
     fn new(backend: &'a dyn RenderBackend<f32>) -> Self {
         match backend
             .as_any()
             .and_then(|b| b.downcast_ref::<CpuBackend>())
         {
-            Some(cpu) => Renderer::Cpu {
+            Some(cpu) => Backend::Cpu {
                 backend: *cpu,
                 ws: Box::default(),
             },
-            None => Renderer::Other(Box::new(OtherRenderer {
+            None => Backend::Other(Box::new(OtherRenderer {
                 backend,
                 saved: None,
                 out: RenderOutput::default(),
@@ -65,10 +66,10 @@ impl<'a> Renderer<'a> {
         }
     }
 
-    fn threads(&self) -> usize {
+    fn output(&self) -> &RenderOutput<f32> {
         match self {
-            Renderer::Cpu { backend, .. } => backend.threads,
-            Renderer::Other(_) => 1,
+            Backend::Cpu { ws, .. } => &ws.output,
+            Backend::Other(r) => &r.out,
         }
     }
 
@@ -78,19 +79,18 @@ impl<'a> Renderer<'a> {
         camera: &Camera,
         settings: &RenderSettings,
         b: [f32; 3],
-    ) -> Result<&RenderOutput<f32>> {
+    ) -> Result<()> {
         match self {
-            Renderer::Cpu { backend, ws } => {
-                backend.forward_into(ws, model, camera, settings, Background::Uniform(b))?;
-                Ok(&ws.output)
+            Backend::Cpu { backend, ws } => {
+                backend.forward_into(ws, model, camera, settings, Background::Uniform(b))
             }
-            Renderer::Other(r) => {
+            Backend::Other(r) => {
                 let pixels = camera.width as usize * camera.height as usize;
                 let bg: Vec<f32> = (0..3 * pixels).map(|i| b[i % 3]).collect();
                 let (o, s) = r.backend.forward(model, camera, settings, &bg)?;
                 r.out = o;
                 r.saved = Some(s);
-                Ok(&r.out)
+                Ok(())
             }
         }
     }
@@ -101,11 +101,11 @@ impl<'a> Renderer<'a> {
         grads: &OutputGrads<'_, f32>,
     ) -> Result<&ModelGrads<f32>> {
         match self {
-            Renderer::Cpu { backend, ws } => {
+            Backend::Cpu { backend, ws } => {
                 backend.backward_into(ws, model, grads)?;
                 Ok(&ws.grads)
             }
-            Renderer::Other(r) => {
+            Backend::Other(r) => {
                 let Some(s) = r.saved.as_ref() else {
                     bail!("backward pass before a forward pass");
                 };
@@ -113,6 +113,99 @@ impl<'a> Renderer<'a> {
                 Ok(&r.grads)
             }
         }
+    }
+}
+
+/// A backend rendering `supersample²` samples per pixel (see
+/// [`objectsplat_raster::supersample`]); its outputs and the gradients it
+/// takes are per pixel of the views' cameras.
+struct Renderer<'a> {
+    backend: Backend<'a>,
+    supersample: u32,
+    /// The box-filtered outputs (when supersampling).
+    coarse: RenderOutput<f32>,
+    /// The gradients spread over the samples (when supersampling).
+    fine_color: Vec<f32>,
+    fine_alpha: Vec<f32>,
+    fine_depth: Vec<f32>,
+}
+
+impl<'a> Renderer<'a> {
+    fn new(backend: &'a dyn RenderBackend<f32>, supersample: u32) -> Result<Self> {
+        supersample::validate(supersample)?;
+        Ok(Renderer {
+            backend: Backend::new(backend),
+            supersample,
+            coarse: RenderOutput::default(),
+            fine_color: Vec::new(),
+            fine_alpha: Vec::new(),
+            fine_depth: Vec::new(),
+        })
+    }
+
+    fn threads(&self) -> usize {
+        match &self.backend {
+            Backend::Cpu { backend, .. } => backend.threads,
+            Backend::Other(_) => 1,
+        }
+    }
+
+    /// The last forward pass's outputs, per pixel.
+    fn output(&self) -> &RenderOutput<f32> {
+        if self.supersample > 1 {
+            &self.coarse
+        } else {
+            self.backend.output()
+        }
+    }
+
+    fn forward(
+        &mut self,
+        model: &Model<f32>,
+        camera: &Camera,
+        settings: &RenderSettings,
+        b: [f32; 3],
+    ) -> Result<&RenderOutput<f32>> {
+        let s = self.supersample;
+        if s == 1 {
+            self.backend.forward(model, camera, settings, b)?;
+        } else {
+            let (camera, settings) = supersample::fine_view(camera, settings, s);
+            self.backend.forward(model, &camera, &settings, b)?;
+            supersample::downsample_into(self.backend.output(), s, &mut self.coarse)?;
+        }
+        Ok(self.output())
+    }
+
+    fn backward(
+        &mut self,
+        model: &Model<f32>,
+        grads: &OutputGrads<'_, f32>,
+    ) -> Result<&ModelGrads<f32>> {
+        let s = self.supersample;
+        if s == 1 {
+            return self.backend.backward(model, grads);
+        }
+        let region = self.coarse.region;
+        supersample::spread_into(grads.color, 3, region, s, &mut self.fine_color);
+        if let Some(g) = grads.alpha {
+            supersample::spread_into(g, 1, region, s, &mut self.fine_alpha);
+        }
+        if let Some(g) = grads.depth {
+            supersample::spread_into(g, 1, region, s, &mut self.fine_depth);
+        }
+        if grads.median_depth.is_some() {
+            bail!("median-depth gradients are not spread over supersamples");
+        }
+        self.backend.backward(
+            model,
+            &OutputGrads {
+                color: &self.fine_color,
+                alpha: grads.alpha.map(|_| &self.fine_alpha[..]),
+                depth: grads.depth.map(|_| &self.fine_depth[..]),
+                median_depth: None,
+            },
+        )
     }
 }
 
@@ -148,6 +241,7 @@ impl<'a> HostSteps<'a> {
         data: &'a ComponentData,
         crop: bool,
         depth_supervised: bool,
+        supersample: u32,
     ) -> Result<Self> {
         let point_depth = if depth_supervised {
             PointDepth::new(&data.depth_points, data)
@@ -156,7 +250,7 @@ impl<'a> HostSteps<'a> {
         };
         Ok(HostSteps {
             data,
-            renderer: Renderer::new(backend),
+            renderer: Renderer::new(backend, supersample)?,
             loss: PhotometricLoss::new(),
             target: Vec::new(),
             weights: Vec::new(),
@@ -286,20 +380,14 @@ impl<'a> HostSteps<'a> {
             bail!("the loss on view {:?} is not finite", data.views[view].name);
         }
         let faces = model.face_count();
-        stats.record(match &self.renderer {
-            Renderer::Cpu { ws, .. } => &ws.output.face_max_weight[..faces],
-            Renderer::Other(r) => &r.out.face_max_weight[..faces],
-        });
+        stats.record(&self.renderer.output().face_max_weight[..faces]);
         let rendered = match &self.composite {
             Some(c) => c.merged(),
             None => &*model,
         };
         let with_points = depth_weight > 0.0 && self.point_depth.count(view) > 0;
         let grads = if with_points || smoothness_weight > 0.0 {
-            let out = match &self.renderer {
-                Renderer::Cpu { ws, .. } => &ws.output,
-                Renderer::Other(r) => &r.out,
-            };
+            let out = self.renderer.output();
             let pixels = out.region.pixels();
             self.d_depth.clear();
             self.d_depth.resize(pixels, 0.0);

@@ -216,7 +216,11 @@ pub fn held_out_eval(
     data: &ComponentData,
     settings: &TrainSettings,
 ) -> Result<HeldOut> {
-    HostSteps::new(backend, data, settings.crop, false)?.evaluate(
+    let on_device = backend
+        .as_any()
+        .is_some_and(|b| b.downcast_ref::<WgpuBackend>().is_some());
+    let supersample = settings.schedule.supersample_for(data.kind, on_device);
+    HostSteps::new(backend, data, settings.crop, false, supersample)?.evaluate(
         model,
         &evaluation_views(data),
         &render_settings(model, settings),
@@ -498,11 +502,16 @@ pub fn train_component_with_hook(
     let report_views = evaluation_views(data);
     // On a wgpu backend the iterations run on the device; everything else
     // (schedule, edits, checkpoints) stays here.
-    let mut runner: Box<dyn StepRunner> = match backend
+    let device = backend
         .as_any()
-        .and_then(|b| b.downcast_ref::<WgpuBackend>())
-    {
-        Some(gpu) => {
+        .and_then(|b| b.downcast_ref::<WgpuBackend>());
+    let supersample = s.supersample_for(data.kind, device.is_some());
+    notes.push(match supersample {
+        1 => "one sample per pixel".to_string(),
+        n => format!("{n}×{n} samples per pixel"),
+    });
+    let mut runner: Box<dyn StepRunner> = match device {
+        Some(gpu) if supersample == 1 => {
             let mut scored = held_out.clone();
             scored.extend(report_views.iter().filter(|v| !held_out.contains(v)));
             Box::new(DeviceSteps::new(
@@ -514,12 +523,22 @@ pub fn train_component_with_hook(
                 depth_supervised,
             )?)
         }
-        None => Box::new(HostSteps::new(
-            backend,
-            data,
-            settings.crop,
-            depth_supervised,
-        )?),
+        _ => {
+            if device.is_some() {
+                // The device's loop renders one sample per pixel; a factor
+                // given explicitly is honoured through the host's loop.
+                notes.push(
+                    "steps on the host (the device's own loop renders one sample per pixel)".into(),
+                );
+            }
+            Box::new(HostSteps::new(
+                backend,
+                data,
+                settings.crop,
+                depth_supervised,
+                supersample,
+            )?)
+        }
     };
     let mut rng = Pcg64Mcg::seed_from_u64(settings.seed ^ 0x9e37_79b9_7f4a_7c15);
     let mut order = ViewOrder::new(train.len());
@@ -710,7 +729,8 @@ pub fn train_component_with_hook(
                 let splittable: Vec<bool> = sizes
                     .inradius
                     .iter()
-                    .map(|&r| r >= s.densify_min_inradius)
+                    // The guard is in rendered samples, where the renderer culls.
+                    .map(|&r| r * supersample as f64 >= s.densify_min_inradius)
                     .collect();
                 let chosen =
                     select_faces_to_split(model, &max_weight, Some(&splittable), policy, &mut rng)?;

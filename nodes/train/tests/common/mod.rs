@@ -146,7 +146,9 @@ pub fn points() -> Points {
 
 /// Settings for a short training run on this plate: the reference learning rates are
 /// tuned for 30k steps, so a few hundred steps need larger ones, and densification
-/// limited to what 64×48 views resolve. `extra` adds or replaces schedule overrides.
+/// limited to what 64×48 views resolve; one sample per pixel (the loop's behaviour is
+/// what these tests check; supersampling has its own in `objectsplat-raster`).
+/// `extra` adds or replaces schedule overrides.
 pub fn short_run_settings(
     iterations: u64,
     seed: u64,
@@ -159,6 +161,8 @@ pub fn short_run_settings(
         "lr_vertices_end": 4e-4,
         "densify_until": 30,
         "densify_always_largest": 0,
+        "supersample": 1,
+        "object_supersample": 1,
     });
     let extra = extra
         .as_object()
