@@ -75,7 +75,8 @@ impl<'a> DeviceSteps<'a> {
     /// Uploads the training views `train` and the held-out views `held_out`
     /// (indices into `data.views`; a view in both is uploaded once), with the
     /// measured points each sees when `depth_supervised`. With `crop`, steps
-    /// and evaluations render each view's footprint only.
+    /// and evaluations render each view's footprint only; every pass takes
+    /// `supersample²` samples per pixel.
     pub fn new(
         backend: &WgpuBackend,
         data: &'a ComponentData,
@@ -83,6 +84,7 @@ impl<'a> DeviceSteps<'a> {
         held_out: &[usize],
         crop: bool,
         depth_supervised: bool,
+        supersample: u32,
     ) -> Result<Self> {
         let mut views: Vec<usize> = train.to_vec();
         views.extend(held_out.iter().filter(|v| !train.contains(v)));
@@ -117,7 +119,8 @@ impl<'a> DeviceSteps<'a> {
                 points: points.of_view(i).to_vec(),
             })
         };
-        let trainer = DeviceTrainer::streamed(backend, views.len(), upload)?;
+        let trainer =
+            DeviceTrainer::streamed(backend, views.len(), upload)?.with_supersample(supersample)?;
         Ok(DeviceSteps {
             data,
             trainer,
@@ -594,20 +597,25 @@ mod tests {
     /// The device's steps against the host's: losses, parameter updates,
     /// Adam's step counts and the face statistics.
     fn steps_agree(kind: ComponentKind, behind: bool, points: f64, planar: f64) {
+        steps_agree_at(kind, behind, points, planar, 1);
+    }
+
+    fn steps_agree_at(kind: ComponentKind, behind: bool, points: f64, planar: f64, samples: u32) {
         let Some(gpu) = gpu() else { return };
         let (model, data) = component(kind, behind);
         let cpu = CpuBackend::new(2);
         let inputs = inputs(&model, points, planar);
         let depth = points > 0.0;
-        let mut host = HostSteps::new(&cpu, &data, true, depth, 1).unwrap();
+        let mut host = HostSteps::new(&cpu, &data, true, depth, samples).unwrap();
         let (host_losses, host_state) = run(&mut host, &model, &inputs);
-        let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, depth).unwrap();
+        let mut device =
+            DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, depth, samples).unwrap();
         let (device_losses, device_state) = run(&mut device, &model, &inputs);
         let fraction = (&device as &dyn StepRunner).rendered_fraction().unwrap();
         let want_fraction = (&host as &dyn StepRunner).rendered_fraction().unwrap();
         eprintln!(
-            "{kind:?} behind {behind}, depth {points}/{planar}: losses device {device_losses:?}, \
-             host {host_losses:?}; rendered {fraction:.3} vs {want_fraction:.3}"
+            "{kind:?} behind {behind}, depth {points}/{planar}, {samples}² samples: losses device \
+             {device_losses:?}, host {host_losses:?}; rendered {fraction:.3} vs {want_fraction:.3}"
         );
         assert!((fraction - want_fraction).abs() < 1e-9, "rendered share");
         for (d, h) in device_losses.iter().zip(&host_losses) {
@@ -624,6 +632,17 @@ mod tests {
             device_state.optim.groups().map(|g| g.steps),
             host_state.optim.groups().map(|g| g.steps)
         );
+        // Adam's updates hardly see a gradient's scale; its first moments do.
+        for (d, h) in device_state
+            .optim
+            .groups()
+            .iter()
+            .zip(host_state.optim.groups())
+        {
+            let wide = |x: &[f32]| x.iter().map(|&v| v as f64).collect::<Vec<_>>();
+            let r = relative(&wide(d.first_moment()), &wide(h.first_moment()));
+            assert!(r <= 2e-3, "{}: first moments differ by {r:.3e}", d.name);
+        }
         let (now, previous) = device_state.stats.arrays();
         let want = host_state.stats.max_weight();
         for (f, (a, b)) in now.iter().zip(&want).enumerate() {
@@ -650,6 +669,12 @@ mod tests {
     }
 
     #[test]
+    fn supersampled_steps_match_the_host_steps() {
+        steps_agree_at(ComponentKind::Object, false, 0.0, 0.0, 2);
+        steps_agree_at(ComponentKind::Background, true, 1.0, 3.0, 2);
+    }
+
+    #[test]
     fn device_evaluation_and_face_weights_equal_the_host_ones() {
         let Some(gpu) = gpu() else { return };
         let cpu = CpuBackend::new(2);
@@ -657,10 +682,10 @@ mod tests {
             let (model, data) = component(ComponentKind::Background, behind);
             let state = state(&model);
             let render = RenderSettings::for_model(&model);
-            for crop in [true, false] {
+            for (crop, samples) in [(true, 1), (false, 1), (true, 2), (false, 2)] {
                 let mut device =
-                    DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], crop, false).unwrap();
-                let mut host = HostSteps::new(&cpu, &data, crop, false, 1).unwrap();
+                    DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], crop, false, samples).unwrap();
+                let mut host = HostSteps::new(&cpu, &data, crop, false, samples).unwrap();
                 for views in [&[3usize][..], &[0, 1, 2, 3][..]] {
                     for subject in [Subject::Training(&state), Subject::Other(&model)] {
                         let got =
@@ -668,7 +693,8 @@ mod tests {
                         let want =
                             StepRunner::evaluate(&mut host, subject, views, &render).unwrap();
                         eprintln!(
-                            "behind {behind}, crop {crop}, views {views:?}: device {got:?}, host {want:?}"
+                            "behind {behind}, crop {crop}, {samples}² samples, views {views:?}: \
+                             device {got:?}, host {want:?}"
                         );
                         assert!(
                             (got.loss - want.loss).abs() <= 1e-5 * want.loss,
@@ -695,7 +721,7 @@ mod tests {
                         assert!((a - b).abs() <= 1e-4, "face {f}: {a} vs {b}");
                     }
                 }
-                let err = DeviceSteps::new(&gpu, &data, &[0], &[], crop, false)
+                let err = DeviceSteps::new(&gpu, &data, &[0], &[], crop, false, 1)
                     .unwrap()
                     .evaluate(Subject::Training(&state), &[3], &render)
                     .unwrap_err();
@@ -710,7 +736,7 @@ mod tests {
         let (model, data) = component(ComponentKind::Object, false);
         let mut state = state(&model);
         let nf = model.face_count();
-        let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, false).unwrap();
+        let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, false, 1).unwrap();
         let current: Vec<f32> = (0..nf)
             .map(|f| if f % 2 == 0 { 2.0 } else { 0.0 })
             .collect();
@@ -747,7 +773,8 @@ mod tests {
         let points = PointDepth::new(&data.depth_points, &data);
         assert!(points.count(0) > 3, "the view must see measured points");
         for (point_weight, planar_weight) in [(1.0, 0.0), (0.0, 3.0), (0.7, 2.0)] {
-            let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, true).unwrap();
+            let mut device =
+                DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, true, 1).unwrap();
             let mut state = state(&model);
             let mut input = inputs(&model, point_weight, planar_weight).swap_remove(1);
             input.render.sh_degree = model.sh_degree;

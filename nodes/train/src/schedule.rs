@@ -136,9 +136,7 @@ pub struct Schedule {
     pub finish_iterations: u64,
 
     /// Samples per pixel side for a background component's renders: 1, 2 or
-    /// 4 (`s × s` samples box-filtered, see `objectsplat_raster::supersample`),
-    /// or 0 for the loop's own: 2 on the host, 1 on a wgpu device (whose loop
-    /// renders one sample; 2 or 4 given there run the steps on the host).
+    /// 4 (`s × s` samples box-filtered, see `objectsplat_raster::supersample`).
     /// At one sample the true box and cup of the team's room score 19.3 and
     /// 21.7 dB on their pixels against its frames (a camera integrates over
     /// the pixel). A background trained at fewer samples than its occluders
@@ -154,9 +152,6 @@ pub struct Schedule {
     /// (counted only after the connectivity step).
     pub patience: u64,
 }
-
-/// Samples per pixel side the host's loop takes unless told otherwise.
-pub const HOST_SUPERSAMPLE: u32 = 2;
 
 /// The budget at and below which the short-budget vertex learning rates apply.
 pub const SHORT_BUDGET: u64 = 3_000;
@@ -259,8 +254,8 @@ impl Schedule {
             depth_smoothness_weight: 3.0,
             depth_smoothness_start: at(11_000) + 1,
             finish_iterations: every(3000),
-            supersample: 0,
-            object_supersample: 0,
+            supersample: 2,
+            object_supersample: 2,
             eval_every: every(500),
             patience: every(3000),
         }
@@ -353,10 +348,8 @@ impl Schedule {
             ("supersample", self.supersample),
             ("object_supersample", self.object_supersample),
         ] {
-            if v != 0 {
-                objectsplat_raster::supersample::validate(v)
-                    .with_context(|| format!("schedule {name} (0: the loop's own)"))?;
-            }
+            objectsplat_raster::supersample::validate(v)
+                .with_context(|| format!("schedule {name}"))?;
         }
         Ok(())
     }
@@ -407,17 +400,11 @@ impl Schedule {
         }
     }
 
-    /// Samples per pixel side for a component of `kind`, trained by the
-    /// host's loop or (`on_device`) a wgpu device's.
-    pub fn supersample_for(&self, kind: ComponentKind, on_device: bool) -> u32 {
-        let given = match kind {
+    /// Samples per pixel side for a component of `kind`.
+    pub fn supersample_for(&self, kind: ComponentKind) -> u32 {
+        match kind {
             ComponentKind::Background => self.supersample,
             ComponentKind::Object => self.object_supersample,
-        };
-        match (given, on_device) {
-            (0, false) => HOST_SUPERSAMPLE,
-            (0, true) => 1,
-            (s, _) => s,
         }
     }
 

@@ -216,10 +216,7 @@ pub fn held_out_eval(
     data: &ComponentData,
     settings: &TrainSettings,
 ) -> Result<HeldOut> {
-    let on_device = backend
-        .as_any()
-        .is_some_and(|b| b.downcast_ref::<WgpuBackend>().is_some());
-    let supersample = settings.schedule.supersample_for(data.kind, on_device);
+    let supersample = settings.schedule.supersample_for(data.kind);
     HostSteps::new(backend, data, settings.crop, false, supersample)?.evaluate(
         model,
         &evaluation_views(data),
@@ -500,18 +497,18 @@ pub fn train_component_with_hook(
     }
     // The returned model is reported on the held-out test views, whichever views chose it.
     let report_views = evaluation_views(data);
-    // On a wgpu backend the iterations run on the device; everything else
-    // (schedule, edits, checkpoints) stays here.
-    let device = backend
-        .as_any()
-        .and_then(|b| b.downcast_ref::<WgpuBackend>());
-    let supersample = s.supersample_for(data.kind, device.is_some());
+    let supersample = s.supersample_for(data.kind);
     notes.push(match supersample {
         1 => "one sample per pixel".to_string(),
         n => format!("{n}×{n} samples per pixel"),
     });
-    let mut runner: Box<dyn StepRunner> = match device {
-        Some(gpu) if supersample == 1 => {
+    // On a wgpu backend the iterations run on the device; everything else
+    // (schedule, edits, checkpoints) stays here.
+    let mut runner: Box<dyn StepRunner> = match backend
+        .as_any()
+        .and_then(|b| b.downcast_ref::<WgpuBackend>())
+    {
+        Some(gpu) => {
             let mut scored = held_out.clone();
             scored.extend(report_views.iter().filter(|v| !held_out.contains(v)));
             Box::new(DeviceSteps::new(
@@ -521,24 +518,16 @@ pub fn train_component_with_hook(
                 &scored,
                 settings.crop,
                 depth_supervised,
-            )?)
-        }
-        _ => {
-            if device.is_some() {
-                // The device's loop renders one sample per pixel; a factor
-                // given explicitly is honoured through the host's loop.
-                notes.push(
-                    "steps on the host (the device's own loop renders one sample per pixel)".into(),
-                );
-            }
-            Box::new(HostSteps::new(
-                backend,
-                data,
-                settings.crop,
-                depth_supervised,
                 supersample,
             )?)
         }
+        None => Box::new(HostSteps::new(
+            backend,
+            data,
+            settings.crop,
+            depth_supervised,
+            supersample,
+        )?),
     };
     let mut rng = Pcg64Mcg::seed_from_u64(settings.seed ^ 0x9e37_79b9_7f4a_7c15);
     let mut order = ViewOrder::new(train.len());

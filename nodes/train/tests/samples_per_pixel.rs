@@ -1,7 +1,5 @@
-//! How many samples per pixel a run takes, and which loop takes them: the
-//! host's loop supersamples 2×2 unless told otherwise; a wgpu device's loop
-//! renders one sample, and a factor given for it explicitly runs the steps on
-//! the host instead of being dropped.
+//! How many samples per pixel a run takes: 2×2 unless told otherwise, on the
+//! host's loop and on a wgpu device's alike, and the run says so.
 
 mod common;
 
@@ -25,11 +23,10 @@ fn said(report: &TrainReport, what: &str) -> bool {
 }
 
 #[test]
-fn the_loops_own_factor_is_two_on_the_host_and_one_on_a_device() {
+fn components_take_two_by_two_samples_unless_told_otherwise() {
     let s = Schedule::scaled(3000);
     for kind in [ComponentKind::Object, ComponentKind::Background] {
-        assert_eq!(s.supersample_for(kind, false), 2);
-        assert_eq!(s.supersample_for(kind, true), 1);
+        assert_eq!(s.supersample_for(kind), 2);
     }
     let given = Schedule::new(
         3000,
@@ -38,28 +35,29 @@ fn the_loops_own_factor_is_two_on_the_host_and_one_on_a_device() {
             .unwrap(),
     )
     .unwrap();
-    assert_eq!(given.supersample_for(ComponentKind::Background, true), 4);
-    assert_eq!(given.supersample_for(ComponentKind::Object, false), 1);
-    let err = Schedule::new(
-        3000,
-        serde_json::json!({ "object_supersample": 3 })
-            .as_object()
-            .unwrap(),
-    )
-    .unwrap_err();
-    assert!(
-        format!("{err:#}").contains("object_supersample")
-            && format!("{err:#}").contains("1, 2 or 4"),
-        "{err:#}"
-    );
+    assert_eq!(given.supersample_for(ComponentKind::Background), 4);
+    assert_eq!(given.supersample_for(ComponentKind::Object), 1);
+    for bad in [0, 3, 8] {
+        let err = Schedule::new(
+            3000,
+            serde_json::json!({ "object_supersample": bad })
+                .as_object()
+                .unwrap(),
+        )
+        .unwrap_err();
+        let text = format!("{err:#}");
+        assert!(
+            text.contains("object_supersample") && text.contains("1, 2 or 4"),
+            "{text}"
+        );
+    }
 }
 
 #[test]
-fn a_host_run_says_how_many_samples_it_took() {
+fn a_run_says_how_many_samples_it_took() {
     let cpu = CpuBackend::new(2);
     let two = run(&cpu, 2);
     assert!(said(&two, "2×2 samples per pixel"), "{:?}", two.notes);
-    assert_eq!(two.steps_ran_on, "host");
     let one = run(&cpu, 1);
     assert!(said(&one, "one sample per pixel"), "{:?}", one.notes);
     // The same seed at another sampling is another run.
@@ -70,15 +68,11 @@ fn a_host_run_says_how_many_samples_it_took() {
 }
 
 #[test]
-fn a_factor_given_for_a_device_runs_its_steps_on_the_host() {
+fn a_device_supersamples_in_its_own_loop() {
     let Some(gpu) = common::wgpu_backend() else {
         return;
     };
-    let own = run(&gpu, 0);
-    assert_eq!(own.steps_ran_on, "device", "{:?}", own.notes);
-    assert!(said(&own, "one sample per pixel"), "{:?}", own.notes);
-    let given = run(&gpu, 2);
-    assert_eq!(given.steps_ran_on, "host", "{:?}", given.notes);
-    assert!(said(&given, "2×2 samples per pixel"), "{:?}", given.notes);
-    assert!(said(&given, "steps on the host"), "{:?}", given.notes);
+    let two = run(&gpu, 2);
+    assert_eq!(two.steps_ran_on, "device", "{:?}", two.notes);
+    assert!(said(&two, "2×2 samples per pixel"), "{:?}", two.notes);
 }

@@ -31,12 +31,14 @@ pub mod adam;
 mod depth;
 mod faces;
 mod loss;
+mod supersample;
 mod views;
 
 pub use adam::ADAM_WGSL;
 pub use depth::{DEPTH_WGSL, DepthWeights};
 pub use faces::FACES_WGSL;
 pub use loss::LOSS_WGSL;
+pub use supersample::SUPERSAMPLE_WGSL;
 pub use views::TrainingView;
 
 use crate::kernels::{Pooled, Recorder, UniformArena, groups_for, storage};
@@ -52,6 +54,7 @@ use objectsplat_optim::{LearningRates, Optim, SH_VALUES, active_sh_values};
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::CROP_MARGIN;
 use objectsplat_raster::{Model, RenderSettings};
+use supersample::SampleKernels;
 use views::ViewBuffers;
 
 const THREADS_1D: usize = 256;
@@ -194,8 +197,54 @@ struct Scratch {
     runs: wgpu::Buffer,
 }
 
+/// What a supersampled trainer renders into beyond the raster pool: the
+/// render box-filtered to the view's pixels and its frame record (what the
+/// loss and the depth terms read), and the gradient spread over the samples.
+struct Sampled {
+    factor: u32,
+    kernels: SampleKernels,
+    image: wgpu::Buffer,
+    frame: wgpu::Buffer,
+    upstream: wgpu::Buffer,
+}
+
+/// The image and frame record the loss and the depth terms read: the box
+/// filter's when supersampling, else the render's.
+fn scored<'a>(
+    sampled: &'a Option<Sampled>,
+    raster: &'a RasterPool,
+) -> (&'a wgpu::Buffer, &'a wgpu::Buffer) {
+    match sampled {
+        Some(s) => (&s.image, &s.frame),
+        None => (raster.image(), raster.frame()),
+    }
+}
+
+/// Records the box filter of the render just recorded into `raster` for a
+/// view of `pixels` pixels (when supersampling).
+fn encode_filter(
+    sampled: &Option<Sampled>,
+    raster: &RasterPool,
+    rec: &mut Recorder<'_>,
+    pixels: usize,
+) {
+    if let Some(s) = sampled {
+        s.kernels.encode_filter(
+            rec,
+            s.factor,
+            pixels,
+            raster.frame(),
+            raster.image(),
+            &s.frame,
+            &s.image,
+        );
+    }
+}
+
 /// Training steps on the device (see the module documentation).
 pub struct DeviceTrainer {
+    /// `s × s` samples per pixel (None: one).
+    sampled: Option<Sampled>,
     backend: WgpuBackend,
     kernels: Kernels,
     views: Vec<ViewBuffers>,
@@ -291,6 +340,7 @@ impl DeviceTrainer {
         enc.clear_buffer(&status, 0, None);
         ctx.queue.submit([enc.finish()]);
         Ok(DeviceTrainer {
+            sampled: None,
             backend: backend.clone(),
             kernels,
             views,
@@ -322,6 +372,57 @@ impl DeviceTrainer {
             + self.readback.created
             + self.raster.created()
             + self.grads.created()
+    }
+
+    /// The trainer rendering `factor × factor` samples per pixel (1, 2 or 4),
+    /// box-filtered for the loss as `objectsplat_raster::supersample` does.
+    pub fn with_supersample(mut self, factor: u32) -> Result<DeviceTrainer> {
+        objectsplat_raster::supersample::validate(factor)?;
+        if factor == 1 {
+            self.sampled = None;
+            return Ok(self);
+        }
+        let ctx = self.backend.context().clone();
+        let pixels = self
+            .views
+            .iter()
+            .map(ViewBuffers::pixels)
+            .max()
+            .unwrap_or(0); // views is not empty (checked at creation)
+        let samples = pixels * (factor * factor) as usize;
+        self.backend.check_binding_size(
+            "supersampled loss gradient",
+            (samples * IMAGE_STRIDE * 4) as u64,
+        )?;
+        let kernels = SampleKernels::new(&ctx);
+        ctx.check_errors("compiling the supersampling kernels")?;
+        self.sampled = Some(Sampled {
+            factor,
+            kernels,
+            image: storage(
+                &ctx,
+                "box-filtered render",
+                (pixels * IMAGE_STRIDE * 4) as u64,
+            ),
+            frame: storage(&ctx, "box-filtered frame record", 64),
+            upstream: storage(
+                &ctx,
+                "loss gradient per sample",
+                (samples * IMAGE_STRIDE * 4) as u64,
+            ),
+        });
+        self.created += 3;
+        Ok(self)
+    }
+
+    /// The camera a pass on view `view` renders: the view's, scaled by the
+    /// supersampling factor.
+    fn pass_camera(&self, view: usize) -> objectsplat_core::Camera {
+        let camera = self.views[view].camera;
+        match &self.sampled {
+            Some(s) => camera.scaled(camera.width * s.factor, camera.height * s.factor),
+            None => camera,
+        }
     }
 
     /// Pixels of view `view`'s frame (0 for a view that does not exist).
@@ -429,9 +530,16 @@ impl DeviceTrainer {
                 }
             }
         };
-        Ok(RenderSettings {
+        let settings = RenderSettings {
             region,
             ..render.clone()
+        };
+        Ok(match &self.sampled {
+            Some(s) => {
+                let camera = &self.views[view].camera;
+                objectsplat_raster::supersample::fine_view(camera, &settings, s.factor).1
+            }
+            None => settings,
         })
     }
 
@@ -490,8 +598,8 @@ impl DeviceTrainer {
             bail!("device training step before a model was loaded");
         };
         let ctx = self.backend.context().clone();
+        let camera = self.pass_camera(step.view);
         let view = &self.views[step.view];
-        let camera = view.camera;
         if self.max_entries == 0 {
             // Nothing measured yet: size the buffers from this render's count.
             let entries = self.backend.measure_entries(
@@ -517,6 +625,8 @@ impl DeviceTrainer {
             &settings,
             step.background,
         )?;
+        encode_filter(&self.sampled, &self.raster, &mut rec, view.pixels());
+        let (image, frame) = scored(&self.sampled, &self.raster);
         self.kernels.loss.encode(
             &mut rec,
             &LossPass {
@@ -529,8 +639,8 @@ impl DeviceTrainer {
                 entry_capacity: capacity as u32,
             },
             &LossBuffers {
-                image: self.raster.image(),
-                frame: self.raster.frame(),
+                image,
+                frame,
                 rows: &self.scratch.rows,
                 maps: &self.scratch.maps,
                 upstream: &self.scratch.upstream,
@@ -554,14 +664,28 @@ impl DeviceTrainer {
             slot,
             groups,
             &DepthBuffers {
-                image: self.raster.image(),
+                image,
                 upstream: &self.scratch.upstream,
-                frame: self.raster.frame(),
+                frame,
                 inverse: &self.scratch.inverse,
                 runs: &self.scratch.runs,
                 status: &self.status,
             },
         );
+        let upstream = match &self.sampled {
+            Some(s) => {
+                s.kernels.encode_spread(
+                    &mut rec,
+                    s.factor,
+                    view.pixels(),
+                    self.raster.frame(),
+                    &self.scratch.upstream,
+                    &s.upstream,
+                );
+                &s.upstream
+            }
+            None => &self.scratch.upstream,
+        };
         self.backend.encode_backward(
             &mut rec,
             &self.raster,
@@ -569,7 +693,7 @@ impl DeviceTrainer {
             &raster_params,
             &resident.params,
             BackwardCover::whole_image(camera.width, camera.height),
-            &self.scratch.upstream,
+            upstream,
         );
         let Some(resident) = self.resident.as_mut() else {
             bail!("device training step before a model was loaded");
@@ -703,7 +827,8 @@ impl DeviceTrainer {
         };
         self.collect()?;
         let ctx = self.backend.context().clone();
-        let frame: Vec<u32> = read_values(&ctx, self.raster.frame(), 5)?;
+        let (image, frame) = scored(&self.sampled, &self.raster);
+        let frame: Vec<u32> = read_values(&ctx, frame, 5)?;
         let region = PixelRect {
             x0: frame[1],
             y0: frame[2],
@@ -716,7 +841,7 @@ impl DeviceTrainer {
             .read(
                 &ctx,
                 &[
-                    (self.raster.image(), (values * 4) as u64),
+                    (image, (values * 4) as u64),
                     (&self.scratch.upstream, (values * 4) as u64),
                 ],
             )?
@@ -922,8 +1047,8 @@ impl DeviceTrainer {
             let capacity = self.raster.entry_capacity();
             let mut uniforms = std::mem::take(&mut self.uniforms);
             for (k, &v) in views.iter().enumerate() {
+                let camera = self.pass_camera(v);
                 let view = &self.views[v];
-                let camera = view.camera;
                 let mut rec = Recorder::new(&ctx, &mut uniforms);
                 if k == 0 {
                     rec.enc
@@ -944,6 +1069,8 @@ impl DeviceTrainer {
                     &settings[k],
                     [0.0; 3],
                 )?;
+                encode_filter(&self.sampled, &self.raster, &mut rec, view.pixels());
+                let (image, frame) = scored(&self.sampled, &self.raster);
                 match lambda_dssim {
                     Some(lambda_dssim) => self.kernels.loss.encode(
                         &mut rec,
@@ -957,8 +1084,8 @@ impl DeviceTrainer {
                             entry_capacity: u32::MAX,
                         },
                         &LossBuffers {
-                            image: self.raster.image(),
-                            frame: self.raster.frame(),
+                            image,
+                            frame,
                             rows: &self.scratch.rows,
                             maps: &self.scratch.maps,
                             upstream: &self.scratch.upstream,
