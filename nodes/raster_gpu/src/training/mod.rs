@@ -17,6 +17,12 @@
 //! own supervision, grown by the loss's crop margin: the loss and the
 //! gradient equal the whole frame's (see loss.wgsl).
 //!
+//! A trainer made [`DeviceTrainer::with_supersample`] renders each pass at
+//! the view's camera scaled by the factor, box-filters the render to the
+//! view's pixels for the loss and the depth terms, and spreads their gradient
+//! back over the samples for the backward pass (`supersample.rs`), as the
+//! host's loop does with `objectsplat_raster::supersample`.
+//!
 //! A step is recorded and submitted without waiting for the device: its
 //! tile-entry buffers are sized from the entry counts seen so far (with
 //! headroom), and a step whose render needs more entries than they hold is
