@@ -21,11 +21,9 @@ use crate::real::Real;
 use anyhow::{Result, bail};
 use objectsplat_core::Camera;
 
-/// The largest supported factor. Footprint regions are whole 16-px tiles of
-/// the fine image, so `s` must divide 16 for them to be whole coarse pixels.
-pub const MAX_SUPERSAMPLE: u32 = 4;
-
-/// Checks a supersampling factor (1 = one sample per pixel).
+/// Checks a supersampling factor (1 = one sample per pixel). Footprint
+/// regions are whole 16-px tiles of the fine image, so the factor must divide
+/// 16 for them to be whole coarse pixels; 8 would cost 64 samples a pixel.
 pub fn validate(s: u32) -> Result<()> {
     if !matches!(s, 1 | 2 | 4) {
         bail!("supersample = {s} must be 1, 2 or 4");
@@ -122,6 +120,29 @@ pub fn downsample_into<R: Real>(
     Ok(())
 }
 
+/// Each value of a `width`×`height` plane (`channels` per pixel) repeated over
+/// its pixel's `s × s` samples, row-major in the fine plane.
+pub fn replicate_into<R: Copy>(
+    coarse: &[R],
+    channels: usize,
+    width: usize,
+    height: usize,
+    s: u32,
+    fine: &mut Vec<R>,
+) {
+    let s = s as usize;
+    fine.clear();
+    fine.reserve(width * height * s * s * channels);
+    for y in 0..height * s {
+        let row = &coarse[(y / s) * width * channels..(y / s + 1) * width * channels];
+        for pixel in row.chunks_exact(channels) {
+            for _ in 0..s {
+                fine.extend_from_slice(pixel);
+            }
+        }
+    }
+}
+
 /// The gradient of a coarse output plane (`channels` per pixel over
 /// `coarse_region`) with respect to its `s × s` samples: each sample carries
 /// its pixel's gradient over `s²` (the adjoint of [`downsample_into`]).
@@ -132,20 +153,13 @@ pub fn spread_into<R: Real>(
     s: u32,
     fine: &mut Vec<R>,
 ) {
-    let (cw, ch, s) = (
+    let (width, height) = (
         coarse_region.width() as usize,
         coarse_region.height() as usize,
-        s as usize,
     );
+    replicate_into(coarse, channels, width, height, s, fine);
     let scale = R::of(1.0 / (s * s) as f64);
-    fine.clear();
-    fine.reserve(cw * ch * s * s * channels);
-    for y in 0..ch * s {
-        let row = &coarse[(y / s) * cw * channels..(y / s + 1) * cw * channels];
-        for pixel in row.chunks_exact(channels) {
-            for _ in 0..s {
-                fine.extend(pixel.iter().map(|&g| g * scale));
-            }
-        }
+    for g in fine.iter_mut() {
+        *g *= scale;
     }
 }

@@ -45,15 +45,8 @@ pub fn render_view(
             let rgb = image.to_rgb();
             rgb.check_finite("background image")?;
             // Every sample of a pixel shows the pixel's fill.
-            let mut fine = Vec::with_capacity(rgb.data.len() * s * s);
-            for y in 0..height * s {
-                let row = &rgb.data[(y / s) * width * 3..(y / s + 1) * width * 3];
-                for pixel in row.chunks_exact(3) {
-                    for _ in 0..s {
-                        fine.extend_from_slice(pixel);
-                    }
-                }
-            }
+            let mut fine = Vec::new();
+            supersample::replicate_into(&rgb.data, 3, width, height, supersample, &mut fine);
             fine
         }
     };
