@@ -94,6 +94,16 @@ fn with_a_constant_window_wgpu_training_matches_the_cpu_within_0_02_db() {
         // runs are held to the gradients, Adam, pruning and connectivity. A systematic
         // difference shows in every run, so one of three must agree.
         settings.schedule.densify_until = 0;
+        if samples > 1 {
+            // At 2×2 the connectivity step's merges and its cleanup flip too: the
+            // models before it agree to 1e-4 in loss, yet the faces it leaves (96 on
+            // the CPU, 96–98 on lavapipe) and then one face's largest weight (0.498
+            // against 0.502, the final prune's line 0.5) ended runs 0.01–0.10 dB
+            // apart, every one of seven above the CPU's. Without it every wgpu run
+            // measured within 0.002 dB. One sample (above) keeps the connectivity
+            // step and its cleanup under test; here it is the box filter and the spread.
+            settings.schedule.connectivity_at = settings.schedule.iterations + 1;
+        }
         let (on_cpu, cpu_cleanup) = trained(&CpuBackend::new(2), &plate, &settings);
         // At one sample the cleanup after the connectivity step removes faces
         // (at 2×2 every face of this plate shows), so both runs must agree on it.
