@@ -58,6 +58,9 @@ fn completion_raises_table_recall_and_keeps_its_precision() {
         before.faces.len() + meta["faces"].as_u64().unwrap() as usize
     );
     assert!(after.vertices.len() > first);
+    // The trained table carries flat colours for its export; so does its patch.
+    assert_eq!(before.flat_dc.len(), before.vertices.len());
+    assert_eq!(after.flat_dc.len(), after.vertices.len());
     let top = top_rectangle(&room.mesh, table_id);
     for v in &after.vertices[first..] {
         let p = DVec3::from_array(v.map(f64::from));

@@ -38,6 +38,12 @@ pub struct Model<R: Real = f32> {
     /// settings' σ). Set when models trained to different σ are rendered
     /// together ([`Model::union`]); not saved.
     pub face_sigma: Vec<f64>,
+    /// Per vertex, the DC coefficients a flat-coloured copy draws with (a mesh
+    /// export, whose viewers show one colour per vertex): the SH colour averaged
+    /// over the directions the training views saw the vertex from, which the SH
+    /// DC term alone is not when those views cover part of the sphere. Empty:
+    /// the DC term. See [`Model::flat_dc`].
+    pub flat_dc: Vec<[R; 3]>,
     /// Free-form metadata carried through model.json.
     pub metadata: Map<String, Value>,
 }
@@ -71,6 +77,7 @@ impl<R: Real> Model<R> {
             opacity_floor: 0.0,
             sigma: 1.0,
             face_sigma: Vec::new(),
+            flat_dc: Vec::new(),
             metadata: Map::new(),
         }
     }
@@ -81,6 +88,12 @@ impl<R: Real> Model<R> {
 
     pub fn face_count(&self) -> usize {
         self.faces.len()
+    }
+
+    /// The DC coefficients vertex `v` draws with in a flat-coloured copy: its
+    /// baked flat colour where the model has one, its SH DC term otherwise.
+    pub fn flat_dc(&self, v: usize) -> [R; 3] {
+        self.flat_dc.get(v).copied().unwrap_or(self.sh[v][0])
     }
 
     /// Activated opacity of vertex `v`.
@@ -126,6 +139,19 @@ impl<R: Real> Model<R> {
                 "model has {nv} vertices but {} opacity logits",
                 self.opacity_logits.len()
             );
+        }
+        if !self.flat_dc.is_empty() && self.flat_dc.len() != nv {
+            bail!(
+                "model has {nv} vertices but {} flat colours",
+                self.flat_dc.len()
+            );
+        }
+        if let Some(v) = self
+            .flat_dc
+            .iter()
+            .position(|rgb| rgb.iter().any(|c| !c.is_finite()))
+        {
+            bail!("vertex {v} flat colour {:?} is not finite", self.flat_dc[v]);
         }
         if nv > u32::MAX as usize {
             bail!("model has {nv} vertices, more than u32 indices can address");
@@ -206,6 +232,7 @@ impl<R: Real> Model<R> {
             opacity_floor: self.opacity_floor,
             sigma: self.sigma,
             face_sigma: self.face_sigma.clone(),
+            flat_dc: self.flat_dc.iter().map(|rgb| rgb.map(c)).collect(),
             metadata: self.metadata.clone(),
         }
     }
@@ -215,7 +242,8 @@ impl<R: Real> Model<R> {
     /// opacities (logits re-mapped to the smallest part floor, which every part's
     /// opacities are at least) and its colours (bands above a part's SH degree
     /// are zeroed, the union renders at the largest degree). σ of the union is
-    /// the largest part σ.
+    /// the largest part σ. Flat colours are kept where a part has them (the
+    /// others' DC terms fill in).
     pub fn union(parts: &[&Model<R>]) -> Result<Model<R>> {
         let mut merged = Model::<R>::empty();
         let floor = parts
@@ -228,6 +256,7 @@ impl<R: Real> Model<R> {
         if !merged.sigma.is_finite() {
             merged.sigma = 1.0;
         }
+        let baked = parts.iter().any(|m| !m.flat_dc.is_empty());
         for (index, part) in parts.iter().enumerate() {
             let mut m = (*part).clone();
             // Re-mapping clamps extreme logits, so parts already on the floor keep theirs.
@@ -249,6 +278,11 @@ impl<R: Real> Model<R> {
                 rows
             }));
             merged.opacity_logits.extend_from_slice(&m.opacity_logits);
+            if baked {
+                merged
+                    .flat_dc
+                    .extend((0..m.vertex_count()).map(|v| m.flat_dc(v)));
+            }
             // `base` fits in u32: checked above.
             let offset = base as u32;
             merged
@@ -336,6 +370,27 @@ mod tests {
         }
         assert!(m.set_opacity_floor(1.0).is_err());
         assert!(m.set_opacity_floor(f64::NAN).is_err());
+    }
+
+    /// A union keeps each baked part's flat colours and fills the others' from
+    /// their DC terms; a union of unbaked parts has none.
+    #[test]
+    fn a_union_keeps_flat_colours_where_parts_have_them() {
+        let part = |dc: f64, flat: Option<f64>| {
+            let mut m = Model::<f64>::empty();
+            m.vertices = vec![[0.0; 3], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]];
+            m.faces = vec![[0, 1, 2]];
+            m.sh = vec![[[dc; 3]; SH_COEFFS]; 3];
+            m.opacity_logits = vec![0.0; 3];
+            m.flat_dc = flat.map_or(Vec::new(), |f| vec![[f; 3]; 3]);
+            m
+        };
+        let (baked, plain) = (part(0.1, Some(0.7)), part(0.2, None));
+        let merged = Model::union(&[&plain, &baked]).unwrap();
+        merged.validate().unwrap();
+        let want: Vec<[f64; 3]> = [[0.2; 3]; 3].into_iter().chain([[0.7; 3]; 3]).collect();
+        assert_eq!(merged.flat_dc, want);
+        assert!(Model::union(&[&plain, &plain]).unwrap().flat_dc.is_empty());
     }
 
     /// The activation is m + (1 − m)·sigmoid(x) and the triangle opacity is the corners' min.

@@ -28,8 +28,9 @@ pub fn dc_to_u8(dc: f32) -> u8 {
     ((0.5 + SH_DC * dc as f64).clamp(0.0, 1.0) * 255.0).round() as u8
 }
 
-/// The model's mesh as a PLY: positions, DC display colours, all SH
-/// coefficients, opacity logits and faces.
+/// The model's mesh as a PLY: positions, display colours (the flat colours,
+/// [`Model::flat_dc`]), all SH coefficients, opacity logits, the baked flat
+/// colours' DC coefficients where the model has them (`flat_dc_0..2`) and faces.
 pub fn model_to_ply(model: &Model<f32>) -> Ply {
     let nv = model.vertex_count();
     let col = |f: &dyn Fn(usize) -> f32| Column::F32((0..nv).map(f).collect());
@@ -40,7 +41,7 @@ pub fn model_to_ply(model: &Model<f32>) -> Ply {
     for (ch, name) in ["red", "green", "blue"].iter().enumerate() {
         vertex = vertex.with(Property::scalar(
             *name,
-            Column::U8((0..nv).map(|v| dc_to_u8(model.sh[v][0][ch])).collect()),
+            Column::U8((0..nv).map(|v| dc_to_u8(model.flat_dc(v)[ch])).collect()),
         ));
     }
     for ch in 0..3 {
@@ -61,6 +62,14 @@ pub fn model_to_ply(model: &Model<f32>) -> Ply {
         "opacity",
         col(&|v| model.opacity_logits[v]),
     ));
+    if !model.flat_dc.is_empty() {
+        for ch in 0..3 {
+            vertex = vertex.with(Property::scalar(
+                format!("flat_dc_{ch}"),
+                col(&|v| model.flat_dc[v][ch]),
+            ));
+        }
+    }
     let nf = model.face_count();
     let offsets: Vec<usize> = (0..=nf).map(|i| i * 3).collect();
     let indices = Column::I32(model.faces.iter().flatten().map(|&i| i as i32).collect());
@@ -147,6 +156,14 @@ pub fn load_model(dir: &Path) -> Result<Model<f32>> {
         })
         .collect();
     model.opacity_logits = opacity;
+    if vertex.has("flat_dc_0") {
+        let flat: Vec<Vec<f32>> = (0..3)
+            .map(|c| get(&format!("flat_dc_{c}")))
+            .collect::<Result<_>>()?;
+        model.flat_dc = (0..nv)
+            .map(|v| [flat[0][v], flat[1][v], flat[2][v]])
+            .collect();
+    }
     let faces = ply.element("face").map_err(in_ply)?;
     let list = faces.list_u32("vertex_indices").map_err(in_ply)?;
     model.faces = Vec::with_capacity(list.len());

@@ -28,6 +28,39 @@ fn model_round_trips_through_its_folder() {
     assert_eq!(back, model);
 }
 
+/// Flat colours (a trained model's bake) travel as `flat_dc_*` and are what the
+/// 8-bit display colours show; a model without them writes no such property.
+#[test]
+fn flat_colours_round_trip_and_are_the_display_colours() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut model = sample_model();
+    assert!(
+        !objectsplat_raster::model_io::model_to_ply(&model)
+            .element("vertex")
+            .unwrap()
+            .has("flat_dc_0")
+    );
+    model.flat_dc = (0..model.vertex_count())
+        .map(|v| [0.1 * v as f32 - 0.4, -0.2, 0.7])
+        .collect();
+    save_model(&model, dir.path()).unwrap();
+    let back = load_model(dir.path()).unwrap();
+    assert_eq!(back, model);
+    let ply = Ply::read(&dir.path().join(MODEL_PLY)).unwrap();
+    let vertex = ply.element("vertex").unwrap();
+    let (red, blue) = (
+        vertex.scalar_u8("red").unwrap(),
+        vertex.scalar_u8("blue").unwrap(),
+    );
+    for v in 0..model.vertex_count() {
+        assert_eq!(red[v], dc_to_u8(model.flat_dc[v][0]));
+        assert_eq!(blue[v], dc_to_u8(0.7));
+    }
+    // A flat colour per vertex or none: a short list is refused.
+    model.flat_dc.pop();
+    assert!(save_model(&model, dir.path()).is_err());
+}
+
 #[test]
 fn ply_has_the_documented_layout() {
     let dir = tempfile::tempdir().unwrap();

@@ -406,10 +406,13 @@ fn apply_one(scene: &mut Scene, edit: &Edit, log: &mut EditLog) -> Result<()> {
         Edit::Recolor { rgb, .. } => {
             let dc = rgb.map(|c| ((c.0 - 0.5) / SH_DC) as f32);
             for &t in &targets {
-                for rows in &mut scene.objects[t].model.sh {
+                let model = &mut scene.objects[t].model;
+                for rows in &mut model.sh {
                     *rows = [[0.0; 3]; SH_COEFFS];
                     rows[0] = dc;
                 }
+                // The recoloured member is flat everywhere: no bake to keep.
+                model.flat_dc.clear();
             }
         }
     }

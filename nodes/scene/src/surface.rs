@@ -30,19 +30,27 @@ pub fn visible_mesh(model: &Model<f32>) -> Mesh {
 }
 
 /// `model` as a mesh export holds it, for rendering: the visible faces only, every
-/// one opaque with hard edges (σ [`FINISHED_SIGMA`]), colours from the SH DC term
-/// alone. A render of it is what a user who opens the `.glb` sees from that camera.
+/// one opaque with hard edges (σ [`FINISHED_SIGMA`]), one colour per vertex (its
+/// flat colour, [`Model::flat_dc`]). A render of it is what a user who opens the
+/// `.glb` sees from that camera.
 pub fn exported_model(model: &Model<f32>) -> Model<f32> {
     let opaque = inverse_sigmoid(1.0) as f32;
     Model {
         vertices: model.vertices.clone(),
         faces: visible_faces(model),
-        sh: model.sh.clone(),
+        sh: (0..model.vertex_count())
+            .map(|v| {
+                let mut rows = [[0.0; 3]; objectsplat_raster::SH_COEFFS];
+                rows[0] = model.flat_dc(v);
+                rows
+            })
+            .collect(),
         opacity_logits: vec![opaque; model.vertex_count()],
         sh_degree: 0,
         opacity_floor: OPAQUE_FLOOR,
         sigma: FINISHED_SIGMA,
         face_sigma: Vec::new(),
+        flat_dc: Vec::new(),
         metadata: model.metadata.clone(),
     }
 }

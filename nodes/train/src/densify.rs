@@ -151,6 +151,12 @@ pub fn subdivide_faces(model: &mut Model<f32>, selected: &[usize]) -> Result<Ver
             let opacity = 0.5 * (model.vertex_opacity(p) as f64 + model.vertex_opacity(q) as f64);
             let m = model.opacity_floor;
             let logit = inverse_sigmoid((opacity - m) / (1.0 - m)) as f32;
+            if !model.flat_dc.is_empty() {
+                let (fp, fq) = (model.flat_dc(p), model.flat_dc(q));
+                model
+                    .flat_dc
+                    .push(std::array::from_fn(|ch| 0.5 * (fp[ch] + fq[ch])));
+            }
             model.vertices.push(pos);
             model.sh.push(sh);
             model.opacity_logits.push(logit);
@@ -240,6 +246,9 @@ pub fn remove_unreferenced_vertices(model: &mut Model<f32>) -> Result<VertexEdit
     retain_by_mask(&mut model.vertices, &keep);
     retain_by_mask(&mut model.sh, &keep);
     retain_by_mask(&mut model.opacity_logits, &keep);
+    if !model.flat_dc.is_empty() {
+        retain_by_mask(&mut model.flat_dc, &keep);
+    }
     Ok(VertexEdit {
         keep,
         appended: 0,

@@ -22,6 +22,7 @@ pub mod densify;
 pub mod depth_smoothness;
 mod device_steps;
 pub mod face_stats;
+pub mod flat_color;
 pub mod free_space;
 mod host_steps;
 pub mod hull;

@@ -25,6 +25,7 @@ use crate::connectivity::{ConnectivityOptions, restricted_delaunay};
 use crate::densify::{DensifyPolicy, prune_faces, select_faces_to_split, subdivide_faces};
 use crate::device_steps::DeviceSteps;
 use crate::face_stats::FaceWeights;
+use crate::flat_color::{FlatColors, Sighting};
 use crate::free_space::sightings;
 use crate::host_steps::HostSteps;
 use crate::init::{InitSettings, init_model};
@@ -987,6 +988,16 @@ pub fn train_component_with_hook(
         ));
     }
     let render = render_settings(&model, settings);
+    // The flat colours a mesh export draws (flat_color.rs), over the views that trained it.
+    let mut flat = FlatColors::new(&model);
+    for &view in &train {
+        let face_weight = runner.face_max_weight(Subject::Other(&model), &[view], &render)?;
+        flat.add(&Sighting {
+            center: data.views[view].camera.center().as_vec3().to_array(),
+            face_weight: &face_weight,
+        })?;
+    }
+    model.flat_dc = flat.finish();
     let final_score = runner.evaluate(Subject::Other(&model), &report_views, &render)?;
     notes.extend(runner.summary());
     let times = TrainingTimes {

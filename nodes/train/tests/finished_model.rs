@@ -1,8 +1,8 @@
 //! A run that returns a model from before the end of its budget (an early
 //! stop, or a best checkpoint before the last iteration) finishes it first:
 //! what comes back is opaque and hard-edged — σ and opacity floor at the
-//! schedule's end — like every exported model, and a run interrupted inside
-//! the finish resumes to the same model.
+//! schedule's end — like every exported model, with its flat colours baked,
+//! and a run interrupted inside the finish resumes to the same model.
 
 mod common;
 
@@ -25,6 +25,8 @@ fn assert_finished(report: &TrainReport, settings: &TrainSettings) {
     let model = &report.model;
     assert_eq!(model.sigma, s.sigma_end);
     assert_eq!(model.opacity_floor, s.floor_end());
+    // Baked for a flat-coloured export: a colour for every vertex.
+    assert_eq!(model.flat_dc.len(), model.vertex_count());
     for f in 0..model.face_count() {
         assert!(
             model.face_opacity(f) as f64 >= s.floor_end() - 1e-6,

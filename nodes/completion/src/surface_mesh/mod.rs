@@ -438,6 +438,9 @@ fn complete_one(
         model.vertices.push(p.to_array().map(|v| v as f32));
         let mut sh = [[0.0f32; 3]; objectsplat_raster::SH_COEFFS];
         sh[0] = c.map(|v| ((v - 0.5) / SH_DC) as f32);
+        if !model.flat_dc.is_empty() {
+            model.flat_dc.push(sh[0]);
+        }
         model.sh.push(sh);
         model.opacity_logits.push(opaque);
     }
@@ -679,8 +682,8 @@ fn inliers_vertices(model: &Model<f32>, normal: DVec3, offset: f64, tolerance: f
         .collect()
 }
 
-/// Mean display colour (the SH DC term, sRGB in [0, 1]) of the given vertices; mid grey
-/// for none.
+/// Mean display colour (the flat colour, sRGB in [0, 1]) of the given vertices; mid
+/// grey for none.
 fn mean_colour(model: &Model<f32>, vertices: &[usize]) -> [f64; 3] {
     if vertices.is_empty() {
         return [0.5; 3];
@@ -688,7 +691,7 @@ fn mean_colour(model: &Model<f32>, vertices: &[usize]) -> [f64; 3] {
     let mut sum = [0.0; 3];
     for &v in vertices {
         for (c, s) in sum.iter_mut().enumerate() {
-            *s += (0.5 + SH_DC * f64::from(model.sh[v][0][c])).clamp(0.0, 1.0);
+            *s += (0.5 + SH_DC * f64::from(model.flat_dc(v)[c])).clamp(0.0, 1.0);
         }
     }
     sum.map(|s| s / vertices.len() as f64)

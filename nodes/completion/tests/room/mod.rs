@@ -239,7 +239,10 @@ pub fn trained_scene(room: &Room) -> Scene {
         subdivide(soup(&room.mesh, &object_faces(&room.mesh, table)), 3),
         table,
     );
-    trained_scene_with_table(room, model_of(&seen))
+    let mut table = model_of(&seen);
+    // A trained model carries the flat colours its export draws (here its DC terms).
+    table.flat_dc = table.sh.iter().map(|rows| rows[0]).collect();
+    trained_scene_with_table(room, table)
 }
 
 pub fn trained_scene_with_table(room: &Room, table: Model<f32>) -> Scene {
