@@ -9,4 +9,4 @@ pub mod nodes;
 pub mod scene;
 
 pub use nodes::register;
-pub use scene::{SyntheticParams, SyntheticScene};
+pub use scene::{Surfaces, SyntheticParams, SyntheticScene};

@@ -3,7 +3,7 @@
 //! The artifact types it writes (Frames, Mesh, Points) are registered by the catalogue
 //! crate; [`register`] adds only the node kind.
 
-use crate::scene::{CameraPath, SyntheticParams, generate};
+use crate::scene::{CameraPath, Surfaces, SyntheticParams, generate};
 use anyhow::{Result, bail};
 use objectsplat_core::SplitPolicy;
 use objectsplat_runtime::{Context, Node, NodeSpec, Outcome, ParamType, Registry, node_ports};
@@ -47,6 +47,10 @@ objectsplat_runtime::node_params! {
         /// looking across the room; inside: stand by the table and turn, looking out;
         /// tabletop: a close orbit over the objects on the table
         cameras: String = "\"orbit\"" as ParamType::enumeration(&["orbit", "walk", "inside", "tabletop"]),
+        /// what covers the room's shell: plain (wooden planks, striped wallpaper) or
+        /// fine (a brick wainscot, a notice of text-like glyphs on every wall, a tiled
+        /// floor and a rug: detail a few pixels wide and finer)
+        surfaces: String = "\"plain\"" as ParamType::enumeration(&["plain", "fine"]),
     }
 }
 
@@ -67,8 +71,8 @@ impl Node for SyntheticSceneNode {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("synthetic_scene", "1")
             .doc(
-                "Procedural room (floor, walls, ceiling, a table, box, cup, ball, chair, bin) with textured surfaces and \
-                 baked lighting, rendered from an orbit of cameras around the table (or a walk along the walls, from beside the table looking out, or a close orbit over the table top); the annotated ground-truth mesh; \
+                "Procedural room (floor, walls, ceiling, a table, box, cup, ball, chair, bin) with textured surfaces \
+                 (plain: planks and wallpaper; fine: a brick wainscot, a notice of glyphs, tiles and a rug) and baked lighting, rendered from an orbit of cameras around the table (or a walk along the walls, from beside the table looking out, or a close orbit over the table top); the annotated ground-truth mesh; \
                  and SfM-like sparse points (surface samples seen by ≥ 2 cameras, with Gaussian noise). Deterministic \
                  from its seed.",
             )
@@ -99,6 +103,7 @@ impl Node for SyntheticSceneNode {
             supersample: p.supersample,
             fov_degrees: p.fov,
             path: CameraPath::parse(&p.cameras)?,
+            surfaces: Surfaces::parse(&p.surfaces)?,
             threads: ctx.threads().max(1),
         };
         let scene = generate(&params)?;

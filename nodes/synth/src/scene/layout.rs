@@ -1,5 +1,6 @@
 //! Where things stand in the room, drawn from the seed.
 
+use super::Surfaces;
 use super::shapes::MeshBuilder;
 use super::texture::{Material, albedo, shade};
 use glam::{DVec2, DVec3};
@@ -60,7 +61,11 @@ fn jitter_color(rng: &mut Pcg64, base: [f64; 3], amount: f64) -> [f64; 3] {
     base.map(|c| (c + rng.random_range(-amount..=amount)).clamp(0.0, 1.0))
 }
 
-pub fn build_room(seed: u64, with_table: bool) -> Room {
+pub fn build_room(seed: u64, with_table: bool, surfaces: Surfaces) -> Room {
+    let (floor_material, wall_material) = match surfaces {
+        Surfaces::Plain => (Material::WoodFloor, Material::Wallpaper),
+        Surfaces::Fine => (Material::TiledFloor, Material::BrickWall),
+    };
     let mut rng = Pcg64::seed_from_u64(seed);
     let mut b = MeshBuilder::default();
     let (h, z) = (ROOM_HALF, ROOM_HEIGHT);
@@ -70,7 +75,7 @@ pub fn build_room(seed: u64, with_table: bool) -> Room {
     let floor = b.object("floor");
     b.grid(
         floor,
-        Material::WoodFloor,
+        floor_material,
         DVec3::new(-h, -h, 0.0),
         (DVec3::X * 2.0 * h, DVec3::Y * 2.0 * h),
         (cells, cells),
@@ -86,7 +91,7 @@ pub fn build_room(seed: u64, with_table: bool) -> Room {
         let wall = b.object("wall");
         b.grid(
             wall,
-            Material::Wallpaper,
+            wall_material,
             origin,
             (along, DVec3::Z * z),
             (cells, wall_cells),

@@ -50,6 +50,27 @@ impl CameraPath {
     }
 }
 
+/// What the room's shell is covered with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Surfaces {
+    /// Wooden planks and striped wallpaper.
+    #[default]
+    Plain,
+    /// Detail finer than a few pixels, as real rooms have: a brick wainscot, a
+    /// printed notice of text-like glyphs on every wall, a tiled floor and a rug.
+    Fine,
+}
+
+impl Surfaces {
+    pub fn parse(name: &str) -> Result<Self> {
+        Ok(match name {
+            "plain" => Surfaces::Plain,
+            "fine" => Surfaces::Fine,
+            other => bail!("surfaces {other:?} is not one of \"plain\", \"fine\""),
+        })
+    }
+}
+
 #[derive(Debug, Clone, PartialEq)]
 pub struct SyntheticParams {
     pub seed: u64,
@@ -73,6 +94,8 @@ pub struct SyntheticParams {
     pub fov_degrees: f64,
     /// How the cameras move through the room.
     pub path: CameraPath,
+    /// What the room's shell is covered with.
+    pub surfaces: Surfaces,
     pub threads: usize,
 }
 
@@ -92,6 +115,7 @@ impl Default for SyntheticParams {
             supersample: 2,
             fov_degrees: 60.0,
             path: CameraPath::Orbit,
+            surfaces: Surfaces::Plain,
             threads: objectsplat_masks::raster::default_threads(),
         }
     }
@@ -159,7 +183,7 @@ pub struct SyntheticScene {
 
 pub fn generate(params: &SyntheticParams) -> Result<SyntheticScene> {
     params.validate()?;
-    let room = layout::build_room(params.seed, params.table);
+    let room = layout::build_room(params.seed, params.table, params.surfaces);
     let cameras = cameras(params);
     let texture_seed = params.seed.wrapping_mul(0x2545_F491_4F6C_DD1D);
     let views = render::render_views(&room, &cameras, params, texture_seed)?;

@@ -33,7 +33,22 @@ pub enum Material {
     Fabric { base: [f64; 3] },
     /// Brushed metal: fine streaks along z.
     Metal { base: [f64; 3] },
+    /// A brick wainscot (the lower metre, running bond, mortar joints) under
+    /// wallpaper, with a printed notice of text-like glyphs at eye height.
+    BrickWall,
+    /// Square tiles with grout lines, and a patterned rug on them.
+    TiledFloor,
 }
+
+/// The rug of [`Material::TiledFloor`]: x and y ranges (metres), beside the table.
+pub const RUG: ([f64; 2], [f64; 2]) = ([-1.7, -0.5], [-1.4, 0.6]);
+
+/// Brick size with its joint (metres) and the wainscot's height.
+const BRICK: (f64, f64, f64) = (0.21, 0.075, 1.0);
+
+/// The notice on each wall: its extent along the wall and in height (metres),
+/// and one glyph cell (width, height) of 3×5 strokes.
+const NOTICE: ([f64; 2], [f64; 2], (f64, f64)) = ([-0.9, -0.2], [1.35, 1.75], (0.027, 0.045));
 
 /// Deterministic lattice hash to [0, 1).
 fn hash3(x: i64, y: i64, z: i64, seed: u64) -> f64 {
@@ -165,6 +180,8 @@ pub fn albedo(material: &Material, p: DVec3, seed: u64) -> [f64; 3] {
             let mottle = fbm(p * 8.0, seed.wrapping_add(29));
             scale(base, 0.75 + 0.15 * weave + 0.2 * mottle)
         }
+        Material::BrickWall => brick_wall(p, seed),
+        Material::TiledFloor => tiled_floor(p, seed),
         Material::Metal { base } => {
             let streak = fbm(
                 DVec3::new(p.x * 60.0, p.y * 60.0, p.z * 2.0),
@@ -173,6 +190,108 @@ pub fn albedo(material: &Material, p: DVec3, seed: u64) -> [f64; 3] {
             scale(base, 0.8 + 0.3 * streak)
         }
     }
+}
+
+/// A wall point's coordinate along its wall: every wall of the room lies at
+/// x = ±2 or y = ±2, so the other coordinate runs along it.
+fn along_wall(p: DVec3) -> f64 {
+    if p.x.abs() > p.y.abs() { p.y } else { p.x }
+}
+
+fn brick_wall(p: DVec3, seed: u64) -> [f64; 3] {
+    let (s, z) = (along_wall(p), p.z);
+    let (width, height, top) = BRICK;
+    if z < top {
+        let row = (z / height).floor();
+        // Running bond: every other row shifted by half a brick.
+        let shifted = s + if row as i64 % 2 == 0 {
+            0.0
+        } else {
+            width / 2.0
+        };
+        let column = (shifted / width).floor();
+        let (u, v) = (shifted / width - column, z / height - row);
+        let joint = u < 0.05 || v < 0.13;
+        if joint {
+            return scale([0.78, 0.76, 0.72], 0.9 + 0.1 * fbm(p * 40.0, seed));
+        }
+        let tint = hash3(row as i64, column as i64, 3, seed);
+        let base = mix([0.62, 0.25, 0.16], [0.75, 0.4, 0.26], tint);
+        return scale(base, 0.85 + 0.2 * fbm(p * 25.0, seed.wrapping_add(37)));
+    }
+    let ([s0, s1], [z0, z1], (cell_w, cell_h)) = NOTICE;
+    if (s0..s1).contains(&s) && (z0..z1).contains(&z) {
+        return notice(s - s0, z1 - z, cell_w, cell_h, seed);
+    }
+    albedo(&Material::Wallpaper, p, seed)
+}
+
+/// White paper with lines of dark glyphs: each cell a 3×5 bitmap drawn from the
+/// hash, with a blank column and row around it; every fourth cell a space.
+fn notice(x: f64, y: f64, cell_w: f64, cell_h: f64, seed: u64) -> [f64; 3] {
+    let paper = [0.93, 0.92, 0.88];
+    let margin = 0.03;
+    if x < margin || y < margin {
+        return paper;
+    }
+    let (cx, cy) = (
+        ((x - margin) / cell_w).floor(),
+        ((y - margin) / cell_h).floor(),
+    );
+    let (u, v) = ((x - margin) / cell_w - cx, (y - margin) / cell_h - cy);
+    let (bit_x, bit_y) = ((u * 4.0).floor() as i64, (v * 6.0).floor() as i64);
+    if bit_x >= 3 || bit_y >= 5 || hash3(cx as i64, cy as i64, 5, seed) < 0.25 {
+        return paper;
+    }
+    if hash3(cx as i64 * 8 + bit_x, cy as i64 * 8 + bit_y, 7, seed) < 0.45 {
+        [0.12, 0.12, 0.15]
+    } else {
+        paper
+    }
+}
+
+fn tiled_floor(p: DVec3, seed: u64) -> [f64; 3] {
+    let ([x0, x1], [y0, y1]) = RUG;
+    if (x0..x1).contains(&p.x) && (y0..y1).contains(&p.y) {
+        return rug(p.x - x0, p.y - y0, x1 - x0, y1 - y0, seed);
+    }
+    let tile = 0.3;
+    let (i, j) = ((p.x / tile).floor(), (p.y / tile).floor());
+    let (u, v) = (p.x / tile - i, p.y / tile - j);
+    if u < 0.025 || v < 0.025 {
+        return [0.45, 0.44, 0.42];
+    }
+    let base = if (i + j).rem_euclid(2.0) < 0.5 {
+        [0.82, 0.8, 0.76]
+    } else {
+        [0.58, 0.6, 0.62]
+    };
+    scale(base, 0.92 + 0.08 * fbm(p * 12.0, seed.wrapping_add(41)))
+}
+
+/// A rug `w`×`h` metres: a dark border with a fringe of thin stripes, and a
+/// field of diamonds with a fine weave.
+fn rug(x: f64, y: f64, w: f64, h: f64, seed: u64) -> [f64; 3] {
+    let edge = x.min(y).min(w - x).min(h - y);
+    let weave = 0.92 + 0.08 * ((x * 700.0).sin() * (y * 700.0).sin());
+    let c = if edge < 0.08 {
+        if (edge / 0.016).floor() as i64 % 2 == 0 {
+            [0.2, 0.16, 0.3]
+        } else {
+            [0.85, 0.75, 0.45]
+        }
+    } else {
+        let d = ((x - w / 2.0).abs() + (y - h / 2.0).abs()) / 0.12;
+        match d.floor() as i64 % 3 {
+            0 => [0.65, 0.15, 0.15],
+            1 => [0.9, 0.82, 0.6],
+            _ => [0.15, 0.3, 0.45],
+        }
+    };
+    scale(
+        c,
+        weave * (0.95 + 0.05 * fbm(DVec3::new(x, y, 0.0) * 30.0, seed)),
+    )
 }
 
 /// 0 → 1 → 0 over a ring period, with soft edges.
