@@ -17,10 +17,11 @@
 //! L1, so true creases (a wall meeting the floor) cost one pixel each, not the
 //! square of their height.
 //!
-//! It is a prior for a room's shell, not for objects: across an object's
-//! silhouette the depth jumps, which is why it is off for object components
-//! and why a decomposed background can carry it where a holistic model pays
-//! for it at every object's outline.
+//! It is a prior for a room's shell more than for objects: across an object's
+//! silhouette the depth jumps, which is why it is off by default for object
+//! components (their weight is a separate setting) and why a decomposed
+//! background can carry it where a holistic model pays for it at every
+//! object's outline.
 
 /// Pixels covered less than this take no part (their depth is mostly the
 /// absence of a surface).
