@@ -85,7 +85,7 @@ pub struct ScopeMetrics {
     /// ([`crate::normals`]); absent in older reports.
     #[serde(default, serialize_with = "finite_or_null")]
     pub normal_consistency: Option<f64>,
-    /// PSNR of the scene rendered as exported (opaque, hard-edged, DC colours:
+    /// PSNR of the scene rendered as exported (opaque, hard-edged, flat colours:
     /// what a user who opens the `.glb` sees); absent when not scored.
     #[serde(default, serialize_with = "finite_or_null")]
     pub exported_psnr: Option<f64>,

@@ -277,7 +277,7 @@ objectsplat_runtime::node_params! {
         /// sRGB colour [r, g, b] where nothing (and no fill) covers a pixel
         background: Vec<f64> = "[0.0, 0.0, 0.0]" as ParamType::list(ParamType::float_range(0.0, 1.0)),
         /// trained: the models as trained (soft edges, view-dependent colour); exported:
-        /// as the .glb holds them (visible faces only, opaque, hard-edged, DC colours)
+        /// as the .glb holds them (visible faces only, opaque, hard-edged, flat colours)
         appearance: String = "\"trained\"" as ParamType::enumeration(&["trained", "exported"]),
         /// samples per pixel side (1, 2 or 4), box-filtered as a camera integrates over its
         /// pixels: hard-edged triangles at one sample alias
@@ -304,7 +304,7 @@ node_ports! {
 impl Node for Render {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("render", "4")
-            .doc("Renders the (composed or edited) scene: all members' triangles in one pass, the renderer's depth order deciding; as trained, or (appearance: exported) as the .glb holds it — visible faces only, opaque, hard-edged, DC colours. Views: the frames' test/train/all cameras (PNG per frame, <frame stem>.png) or an orbit (orbit_000.png …) around the objects at the frames' mean height and distance. Where no triangle covers a pixel it shows the background fill of that frame (the `fills` input, else the scene's stored fills), else the `background` colour.")
+            .doc("Renders the (composed or edited) scene: all members' triangles in one pass, the renderer's depth order deciding; as trained, or (appearance: exported) as the .glb holds it — visible faces only, opaque, hard-edged, each vertex in its flat colour (its SH colour averaged over its training views; the DC term for a model without one). Views: the frames' test/train/all cameras (PNG per frame, <frame stem>.png) or an orbit (orbit_000.png …) around the objects at the frames' mean height and distance. Where no triangle covers a pixel it shows the background fill of that frame (the `fills` input, else the scene's stored fills), else the `background` colour.")
             .ports::<RenderPorts>()
             .params::<RenderParams>()
     }
