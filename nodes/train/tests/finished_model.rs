@@ -2,7 +2,9 @@
 //! stop, or a best checkpoint before the last iteration) finishes it first:
 //! what comes back is opaque and hard-edged — σ and opacity floor at the
 //! schedule's end — like every exported model, with its flat colours baked,
-//! and a run interrupted inside the finish resumes to the same model.
+//! and a run interrupted inside the finish resumes to the same model. At the
+//! budget's end the last state, finished by the schedule itself, competes with
+//! the finished best.
 
 mod common;
 
@@ -96,4 +98,80 @@ fn a_run_to_the_end_of_its_budget_needs_no_finish() {
     assert_eq!(finish_start(&report), None, "{:?}", report.notes);
     assert_eq!(report.iterations_run, 120);
     assert_finished(&report, &settings);
+}
+
+/// A best checkpoint from before the budget's end is finished, and the last state
+/// (finished by the schedule's end itself) stays a candidate: the run returns the
+/// one with the lower held-out loss, as its notes say — on the plate seed 4 keeps
+/// the finished best, seed 1 the last state — and resumes to it when interrupted
+/// inside the finish.
+#[test]
+fn at_the_budget_end_the_finished_best_competes_with_the_last_state() {
+    let (_dir, data, points) = common::plate();
+    let backend = CpuBackend::new(2);
+    for (seed, keeps_last) in [(4, false), (1, true)] {
+        // Never impatient; the vertex learning rate grows so late iterations can be worse.
+        let settings = common::short_run_settings(
+            200,
+            seed,
+            serde_json::json!({"eval_every": 5, "patience": 1000, "finish_iterations": 40, "lr_vertices_end": 0.05}),
+        );
+        let report = train_component(&backend, &data, &points, &settings, |_, _| true).unwrap();
+        let from = finish_start(&report).unwrap_or_else(|| panic!("no finish: {:?}", report.notes));
+        assert_eq!(from, 200, "the finish starts at the budget's end");
+        // The verdict's two held-out losses, in the order the note gives them.
+        let losses = |note: &str| -> Vec<f64> {
+            note.split(|c: char| !(c.is_ascii_digit() || c == '.'))
+                .filter(|t| t.contains('.') && t.len() > 1)
+                .map(|t| t.trim_end_matches('.').parse().unwrap())
+                .collect()
+        };
+        let kept = report
+            .notes
+            .iter()
+            .find(|n| n.starts_with("kept the last state"));
+        let beat = report
+            .notes
+            .iter()
+            .find(|n| n.contains("beat the last state"));
+        match (kept, beat, keeps_last) {
+            (Some(note), None, true) => {
+                let [last, finished] = losses(note)[..] else {
+                    panic!("{note}")
+                };
+                assert!(last <= finished, "{note}");
+                assert_eq!(report.best_iteration, 200);
+                assert_eq!(report.log.finished_from, None);
+            }
+            (None, Some(note), false) => {
+                let [finished, last] = losses(note)[..] else {
+                    panic!("{note}")
+                };
+                assert!(finished < last, "{note}");
+                assert!(report.best_iteration < 200, "{:?}", report.notes);
+                assert_eq!(report.log.finished_from, Some(200), "{note}");
+            }
+            other => panic!("seed {seed}: {other:?} in {:?}", report.notes),
+        }
+        assert_eq!(report.iterations_run, 240);
+        assert_finished(&report, &settings);
+
+        let state = tempfile::tempdir().unwrap();
+        let saving = TrainSettings {
+            resume_dir: Some(state.path().to_path_buf()),
+            save_seconds: 0.0,
+            ..settings.clone()
+        };
+        let err = train_component(&backend, &data, &points, &saving, |done, _| done < 225)
+            .err()
+            .expect("interrupted");
+        assert!(format!("{err}").contains("interrupted"), "{err}");
+        let resumed = train_component(&backend, &data, &points, &saving, |_, _| true).unwrap();
+        assert_eq!(
+            common::parameter_bits(&resumed.model),
+            common::parameter_bits(&report.model),
+            "seed {seed}"
+        );
+        assert_eq!(resumed.best_iteration, report.best_iteration);
+    }
 }
