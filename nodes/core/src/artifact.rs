@@ -134,7 +134,7 @@ pub const TYPES: &[ArtifactType] = &[
     ArtifactType {
         name: "Model",
         defining_file: Some(MODEL_PLY),
-        doc: "`model.ply` (vertices, faces, per-vertex SH coefficients and opacity logits) + \
+        doc: "`model.ply` (vertices, faces, per-vertex SH coefficients, opacity logits and, from `train`, flat colours) + \
               `model.json` (SH degree, opacity floor, σ, metadata); `train` adds \
               `training.json` (loss and size over the steps; no clock reading: its times are in the run \
               record, docs/engine.md#measurements). Encoding: nodes/raster/README.md",
@@ -157,7 +157,7 @@ pub const TYPES: &[ArtifactType] = &[
               skipped), `fscore`, `precision`, `recall`, `tau`, `normal_consistency` (area-weighted \
               |cos| between the faces and the true surface nearest them), and with `evaluate`'s \
               `exported` input `exported_psnr`, `exported_ssim` (the test views rendered as the \
-              `.glb` holds the scene: opaque, hard-edged, DC colours; null otherwise), \
+              `.glb` holds the scene: opaque, hard-edged, flat colours; null otherwise), \
               `background_in_front` (with the mesh: the share of the objects' true pixels in the \
               test views where the background member renders an at least half-opaque surface \
               nearer than the object by more than `tau`); `objects`: the same per object \
