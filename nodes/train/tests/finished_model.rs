@@ -8,8 +8,11 @@
 
 mod common;
 
+use objectsplat_core::Points;
 use objectsplat_raster::CpuBackend;
-use objectsplat_train::trainer::{Checkpoint, TrainReport, TrainSettings, train_component};
+use objectsplat_train::trainer::{
+    Checkpoint, ComponentData, TrainReport, TrainSettings, train_component,
+};
 
 /// The loop iteration the finish started at, read from the run's notes.
 fn finish_start(report: &TrainReport) -> Option<u64> {
@@ -38,6 +41,28 @@ fn assert_finished(report: &TrainReport, settings: &TrainSettings) {
     }
 }
 
+/// The run of `settings` interrupted when `stop_at` iterations are done (saving
+/// at every log point), then resumed.
+fn interrupted_and_resumed(
+    data: &ComponentData,
+    points: &Points,
+    settings: &TrainSettings,
+    stop_at: u64,
+) -> TrainReport {
+    let backend = CpuBackend::new(2);
+    let state = tempfile::tempdir().unwrap();
+    let saving = TrainSettings {
+        resume_dir: Some(state.path().to_path_buf()),
+        save_seconds: 0.0,
+        ..settings.clone()
+    };
+    let err = train_component(&backend, data, points, &saving, |done, _| done < stop_at)
+        .err()
+        .expect("interrupted");
+    assert!(format!("{err}").contains("interrupted"), "{err}");
+    train_component(&backend, data, points, &saving, |_, _| true).unwrap()
+}
+
 #[test]
 fn an_early_stopped_run_returns_a_finished_model() {
     let (_dir, data, points) = common::plate();
@@ -56,19 +81,8 @@ fn an_early_stopped_run_returns_a_finished_model() {
     assert_eq!(report.log.iterations_run, from + 40);
     assert_finished(&report, &settings);
 
-    // Interrupted inside the finish (saving at every log point), then resumed.
-    let state = tempfile::tempdir().unwrap();
-    let saving = TrainSettings {
-        resume_dir: Some(state.path().to_path_buf()),
-        save_seconds: 0.0,
-        ..settings.clone()
-    };
     let stop_at = from + 25;
-    let err = train_component(&backend, &data, &points, &saving, |done, _| done < stop_at)
-        .err()
-        .expect("interrupted");
-    assert!(format!("{err}").contains("interrupted"), "{err}");
-    let resumed = train_component(&backend, &data, &points, &saving, |_, _| true).unwrap();
+    let resumed = interrupted_and_resumed(&data, &points, &settings, stop_at);
     assert!(
         resumed
             .notes
@@ -156,17 +170,7 @@ fn at_the_budget_end_the_finished_best_competes_with_the_last_state() {
         assert_eq!(report.iterations_run, 240);
         assert_finished(&report, &settings);
 
-        let state = tempfile::tempdir().unwrap();
-        let saving = TrainSettings {
-            resume_dir: Some(state.path().to_path_buf()),
-            save_seconds: 0.0,
-            ..settings.clone()
-        };
-        let err = train_component(&backend, &data, &points, &saving, |done, _| done < 225)
-            .err()
-            .expect("interrupted");
-        assert!(format!("{err}").contains("interrupted"), "{err}");
-        let resumed = train_component(&backend, &data, &points, &saving, |_, _| true).unwrap();
+        let resumed = interrupted_and_resumed(&data, &points, &settings, 225);
         assert_eq!(
             common::parameter_bits(&resumed.model),
             common::parameter_bits(&report.model),
