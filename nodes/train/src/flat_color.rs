@@ -6,18 +6,33 @@
 //! vertex from part of it (a wall from inside the room, an object from above),
 //! where the higher bands do not average out: exported with its DC term, the demo's
 //! table lost 2 dB on its own pixels. Over the training views, the constant colour
-//! with the least squared error is the views' mean, each view weighted by how much
-//! of the vertex it sees (its faces' largest blending weight there).
+//! with the least squared error is the views' mean, each view weighted by how many
+//! pixels the vertex colours there: its faces' projected areas (a face's pixels
+//! share its corners' colours, a third each by area), each times the face's
+//! largest blending weight in that view (0 where it is hidden).
 
 use anyhow::{Result, bail};
+use objectsplat_core::Camera;
+use objectsplat_core::glam::DVec3;
 use objectsplat_raster::Model;
 use objectsplat_raster::sh::{SH_DC, vertex_color, view_direction};
 
-/// A training view as the bake sees it: where its camera is, and each face's
-/// largest blending weight in its render.
+/// A training view as the bake sees it: its camera, and each face's largest
+/// blending weight in its render.
 pub struct Sighting<'a> {
-    pub center: [f32; 3],
+    pub camera: &'a Camera,
     pub face_weight: &'a [f32],
+}
+
+/// The area in pixels² of face `f` projected by `camera`; 0 when a corner is
+/// not in front of it.
+fn projected_area(model: &Model<f32>, f: usize, camera: &Camera) -> f64 {
+    let corners = model.faces[f]
+        .map(|v| camera.project(DVec3::from_array(model.vertices[v as usize].map(f64::from))));
+    let [Some(a), Some(b), Some(c)] = corners else {
+        return 0.0;
+    };
+    0.5 * ((b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1)).abs()
 }
 
 /// The running weighted sums of the vertices' SH colours, one sighting at a
@@ -26,7 +41,7 @@ pub struct FlatColors<'m> {
     model: &'m Model<f32>,
     sum: Vec<[f64; 3]>,
     total: Vec<f64>,
-    seen: Vec<f32>,
+    seen: Vec<f64>,
     sightings: usize,
 }
 
@@ -42,8 +57,8 @@ impl<'m> FlatColors<'m> {
         }
     }
 
-    /// Adds one view: each vertex's SH colour seen from `sighting.center`,
-    /// weighted by the largest weight of the vertex's faces in it.
+    /// Adds one view: each vertex's SH colour seen from its camera, weighted by
+    /// the pixels it colours there (the module's documentation).
     pub fn add(&mut self, sighting: &Sighting<'_>) -> Result<()> {
         let (model, index) = (self.model, self.sightings);
         if sighting.face_weight.len() != model.face_count() {
@@ -59,30 +74,33 @@ impl<'m> FlatColors<'m> {
                 sighting.face_weight[f]
             );
         }
-        if sighting.center.iter().any(|c| !c.is_finite()) {
-            bail!(
-                "sighting {index}: camera centre {:?} is not finite",
-                sighting.center
-            );
+        let center = sighting.camera.center();
+        if !center.is_finite() {
+            bail!("sighting {index}: camera centre {center} is not finite");
         }
+        let center = center.as_vec3().to_array();
         self.sightings += 1;
         self.seen.fill(0.0);
-        for (face, &w) in model.faces.iter().zip(sighting.face_weight) {
-            for &v in face {
-                let v = v as usize;
-                self.seen[v] = self.seen[v].max(w);
-            }
-        }
-        for (v, &w) in self.seen.iter().enumerate() {
+        for (f, face) in model.faces.iter().enumerate() {
+            let w = sighting.face_weight[f];
             if w <= 0.0 {
                 continue;
             }
-            let (dir, _) = view_direction(model.vertices[v], sighting.center);
+            let pixels = f64::from(w) * projected_area(model, f, sighting.camera) / 3.0;
+            for &v in face {
+                self.seen[v as usize] += pixels;
+            }
+        }
+        for (v, &w) in self.seen.iter().enumerate() {
+            if !(w > 0.0) {
+                continue;
+            }
+            let (dir, _) = view_direction(model.vertices[v], center);
             let (rgb, _) = vertex_color(&model.sh[v], dir, model.sh_degree);
             for ch in 0..3 {
-                self.sum[v][ch] += f64::from(w) * f64::from(rgb[ch]);
+                self.sum[v][ch] += w * f64::from(rgb[ch]);
             }
-            self.total[v] += f64::from(w);
+            self.total[v] += w;
         }
         Ok(())
     }
@@ -144,14 +162,29 @@ mod tests {
         m
     }
 
+    /// A 64×64 camera at `eye` looking at the triangle's corner at the origin.
+    fn camera_at(eye: [f64; 3]) -> Camera {
+        Camera::look_at(
+            64,
+            64,
+            80.0,
+            80.0,
+            DVec3::from_array(eye),
+            DVec3::ZERO,
+            DVec3::Y,
+        )
+    }
+
     /// The squared error of the constant colour `dc` against the vertex's SH
-    /// colour over the sightings, each weighted by its (one) face's weight.
+    /// colour over the sightings, each weighted by its (one) face's weight times
+    /// its projected area.
     fn error(m: &Model<f32>, v: usize, sightings: &[Sighting<'_>], dc: [f64; 3]) -> f64 {
         sightings
             .iter()
             .map(|s| {
-                let w = f64::from(s.face_weight[0]);
-                let (dir, _) = view_direction(m.vertices[v], s.center);
+                let w = f64::from(s.face_weight[0]) * projected_area(m, 0, s.camera);
+                let center = s.camera.center().as_vec3().to_array();
+                let (dir, _) = view_direction(m.vertices[v], center);
                 let (rgb, _) = vertex_color(&m.sh[v], dir, m.sh_degree);
                 (0..3)
                     .map(|ch| {
@@ -166,16 +199,25 @@ mod tests {
     #[test]
     fn opposite_views_cancel_the_odd_bands() {
         // Odd bands are odd functions of the direction: seen from ±d with equal
-        // weight, their mean is zero and the flat colour is the DC term's.
-        let m = triangle();
-        let w = [1.0f32];
+        // weight, their mean is zero and the flat colour is the DC term's. The
+        // triangle's mirror image through vertex 0 makes the pixels it colours
+        // the same from both cameras.
+        let mut m = triangle();
+        for v in [1, 2] {
+            m.vertices.push(m.vertices[v].map(|c| -c));
+            m.sh.push(m.sh[v]);
+            m.opacity_logits.push(0.0);
+        }
+        m.faces.push([0, 3, 4]);
+        let w = [1.0f32, 1.0];
+        let (front, back) = (camera_at([0.3, -0.4, 1.2]), camera_at([-0.3, 0.4, -1.2]));
         let sightings = [
             Sighting {
-                center: [0.3, -0.4, 1.2],
+                camera: &front,
                 face_weight: &w,
             },
             Sighting {
-                center: [-0.3, 0.4, -1.2],
+                camera: &back,
                 face_weight: &w,
             },
         ];
@@ -194,17 +236,23 @@ mod tests {
     fn the_flat_colour_has_the_least_weighted_error_over_the_views() {
         let m = triangle();
         let (strong, faint) = ([0.9f32], [0.3f32]);
+        let cameras = [
+            camera_at([0.5, 0.2, 1.0]),
+            camera_at([-0.2, 0.6, 0.8]),
+            // Nearly edge-on: few pixels.
+            camera_at([1.0, -0.7, 0.15]),
+        ];
         let sightings = [
             Sighting {
-                center: [0.5, 0.2, 1.0],
+                camera: &cameras[0],
                 face_weight: &strong,
             },
             Sighting {
-                center: [-0.2, 0.6, 0.8],
+                camera: &cameras[1],
                 face_weight: &faint,
             },
             Sighting {
-                center: [0.1, -0.7, 0.9],
+                camera: &cameras[2],
                 face_weight: &strong,
             },
         ];
@@ -231,37 +279,27 @@ mod tests {
     #[test]
     fn unseen_vertices_keep_their_dc_term_and_bad_sightings_are_refused() {
         let m = triangle();
-        let hidden = [0.0f32];
-        let flat = flat_dc(
-            &m,
-            &[Sighting {
-                center: [0.0, 0.0, 1.0],
-                face_weight: &hidden,
-            }],
-        )
-        .unwrap();
+        let camera = camera_at([0.0, 0.3, 1.0]);
+        let sighting = |face_weight| Sighting {
+            camera: &camera,
+            face_weight,
+        };
+        let flat = flat_dc(&m, &[sighting(&[0.0])]).unwrap();
         assert_eq!(flat, m.sh.iter().map(|rows| rows[0]).collect::<Vec<_>>());
-        let two = [1.0f32, 1.0];
-        assert!(
-            flat_dc(
-                &m,
-                &[Sighting {
-                    center: [0.0, 0.0, 1.0],
-                    face_weight: &two,
-                }],
-            )
-            .is_err()
+        // Seen from below it has pixels; behind a camera looking away, none.
+        let below = camera_at([0.0, 0.3, -1.0]);
+        let away = Camera::look_at(
+            64,
+            64,
+            80.0,
+            80.0,
+            DVec3::new(0.0, 0.3, -1.0),
+            DVec3::new(0.0, 0.3, -2.0),
+            DVec3::Y,
         );
-        let nan = [f32::NAN];
-        assert!(
-            flat_dc(
-                &m,
-                &[Sighting {
-                    center: [0.0, 0.0, 1.0],
-                    face_weight: &nan,
-                }],
-            )
-            .is_err()
-        );
+        assert!(projected_area(&m, 0, &below) > 0.0);
+        assert_eq!(projected_area(&m, 0, &away), 0.0);
+        assert!(flat_dc(&m, &[sighting(&[1.0, 1.0])]).is_err());
+        assert!(flat_dc(&m, &[sighting(&[f32::NAN])]).is_err());
     }
 }

@@ -1027,7 +1027,7 @@ pub fn train_component_with_hook(
     for &view in &train {
         let face_weight = runner.face_max_weight(Subject::Other(&model), &[view], &render)?;
         flat.add(&Sighting {
-            center: data.views[view].camera.center().as_vec3().to_array(),
+            camera: &data.views[view].camera,
             face_weight: &face_weight,
         })?;
     }
