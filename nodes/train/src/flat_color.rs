@@ -120,19 +120,19 @@ impl<'m> FlatColors<'m> {
     }
 }
 
-/// [`FlatColors`] over `sightings` at once.
-pub fn flat_dc(model: &Model<f32>, sightings: &[Sighting<'_>]) -> Result<Vec<[f32; 3]>> {
-    let mut colors = FlatColors::new(model);
-    for sighting in sightings {
-        colors.add(sighting)?;
-    }
-    Ok(colors.finish())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use objectsplat_raster::SH_COEFFS;
+
+    /// [`FlatColors`] over `sightings` at once.
+    fn flat_dc(model: &Model<f32>, sightings: &[Sighting<'_>]) -> Result<Vec<[f32; 3]>> {
+        let mut colors = FlatColors::new(model);
+        for sighting in sightings {
+            colors.add(sighting)?;
+        }
+        Ok(colors.finish())
+    }
 
     /// One triangle around the origin with degree-3 colours: odd bands only
     /// (1 and 3) on vertex 0, every band on the others.
