@@ -5,6 +5,8 @@
 //! appends rows, so the moments of surviving rows must follow their rows.
 
 use anyhow::{Result, bail};
+use objectsplat_raster::parallel::{chunk_size, run_iter};
+use std::sync::atomic::{AtomicBool, Ordering};
 
 /// One parameter group: its learning rate and the first/second moments of its rows.
 #[derive(Debug, Clone, PartialEq)]
@@ -119,19 +121,22 @@ impl Adam {
     /// `p ← p − lr·m̂/(√v̂ + ε)` with `m̂ = m/(1−β1^t)`, `v̂ = v/(1−β2^t)`.
     pub fn step(&mut self, group: usize, params: &mut [f32], grads: &[f32]) -> Result<()> {
         let width = self.group_mut(group)?.width;
-        self.step_columns(group, params, grads, width)
+        self.step_columns(group, params, grads, width, 1)
     }
 
     /// [`Adam::step`] restricted to the first `active` columns of every row:
     /// the others must have zero gradients and zero moments (an SH band not
     /// yet switched on), which leaves them unchanged, so skipping them is exact.
     /// After the update every changed parameter is checked to be finite.
+    /// Blocks of rows are shared among `threads` workers; every value's update
+    /// is its own, so the result does not depend on the thread count.
     pub fn step_columns(
         &mut self,
         group: usize,
         params: &mut [f32],
         grads: &[f32],
         active: usize,
+        threads: usize,
     ) -> Result<()> {
         let (b1, b2, eps) = (self.beta1, self.beta2, self.eps);
         let g = self.group_mut(group)?;
@@ -164,30 +169,59 @@ impl Adam {
             (0, g.split.min(active), (g.lr / bc1) as f32),
             (g.split.min(active), active, (g.lr_rest / bc1) as f32),
         ];
-        let mut finite = true;
-        let rows = g.m.len() / w;
-        for (lo, hi, step) in spans.into_iter().filter(|s| s.0 < s.1) {
-            // Whole rows are one contiguous run; otherwise one run per row.
-            let (runs, run_len) = if hi - lo == w {
-                (1, rows * w)
-            } else {
-                (rows, hi - lo)
-            };
-            for run in 0..runs {
-                let start = if runs == 1 { 0 } else { run * w + lo };
-                let r = start..start + run_len;
-                let (p, gr) = (&mut params[r.clone()], &grads[r.clone()]);
-                let (m, v) = (&mut g.m[r.clone()], &mut g.v[r]);
-                for i in 0..p.len() {
-                    let mi = b1f * m[i] + c1 * gr[i];
-                    let vi = b2f * v[i] + c2 * gr[i] * gr[i];
-                    m[i] = mi;
-                    v[i] = vi;
-                    p[i] -= step * mi / (vi.sqrt() * inv_sqrt_bc2 + eps);
-                    finite &= p[i].is_finite();
-                }
+        let spans: Vec<_> = spans.into_iter().filter(|s| s.0 < s.1).collect();
+        let update = |p: &mut [f32], gr: &[f32], m: &mut [f32], v: &mut [f32], step: f32| {
+            let mut finite = true;
+            for i in 0..p.len() {
+                let mi = b1f * m[i] + c1 * gr[i];
+                let vi = b2f * v[i] + c2 * gr[i] * gr[i];
+                m[i] = mi;
+                v[i] = vi;
+                p[i] -= step * mi / (vi.sqrt() * inv_sqrt_bc2 + eps);
+                finite &= p[i].is_finite();
             }
-        }
+            finite
+        };
+        // Blocks of whole rows; a block's values are contiguous in all four arrays.
+        let block = chunk_size(g.m.len() / w, threads, 16_384) * w;
+        let jobs = params
+            .chunks_mut(block)
+            .zip(grads.chunks(block))
+            .zip(g.m.chunks_mut(block))
+            .zip(g.v.chunks_mut(block));
+        let all_finite = AtomicBool::new(true);
+        run_iter(
+            threads,
+            jobs,
+            || (),
+            |_, (((p, gr), m), v)| {
+                let mut finite = true;
+                for &(lo, hi, step) in &spans {
+                    if hi - lo == w {
+                        finite &= update(p, gr, m, v, step);
+                        continue;
+                    }
+                    for (((p, gr), m), v) in p
+                        .chunks_mut(w)
+                        .zip(gr.chunks(w))
+                        .zip(m.chunks_mut(w))
+                        .zip(v.chunks_mut(w))
+                    {
+                        finite &= update(
+                            &mut p[lo..hi],
+                            &gr[lo..hi],
+                            &mut m[lo..hi],
+                            &mut v[lo..hi],
+                            step,
+                        );
+                    }
+                }
+                if !finite {
+                    all_finite.store(false, Ordering::Relaxed);
+                }
+            },
+        );
+        let finite = all_finite.into_inner();
         if !finite {
             // Found only on the slow path: which value overflowed.
             let i = params.iter().position(|x| !x.is_finite()).unwrap_or(0);

@@ -102,7 +102,13 @@ impl Optim {
     /// degree have no gradient and no moments yet, so they are skipped.
     /// `grads` may cover more vertices than the model (a render of the model
     /// with frozen occluders appended): the model's vertices come first.
-    pub fn step(&mut self, model: &mut Model<f32>, grads: &ModelGrads<f32>) -> Result<()> {
+    /// `threads` workers share each group's rows (the result does not depend on it).
+    pub fn step(
+        &mut self,
+        model: &mut Model<f32>,
+        grads: &ModelGrads<f32>,
+        threads: usize,
+    ) -> Result<()> {
         let nv = model.vertex_count();
         if grads.vertices.len() < nv || grads.sh.len() < nv || grads.opacity_logits.len() < nv {
             bail!(
@@ -116,6 +122,7 @@ impl Optim {
                 model.vertices.as_flattened_mut(),
                 grads.vertices[..nv].as_flattened(),
                 3,
+                threads,
             )
             .context("vertex positions")?;
         let active = active_sh_values(model.sh_degree);
@@ -125,6 +132,7 @@ impl Optim {
                 model.sh.as_flattened_mut().as_flattened_mut(),
                 grads.sh[..nv].as_flattened().as_flattened(),
                 active,
+                threads,
             )
             .context("SH coefficients")?;
         self.adam
@@ -133,6 +141,7 @@ impl Optim {
                 &mut model.opacity_logits,
                 &grads.opacity_logits[..nv],
                 1,
+                threads,
             )
             .context("opacity logits")
     }

@@ -31,6 +31,7 @@ fn main() -> Result<()> {
     };
     let settings = TrainSettings {
         checkpoint,
+        threads,
         ..TrainSettings::new(Schedule::new(iterations, &overrides)?)
     };
     let start = std::time::Instant::now();

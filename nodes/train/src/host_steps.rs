@@ -364,6 +364,7 @@ impl<'a> HostSteps<'a> {
         stats: &mut FaceWeights,
         input: &StepInput,
     ) -> Result<f64> {
+        let threads = self.renderer.threads();
         let data = self.data;
         let (view, depth_weight, smoothness_weight) = (
             input.view,
@@ -438,7 +439,7 @@ impl<'a> HostSteps<'a> {
             self.renderer
                 .backward(rendered, &OutputGrads::color_only(&self.loss.grad))?
         };
-        optim.step(model, grads)?;
+        optim.step(model, grads, threads)?;
         Ok(loss)
     }
 

@@ -271,6 +271,7 @@ impl Node for TrainNode {
             select_on,
             resume_dir: (state_every > 0.0).then(|| ctx.resume().to_path_buf()),
             save_seconds: state_every,
+            threads: ctx.threads(),
             ..TrainSettings::new(schedule)
         };
         let report = {

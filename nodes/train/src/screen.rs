@@ -2,6 +2,7 @@
 
 use objectsplat_core::Camera;
 use objectsplat_raster::Model;
+use objectsplat_raster::parallel::run_iter_pooled;
 
 /// A projected corner: pixel coordinates and camera depth.
 pub(crate) type Projected = (f64, f64, f64);
@@ -36,29 +37,57 @@ pub(crate) struct ScreenSizes {
     pub inradius: Vec<f64>,
 }
 
-pub(crate) fn screen_sizes(model: &Model<f32>, cameras: &[&Camera]) -> ScreenSizes {
-    let mut sizes = ScreenSizes {
-        extent: vec![0.0; model.face_count()],
-        inradius: vec![0.0; model.face_count()],
+/// One worker's running maxima over the cameras it took, and its projection scratch.
+struct Partial {
+    sizes: ScreenSizes,
+    scratch: Vec<Option<Projected>>,
+}
+
+/// The cameras are shared among `threads` workers; the maxima do not depend
+/// on which worker took which camera (both sizes are finite and never −0).
+pub(crate) fn screen_sizes(model: &Model<f32>, cameras: &[&Camera], threads: usize) -> ScreenSizes {
+    let faces = model.face_count();
+    let zero = || ScreenSizes {
+        extent: vec![0.0; faces],
+        inradius: vec![0.0; faces],
     };
-    let mut scratch = Vec::with_capacity(model.vertex_count());
-    for camera in cameras {
-        for (f, [a, b, c]) in projected_faces(model, camera, &mut scratch) {
-            let (cx, cy) = ((a.0 + b.0 + c.0) / 3.0, (a.1 + b.1 + c.1) / 3.0);
-            // Pixel distances: far from overflow, so `hypot`'s care (and cost) is not needed.
-            let length = |dx: f64, dy: f64| (dx * dx + dy * dy).sqrt();
-            let e = [a, b, c]
-                .iter()
-                .map(|p| length(p.0 - cx, p.1 - cy))
-                .fold(0.0, f64::max);
-            sizes.extent[f] = sizes.extent[f].max(e);
-            let twice_area = ((b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1)).abs();
-            let perimeter = length(b.0 - a.0, b.1 - a.1)
-                + length(c.0 - b.0, c.1 - b.1)
-                + length(a.0 - c.0, a.1 - c.1);
-            if perimeter > 0.0 {
-                sizes.inradius[f] = sizes.inradius[f].max(twice_area / perimeter);
+    let mut partials = Vec::new();
+    run_iter_pooled(
+        threads,
+        cameras.iter(),
+        &mut partials,
+        || Partial {
+            sizes: zero(),
+            scratch: Vec::new(),
+        },
+        |partial, camera| {
+            let Partial { sizes, scratch } = partial;
+            for (f, [a, b, c]) in projected_faces(model, camera, scratch) {
+                let (cx, cy) = ((a.0 + b.0 + c.0) / 3.0, (a.1 + b.1 + c.1) / 3.0);
+                // Pixel distances: far from overflow, so `hypot`'s care (and cost) is not needed.
+                let length = |dx: f64, dy: f64| (dx * dx + dy * dy).sqrt();
+                let e = [a, b, c]
+                    .iter()
+                    .map(|p| length(p.0 - cx, p.1 - cy))
+                    .fold(0.0, f64::max);
+                sizes.extent[f] = sizes.extent[f].max(e);
+                let twice_area = ((b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1)).abs();
+                let perimeter = length(b.0 - a.0, b.1 - a.1)
+                    + length(c.0 - b.0, c.1 - b.1)
+                    + length(a.0 - c.0, a.1 - c.1);
+                if perimeter > 0.0 {
+                    sizes.inradius[f] = sizes.inradius[f].max(twice_area / perimeter);
+                }
             }
+        },
+    );
+    let mut sizes = zero();
+    for p in partials {
+        for (m, v) in sizes.extent.iter_mut().zip(p.sizes.extent) {
+            *m = m.max(v);
+        }
+        for (m, v) in sizes.inradius.iter_mut().zip(p.sizes.inradius) {
+            *m = m.max(v);
         }
     }
     sizes
@@ -151,5 +180,70 @@ mod tests {
         let m = model(&[[0.0, 0.0, -1.0], [5.0, 0.0, 1.0]]);
         assert_eq!(pixel_footprint(&m, &[&camera()]), None);
         assert_eq!(pixel_footprint(&model(&[]), &[&camera()]), None);
+    }
+
+    #[test]
+    fn screen_sizes_are_the_largest_over_the_cameras() {
+        // A right triangle with 0.2 m legs at depth 1 (legs of 10 px) and a second camera
+        // 1 m further back (5 px): extent 10·√5/3 px (centroid to the far acute corner),
+        // inradius (a + b − c)/2 = 10 − 5√2 px, both from the nearer camera.
+        let mut m = model(&[[0.0, 0.0, 1.0], [0.2, 0.0, 1.0], [0.0, 0.2, 1.0]]);
+        m.faces = vec![[0, 1, 2]];
+        let near = camera();
+        let far = Camera::look_at(
+            100,
+            100,
+            50.0,
+            50.0,
+            DVec3::new(0.0, 0.0, -1.0),
+            DVec3::Z,
+            -DVec3::Y,
+        );
+        for threads in [1, 2] {
+            let s = screen_sizes(&m, &[&far, &near], threads);
+            assert!((s.extent[0] - 10.0 * 5f64.sqrt() / 3.0).abs() < 1e-5);
+            assert!((s.inradius[0] - (10.0 - 5.0 * 2f64.sqrt())).abs() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn screen_sizes_do_not_depend_on_the_thread_count() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_pcg::Pcg64Mcg::seed_from_u64(3);
+        let vertices: Vec<[f32; 3]> = (0..3000)
+            .map(|_| {
+                [
+                    rng.random_range(-2.0..2.0),
+                    rng.random_range(-2.0..2.0),
+                    rng.random_range(-1.0..5.0),
+                ]
+            })
+            .collect();
+        let mut m = model(&vertices);
+        m.faces = (0..2000)
+            .map(|_| [0, 1, 2].map(|_| rng.random_range(0..3000u32)))
+            .collect();
+        let cameras: Vec<Camera> = (0..7)
+            .map(|k| {
+                let eye = DVec3::new(k as f64 * 0.3 - 1.0, 0.2, -2.0);
+                Camera::look_at(
+                    100,
+                    100,
+                    50.0,
+                    50.0,
+                    eye,
+                    DVec3::new(0.0, 0.0, 2.0),
+                    -DVec3::Y,
+                )
+            })
+            .collect();
+        let views: Vec<&Camera> = cameras.iter().collect();
+        let one = screen_sizes(&m, &views, 1);
+        assert!(one.extent.iter().any(|&e| e > 0.0));
+        for threads in [2, 3, 8] {
+            let s = screen_sizes(&m, &views, threads);
+            assert_eq!(s.extent, one.extent);
+            assert_eq!(s.inradius, one.inradius);
+        }
     }
 }

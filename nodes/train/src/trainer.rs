@@ -103,6 +103,9 @@ pub struct TrainSettings {
     pub resume_dir: Option<std::path::PathBuf>,
     /// Wall seconds between saves of the state (0: at every loss-log point).
     pub save_seconds: f64,
+    /// Worker threads of the host-side passes over every face and view (prune
+    /// statistics); results do not depend on it.
+    pub threads: usize,
 }
 
 impl TrainSettings {
@@ -120,6 +123,7 @@ impl TrainSettings {
             select_on: SelectOn::Validation,
             resume_dir: None,
             save_seconds: 60.0,
+            threads: 1,
         }
     }
 }
@@ -556,7 +560,7 @@ pub fn train_component_with_hook(
             .collect();
         let min = u32::try_from(s.free_space_min_sightings).unwrap_or(u32::MAX);
         Some(
-            sightings(model, &views, settings.world_scale)
+            sightings(model, &views, settings.world_scale, settings.threads)
                 .iter()
                 .map(|s| s.floats(min))
                 .collect(),
@@ -682,7 +686,7 @@ pub fn train_component_with_hook(
             } else {
                 runner.face_max_weight(Subject::Other(model), &train, &render)?
             };
-            let mut sizes = screen_sizes(model, &train_cameras);
+            let mut sizes = screen_sizes(model, &train_cameras, settings.threads);
             if let Some(threshold) = prune {
                 let floats = floating(model, runner.seen_points());
                 let keep: Vec<bool> = (0..model.face_count())

@@ -129,3 +129,50 @@ fn position_learning_rate_decays_log_linearly() {
     assert!((d.at(40_000) - 1.5e-5).abs() < 1e-15);
     assert!((d.at(7_500) - 1.5e-3 * 0.01f64.powf(0.25)).abs() < 1e-12);
 }
+
+/// Rows shared among threads in blocks update exactly as one thread does (each
+/// value's update is its own), for whole rows and for the first columns only,
+/// and an overflow is still found.
+#[test]
+fn several_threads_step_exactly_as_one() {
+    // 40 000 rows of 48 values: several blocks of rows, as an SH table of a large model.
+    let (width, rows) = (48, 40_000);
+    let grads = |k: usize| -> Vec<f32> {
+        (0..width * rows)
+            .map(|i| ((i * 31 + k * 17) % 97) as f32 / 48.5 - 1.0)
+            .collect()
+    };
+    let run = |threads: usize| {
+        let mut adam = Adam::new();
+        let g = adam.add_group("sh", 0.01, width, rows);
+        adam.set_column_split(g, 3, 0.0005).unwrap();
+        let mut p: Vec<f32> = (0..width * rows).map(|i| (i % 13) as f32 * 0.1).collect();
+        for (k, active) in [(0, 12), (1, 12), (2, width)] {
+            adam.step_columns(g, &mut p, &grads(k), active, threads)
+                .unwrap();
+        }
+        (p, adam)
+    };
+    let (one, adam_one) = run(1);
+    for threads in [2, 3, 8] {
+        let (p, adam) = run(threads);
+        assert!(p == one, "parameters differ with {threads} threads");
+        assert!(adam == adam_one, "moments differ with {threads} threads");
+    }
+    // Columns past the active ones moved only in the last, full-width step.
+    let mut adam = Adam::new();
+    let g = adam.add_group("sh", 0.01, width, rows);
+    let mut p = vec![0.0f32; width * rows];
+    adam.step_columns(g, &mut p, &grads(0), 12, 4).unwrap();
+    assert!(p.chunks(width).all(|r| r[12..].iter().all(|&v| v == 0.0)));
+    assert!(p.chunks(width).all(|r| r[..12].iter().any(|&v| v != 0.0)));
+    // A value that overflows in the last block is reported, whichever thread met it.
+    let mut adam = Adam::new();
+    let g = adam.add_group("sh", 1e38, width, rows);
+    let mut p = vec![0.0f32; width * rows];
+    p[width * rows - 1] = f32::MAX;
+    let mut g0 = vec![0.0f32; width * rows];
+    g0[width * rows - 1] = -1.0;
+    let err = adam.step_columns(g, &mut p, &g0, width, 4).unwrap_err();
+    assert!(format!("{err:#}").contains("not finite"), "{err:#}");
+}

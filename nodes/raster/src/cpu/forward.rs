@@ -171,6 +171,53 @@ impl<R: Real> Band<'_, R> {
         self.depth[i] = p.depth;
         self.median_depth[i] = p.median_depth;
     }
+
+    /// [`Self::write`] for a run of pixels of one image row from (`x`, `y`),
+    /// given as planes (colour without the background, transmittance, depth,
+    /// median depth): the same values, with one bounds check per plane
+    /// instead of a dozen per pixel. `image_width` addresses `background`.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    pub fn write_row(
+        &mut self,
+        x: u32,
+        y: u32,
+        color: [&[R]; 3],
+        transmittance: &[R],
+        depth: &[R],
+        median_depth: &[R],
+        background: &Background<'_, R>,
+        image_width: usize,
+    ) {
+        let n = transmittance.len();
+        let i = (y - self.y0) as usize * self.width + (x - self.x0) as usize;
+        let out = &mut self.color[3 * i..3 * (i + n)];
+        let kept = &mut self.background[3 * i..3 * (i + n)];
+        let mut put = |j: usize, bg: [R; 3]| {
+            for ch in 0..3 {
+                out[3 * j + ch] = color[ch][j] + transmittance[j] * bg[ch];
+                kept[3 * j + ch] = bg[ch];
+            }
+        };
+        match background {
+            Background::Image(b) => {
+                let pixel = y as usize * image_width + x as usize;
+                for (j, bg) in b[3 * pixel..3 * (pixel + n)].chunks_exact(3).enumerate() {
+                    put(j, [bg[0], bg[1], bg[2]]);
+                }
+            }
+            Background::Uniform(c) => {
+                for j in 0..n {
+                    put(j, *c);
+                }
+            }
+        }
+        for (a, &t) in self.alpha[i..i + n].iter_mut().zip(transmittance) {
+            *a = R::one() - t;
+        }
+        self.depth[i..i + n].copy_from_slice(depth);
+        self.median_depth[i..i + n].copy_from_slice(median_depth);
+    }
 }
 
 /// Per (tile, face) entry: the largest blending weight and pixel count in this tile.

@@ -136,7 +136,8 @@ struct ForwardState<R: Real> {
 /// Scratch of the forward pass.
 #[derive(Default)]
 struct ForwardScratch<R: Real> {
-    slots: Vec<Option<ScreenFace<R>>>,
+    /// The faces that survive culling, in runs (see [`preprocess_faces`]).
+    visible: Vec<Vec<ScreenFace<R>>>,
     counts: Vec<usize>,
     used: Vec<bool>,
 }
@@ -445,16 +446,16 @@ impl CpuBackend {
         let cam = CameraParams::<R>::new(camera);
         let (st, fw) = (&mut ws.state, &mut ws.forward);
         preprocess_vertices(model, &cam, threads, &mut st.verts);
-        preprocess_faces(model, &st.verts, &cam, settings, threads, &mut fw.slots);
+        preprocess_faces(model, &st.verts, &cam, settings, threads, &mut fw.visible);
         let (w, h) = (camera.width, camera.height);
         let region = match settings.region {
             Region::Full => PixelRect::full(w, h),
-            Region::Footprint { include, margin } => footprint(fw.slots.iter().flatten())
+            Region::Footprint { include, margin } => footprint(fw.visible.iter().flatten())
                 .union(include)
                 .grown_to_tiles(margin, TILE, w, h),
         };
         st.grid = TileGrid::new(w, h, region);
-        order_by_tile(&fw.slots, &st.grid, &mut st.faces, &mut fw.counts);
+        order_by_tile(&fw.visible, &st.grid, &mut st.faces, &mut fw.counts);
         shade_vertices(
             model,
             &mut st.verts,
@@ -615,9 +616,11 @@ fn backward_impl<R: Real>(
         }
     }
 
-    refill(&mut result.vertices, nv, [R::zero(); 3]);
-    refill(&mut result.sh, nv, [[R::zero(); 3]; crate::SH_COEFFS]);
-    refill(&mut result.opacity_logits, nv, R::zero());
+    // Sized only: each job zeroes its own vertices (in parallel; the SH
+    // gradients alone are 192 bytes a vertex).
+    result.vertices.resize(nv, [R::zero(); 3]);
+    result.sh.resize(nv, [[R::zero(); 3]; crate::SH_COEFFS]);
+    result.opacity_logits.resize(nv, R::zero());
     let verts = &st.verts;
     let floor = R::of(model.opacity_floor);
     let degree = st.settings.sh_degree;
@@ -639,6 +642,9 @@ fn backward_impl<R: Real>(
         |_, (start, pos_out, sh_out, logit_out)| {
             for i in 0..pos_out.len() {
                 let v = start + i;
+                pos_out[i] = [R::zero(); 3];
+                sh_out[i] = [[R::zero(); 3]; crate::SH_COEFFS];
+                logit_out[i] = R::zero();
                 let corners = &vertex_corners[vertex_offsets[v]..vertex_offsets[v + 1]];
                 if corners.is_empty() {
                     continue;

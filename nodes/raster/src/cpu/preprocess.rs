@@ -183,6 +183,26 @@ pub fn preprocess_face<R: Real>(
     if c.iter().any(|p| !(p[2] > z_near)) {
         return None;
     }
+    // Most faces of a room lie outside any one view: the pixel box, a few
+    // compares, rejects them before the normal, extent and window arithmetic
+    // (every rule must pass, so the order of the tests does not change which
+    // faces are drawn).
+    let p = idx.map(|v| verts[v].screen);
+    let (w, h) = (cam.width as f64, cam.height as f64);
+    let lo = |a: usize| p.iter().map(|pk| pk[a].f64()).fold(f64::INFINITY, f64::min);
+    let hi = |a: usize| {
+        p.iter()
+            .map(|pk| pk[a].f64())
+            .fold(f64::NEG_INFINITY, f64::max)
+    };
+    // Pixel i is sampled at i + 0.5; keep the centres within the bounding box.
+    let x0 = (lo(0) - 0.5).ceil().max(0.0);
+    let x1 = (hi(0) - 0.5).floor().min(w - 1.0);
+    let y0 = (lo(1) - 0.5).ceil().max(0.0);
+    let y1 = (hi(1) - 0.5).floor().min(h - 1.0);
+    if x0 > x1 || y0 > y1 {
+        return None;
+    }
     let three = R::of(3.0);
     let centroid = [0, 1, 2].map(|a| (c[0][a] + c[1][a] + c[2][a]) / three);
     if !(centroid[2] > R::of(settings.min_centroid_depth)) {
@@ -213,7 +233,6 @@ pub fn preprocess_face<R: Real>(
     if !(opacity >= R::of(settings.min_opacity)) {
         return None;
     }
-    let p = idx.map(|v| verts[v].screen);
     let pc = [
         (p[0][0] + p[1][0] + p[2][0]) / three,
         (p[0][1] + p[1][1] + p[2][1]) / three,
@@ -255,21 +274,6 @@ pub fn preprocess_face<R: Real>(
     });
     let scale = len.map(|l| perimeter / l);
 
-    let (w, h) = (cam.width as f64, cam.height as f64);
-    let lo = |a: usize| p.iter().map(|pk| pk[a].f64()).fold(f64::INFINITY, f64::min);
-    let hi = |a: usize| {
-        p.iter()
-            .map(|pk| pk[a].f64())
-            .fold(f64::NEG_INFINITY, f64::max)
-    };
-    // Pixel i is sampled at i + 0.5; keep the centres within the bounding box.
-    let x0 = (lo(0) - 0.5).ceil().max(0.0);
-    let x1 = (hi(0) - 0.5).floor().min(w - 1.0);
-    let y0 = (lo(1) - 0.5).ceil().max(0.0);
-    let y1 = (hi(1) - 0.5).floor().min(h - 1.0);
-    if x0 > x1 || y0 > y1 {
-        return None;
-    }
     Some(ScreenFace {
         face: f as u32,
         origin,
@@ -291,30 +295,27 @@ pub fn preprocess_face<R: Real>(
     })
 }
 
-/// Every model face after culling into `slots` (one per face, `None` when
-/// culled); [`order_by_tile`] gathers the survivors.
+/// Every model face that survives culling, in face order, as consecutive
+/// runs (one per job, so each worker appends to its own): `visible` is
+/// resized to the number of runs and keeps its allocations between calls.
+/// Only the survivors are written; most faces of a room are outside a view.
 pub fn preprocess_faces<R: Real>(
     model: &Model<R>,
     verts: &VertexData<R>,
     cam: &CameraParams<R>,
     settings: &RenderSettings,
     threads: usize,
-    slots: &mut Vec<Option<ScreenFace<R>>>,
+    visible: &mut Vec<Vec<ScreenFace<R>>>,
 ) {
     let n = model.face_count();
-    // Every slot is written below.
-    slots.truncate(n);
-    slots.resize(n, None);
-    for_chunks_mut(
-        threads,
-        slots,
-        chunk_size(n, threads, 4096),
-        |start, chunk| {
-            for (i, slot) in chunk.iter_mut().enumerate() {
-                *slot = preprocess_face(model, verts, cam, settings, start + i);
-            }
-        },
-    );
+    let run = chunk_size(n, threads, 4096);
+    visible.resize_with(n.div_ceil(run), Vec::new);
+    for_chunks_mut(threads, visible, 1, |index, out| {
+        let out = &mut out[0];
+        out.clear();
+        let faces = index * run..((index + 1) * run).min(n);
+        out.extend(faces.filter_map(|f| preprocess_face(model, verts, cam, settings, f)));
+    });
 }
 
 /// The bounding rectangle of the faces' pixel boxes (empty without faces).
@@ -372,14 +373,14 @@ pub fn shade_vertices<R: Real>(
     });
 }
 
-/// The faces that survived culling (`slots`, in face order) into `faces`,
+/// The faces that survived culling (`visible`, in face order) into `faces`,
 /// stably sorted by the tile of their pixel box's top-left corner (a counting
 /// sort, one copy of each face), so a tile's faces sit close together in
 /// memory. Row-major tile order restricted to a tile-aligned region is the
 /// full grid's order, so a region's faces get the slots they would have in a
 /// full render.
 pub fn order_by_tile<R: Real>(
-    slots: &[Option<ScreenFace<R>>],
+    visible: &[Vec<ScreenFace<R>>],
     grid: &TileGrid,
     faces: &mut Vec<ScreenFace<R>>,
     counts: &mut Vec<usize>,
@@ -391,19 +392,19 @@ pub fn order_by_tile<R: Real>(
     let buckets = grid.tile_count().max(1);
     counts.clear();
     counts.resize(buckets + 1, 0);
-    for f in slots.iter().flatten() {
+    for f in visible.iter().flatten() {
         counts[key(f) + 1] += 1;
     }
     for b in 0..buckets {
         counts[b + 1] += counts[b];
     }
     faces.clear();
-    let Some(first) = slots.iter().flatten().next() else {
+    let Some(first) = visible.iter().flatten().next() else {
         return;
     };
     // Every position below `counts[buckets]` is written once by the loop.
     faces.resize(counts[buckets], *first);
-    for f in slots.iter().flatten() {
+    for f in visible.iter().flatten() {
         let k = key(f);
         faces[counts[k]] = *f;
         counts[k] += 1;

@@ -196,6 +196,7 @@ pub fn settings_with(
         select_on: Default::default(),
         resume_dir: None,
         save_seconds: 60.0,
+        threads: 1,
     }
 }
 

@@ -5,9 +5,7 @@
 use super::math::pow;
 use super::{Avx2, F32x8, I32x8, LANES, Mask8, each3};
 use crate::cpu::binning::{TILE, TILE_PIXELS, TileGrid};
-use crate::cpu::forward::{
-    Background, Band, EntryStats, PixelOut, PixelRules, RowSpans, clip_to_tile,
-};
+use crate::cpu::forward::{Background, Band, EntryStats, PixelRules, RowSpans, clip_to_tile};
 use crate::cpu::preprocess::ScreenFace;
 
 /// Per-pixel tile arrays are this long: a lane group starts at any pixel of a
@@ -309,17 +307,22 @@ fn render_tile_avx2(
     kept.median.extend_from_slice(&s.median);
     kept.transmittance.clear();
     kept.transmittance.extend_from_slice(&s.t[..TILE_PIXELS]);
+    let n = (x1 - x0) as usize;
     for y in y0..y1 {
-        for x in x0..x1 {
-            let i = ((y - y0) * TILE + (x - x0)) as usize;
-            let bg = background.at(y as usize * grid.image_width as usize + x as usize);
-            let p = PixelOut {
-                color: [s.color[0][i], s.color[1][i], s.color[2][i]],
-                transmittance: s.t[i],
-                depth: s.depth[i],
-                median_depth: s.median_depth[i],
-            };
-            band.write(x, y, &p, bg);
-        }
+        let row = ((y - y0) * TILE) as usize..((y - y0) * TILE) as usize + n;
+        band.write_row(
+            x0,
+            y,
+            [
+                &s.color[0][row.clone()],
+                &s.color[1][row.clone()],
+                &s.color[2][row.clone()],
+            ],
+            &s.t[row.clone()],
+            &s.depth[row.clone()],
+            &s.median_depth[row],
+            background,
+            grid.image_width as usize,
+        );
     }
 }
