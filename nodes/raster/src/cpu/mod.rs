@@ -115,6 +115,9 @@ struct ForwardState<R: Real> {
     face_count: usize,
     verts: VertexData<R>,
     faces: Vec<ScreenFace<R>>,
+    /// Per slot of `faces`: its model face, packed for the passes that need
+    /// only that (a `ScreenFace` is ~200 bytes; these passes are memory-bound).
+    face_ids: Vec<u32>,
     grid: TileGrid,
     tiles: TileLists,
     /// Where each row of tiles' entries start in `tiles` (and one past the last).
@@ -450,16 +453,33 @@ impl CpuBackend {
         let (w, h) = (camera.width, camera.height);
         let region = match settings.region {
             Region::Full => PixelRect::full(w, h),
-            Region::Footprint { include, margin } => footprint(fw.visible.iter().flatten())
-                .union(include)
-                .grown_to_tiles(margin, TILE, w, h),
+            Region::Footprint { include, margin } => {
+                // One rectangle per run of faces, in parallel; their union is the footprint.
+                let mut rects = vec![PixelRect::default(); fw.visible.len()];
+                let visible = &fw.visible;
+                for_chunks_mut(threads, &mut rects, 1, |run, rect| {
+                    rect[0] = footprint(visible[run].iter());
+                });
+                rects
+                    .into_iter()
+                    .fold(PixelRect::default(), PixelRect::union)
+                    .union(include)
+                    .grown_to_tiles(margin, TILE, w, h)
+            }
         };
         st.grid = TileGrid::new(w, h, region);
-        order_by_tile(&fw.visible, &st.grid, &mut st.faces, &mut fw.counts);
+        order_by_tile(
+            &fw.visible,
+            &st.grid,
+            &mut st.faces,
+            &mut st.face_ids,
+            &mut fw.counts,
+        );
         shade_vertices(
             model,
             &mut st.verts,
             &mut st.faces,
+            &st.face_ids,
             settings.sh_degree,
             threads,
             &mut fw.used,
@@ -484,11 +504,11 @@ impl CpuBackend {
         }
         st.kernel = self.lanes::<R>();
         composite_tiles(threads, st, out, &background, &rules);
-        let (tiles, faces) = (&st.tiles, &st.faces);
+        let (tiles, face_ids) = (&st.tiles, &st.face_ids);
         refill(&mut out.face_max_weight, model.face_count(), R::zero());
         refill(&mut out.face_pixel_count, model.face_count(), 0);
         for (e, s) in st.stats.iter().enumerate() {
-            let f = faces[tiles.entries[e] as usize].face as usize;
+            let f = face_ids[tiles.entries[e] as usize] as usize;
             out.face_max_weight[f] = out.face_max_weight[f].max(s.max_weight);
             out.face_pixel_count[f] += s.pixels;
         }
@@ -598,8 +618,8 @@ fn backward_impl<R: Real>(
     // 3. Per vertex: gather its corners in face order, then projection, SH and opacity backward.
     let nv = model.vertex_count();
     refill(&mut bw.vertex_offsets, nv + 1, 0);
-    for f in faces {
-        for &v in &model.faces[f.face as usize] {
+    for &f in &st.face_ids {
+        for &v in &model.faces[f as usize] {
             bw.vertex_offsets[v as usize + 1] += 1;
         }
     }
@@ -609,8 +629,8 @@ fn backward_impl<R: Real>(
     bw.cursor.clear();
     bw.cursor.extend_from_slice(&bw.vertex_offsets);
     refill(&mut bw.vertex_corners, bw.vertex_offsets[nv], (0, 0));
-    for (fi, f) in faces.iter().enumerate() {
-        for (k, &v) in model.faces[f.face as usize].iter().enumerate() {
+    for (fi, &f) in st.face_ids.iter().enumerate() {
+        for (k, &v) in model.faces[f as usize].iter().enumerate() {
             bw.vertex_corners[bw.cursor[v as usize]] = (fi as u32, k as u8);
             bw.cursor[v as usize] += 1;
         }

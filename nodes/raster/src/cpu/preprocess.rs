@@ -336,14 +336,15 @@ pub fn shade_vertices<R: Real>(
     model: &Model<R>,
     verts: &mut VertexData<R>,
     faces: &mut [ScreenFace<R>],
+    face_ids: &[u32],
     sh_degree: u32,
     threads: usize,
     used: &mut Vec<bool>,
 ) {
     used.clear();
     used.resize(verts.len(), false);
-    for f in faces.iter() {
-        for &v in &model.faces[f.face as usize] {
+    for &f in face_ids {
+        for &v in &model.faces[f as usize] {
             used[v as usize] = true;
         }
     }
@@ -373,7 +374,8 @@ pub fn shade_vertices<R: Real>(
     });
 }
 
-/// The faces that survived culling (`visible`, in face order) into `faces`,
+/// The faces that survived culling (`visible`, in face order) into `faces`
+/// (and their model face indices into `face_ids`),
 /// stably sorted by the tile of their pixel box's top-left corner (a counting
 /// sort, one copy of each face), so a tile's faces sit close together in
 /// memory. Row-major tile order restricted to a tile-aligned region is the
@@ -383,6 +385,7 @@ pub fn order_by_tile<R: Real>(
     visible: &[Vec<ScreenFace<R>>],
     grid: &TileGrid,
     faces: &mut Vec<ScreenFace<R>>,
+    face_ids: &mut Vec<u32>,
     counts: &mut Vec<usize>,
 ) {
     let key = |f: &ScreenFace<R>| {
@@ -399,14 +402,17 @@ pub fn order_by_tile<R: Real>(
         counts[b + 1] += counts[b];
     }
     faces.clear();
+    face_ids.clear();
     let Some(first) = visible.iter().flatten().next() else {
         return;
     };
     // Every position below `counts[buckets]` is written once by the loop.
     faces.resize(counts[buckets], *first);
+    face_ids.resize(counts[buckets], 0);
     for f in visible.iter().flatten() {
         let k = key(f);
         faces[counts[k]] = *f;
+        face_ids[counts[k]] = f.face;
         counts[k] += 1;
     }
 }
