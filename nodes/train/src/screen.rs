@@ -199,8 +199,9 @@ mod tests {
             DVec3::Z,
             -DVec3::Y,
         );
-        for threads in [1, 2] {
-            let s = screen_sizes(&m, &[&far, &near], threads);
+        // Both orders: the nearer camera wins wherever it comes.
+        for (cameras, threads) in [([&far, &near], 1), ([&near, &far], 1), ([&far, &near], 2)] {
+            let s = screen_sizes(&m, &cameras, threads);
             assert!((s.extent[0] - 10.0 * 5f64.sqrt() / 3.0).abs() < 1e-5);
             assert!((s.inradius[0] - (10.0 - 5.0 * 2f64.sqrt())).abs() < 1e-5);
         }
