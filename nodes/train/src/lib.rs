@@ -8,7 +8,8 @@
 //! - [`init`]: triangles from sparse points, and a component's point selection;
 //! - [`point_depth`] and [`depth_smoothness`]: depth at the measured points and the
 //!   background's planar prior, the two geometric losses;
-//! - [`free_space`]: faces the training views saw measured points through.
+//! - [`free_space`]: faces the training views saw measured points through;
+//! - [`surface_filter`]: normal filtering that keeps the connected mesh a surface.
 
 // Negated comparisons are deliberate: NaN must fail every acceptance test.
 // Numerical loops index several parallel arrays with one index.
@@ -36,6 +37,7 @@ pub use objectsplat_optim::{Adam, LogLinearDecay, Optim, adam};
 pub use schedule::Schedule;
 pub mod node;
 pub mod supervision;
+pub mod surface_filter;
 pub mod trainer;
 
 pub use node::register;

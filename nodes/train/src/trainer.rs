@@ -33,6 +33,7 @@ use crate::point_depth::PointDepth;
 use crate::schedule::Schedule;
 use crate::screen::{pixel_footprint, screen_sizes};
 use crate::steps::{StepInput, StepLoss, StepRunner, Subject, TrainingState};
+use crate::surface_filter::SurfaceFilter;
 use anyhow::{Context, Result, bail};
 use objectsplat_core::{ComponentKind, Points, Split};
 use objectsplat_core::{EvalRecord, StepRecord, TrainingLog, TrainingTimes};
@@ -500,6 +501,12 @@ pub fn train_component_with_hook(
             "planarity prior on the rendered depth, weight {smoothness_weight}"
         ));
     }
+    if (s.connectivity_at + 1..=s.surface_until).any(|it| s.surface_at(data.kind, it)) {
+        notes.push(format!(
+            "surface filter after the connectivity step until iteration {} (crease at |cos| {})",
+            s.surface_until, s.surface_crease_cos
+        ));
+    }
     // The returned model is reported on the held-out test views, whichever views chose it.
     let report_views = evaluation_views(data);
     let supersample = s.supersample_for(data.kind);
@@ -583,6 +590,7 @@ pub fn train_component_with_hook(
     let mut finish: Option<Finish> = None;
     let mut cleanup_pending = false;
     let mut it = 0;
+    let mut resumed = false;
     let mut elapsed_before = 0.0;
     if let Some(dir) = &settings.resume_dir
         && let Some(saved) = TrainerState::load(dir, &identity, &state.optim.adam)
@@ -614,8 +622,15 @@ pub fn train_component_with_hook(
         runner.set_rendered(p.rendered);
         it = p.iteration;
         notes.push(format!("resumed at iteration {it} from a saved state"));
+        resumed = true;
     }
     let clock = |started: &Instant| elapsed_before + started.elapsed().as_secs_f64();
+    let surface_filter = SurfaceFilter {
+        crease_cos: s.surface_crease_cos,
+        normal_rounds: s.surface_normal_rounds as usize,
+        vertex_rounds: s.surface_vertex_rounds as usize,
+    };
+    let (mut surface_passes, mut surface_largest_move, mut surface_limited) = (0u64, 0.0f64, 0);
     let mut last_save = Instant::now();
     while it < finish.map_or(s.iterations, |f| f.until) {
         // Where the schedule stands: the loop's iteration, or within a finish
@@ -632,7 +647,8 @@ pub fn train_component_with_hook(
         let prune = s.prune_at(it).filter(|_| finish.is_none());
         let densify =
             finish.is_none() && s.densify_at(it) && state.model.vertex_count() < s.max_vertices;
-        if connect || floor.is_some() || prune.is_some() || densify {
+        let surface = finish.is_none() && s.surface_at(data.kind, it);
+        if connect || floor.is_some() || prune.is_some() || densify || surface {
             runner.sync(&mut state)?;
             runner.edited();
         }
@@ -668,6 +684,12 @@ pub fn train_component_with_hook(
                 // Scores before the connected mesh are not comparable: start over.
                 best = None;
             }
+        }
+        if surface {
+            let moved = surface_filter.apply(&mut model.vertices, &model.faces);
+            surface_passes += 1;
+            surface_largest_move = surface_largest_move.max(moved.largest_move);
+            surface_limited += moved.limited;
         }
         if let Some(m) = floor {
             model.set_opacity_floor(m)?;
@@ -950,6 +972,12 @@ pub fn train_component_with_hook(
             .with_context(|| format!("saving the training state in {}", dir.display()))?;
             last_save = Instant::now();
         }
+    }
+    if surface_passes > 0 {
+        let since = if resumed { " since the resume" } else { "" };
+        notes.push(format!(
+            "surface filter: {surface_passes} passes{since}, the largest vertex move {surface_largest_move:.3e} (world units), {surface_limited} moves limited to half the vertex's shortest edge"
+        ));
     }
     runner.sync(&mut state)?;
     log.arrive(runner.losses(true)?);
