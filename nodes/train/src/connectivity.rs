@@ -11,26 +11,12 @@
 //! alone is largely its own convex hull, and interior faces alone lose it.
 
 use crate::delaunay::{NO_TET, tetrahedralize};
+use crate::vec3::{V3, cross, dot, sub};
 use anyhow::{Result, bail};
 
 /// Hit tolerance of the segment–triangle test (barycentric and segment parameter), inclusive.
 const HIT_EPS: f64 = 1e-9;
 
-type V3 = [f64; 3];
-
-fn sub(a: V3, b: V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
-}
 fn norm(a: V3) -> f64 {
     dot(a, a).sqrt()
 }

@@ -39,5 +39,6 @@ pub mod node;
 pub mod supervision;
 pub mod surface_filter;
 pub mod trainer;
+mod vec3;
 
 pub use node::register;

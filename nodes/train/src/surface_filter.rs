@@ -23,6 +23,8 @@
 //! two overlapping shingles are flattened into one plane rather than kept as
 //! a fold.
 
+use crate::vec3::{V3, cross, dot, sub};
+
 /// One pass's numbers.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct SurfaceFilter {
@@ -43,24 +45,6 @@ pub struct FilterReport {
     pub largest_move: f64,
     /// Vertex moves shortened to half the vertex's shortest edge.
     pub limited: usize,
-}
-
-type V3 = [f64; 3];
-
-fn sub(a: V3, b: V3) -> V3 {
-    [a[0] - b[0], a[1] - b[1], a[2] - b[2]]
-}
-
-fn dot(a: V3, b: V3) -> f64 {
-    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-}
-
-fn cross(a: V3, b: V3) -> V3 {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
 }
 
 fn to64(p: [f32; 3]) -> V3 {
