@@ -23,7 +23,8 @@
 //! two overlapping shingles are flattened into one plane rather than kept as
 //! a fold.
 
-use crate::vec3::{V3, cross, dot, sub};
+use crate::vec3::{V3, dot, sub};
+use objectsplat_core::geometry::triangle_cross;
 
 /// One pass's numbers.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -55,7 +56,7 @@ fn to64(p: [f32; 3]) -> V3 {
 /// (no normal to filter or fit).
 fn face_geometry(vertices: &[V3], face: [u32; 3]) -> Option<(V3, f64, V3)> {
     let [a, b, c] = face.map(|v| vertices[v as usize]);
-    let m = cross(sub(b, a), sub(c, a));
+    let m = triangle_cross(&[a, b, c]);
     let twice_area = dot(m, m).sqrt();
     // Relative to the face's size: a sliver whose normal is rounding noise has none.
     let scale = dot(sub(b, a), sub(b, a)).max(dot(sub(c, a), sub(c, a)));

@@ -18,28 +18,13 @@ fn flatness(backend: &dyn RenderBackend<f32>, every: u64) -> (f64, Option<String
     let report = train_component(backend, &data, &points, &settings, |_, _| true).unwrap();
     let m = &report.model;
     m.validate().unwrap();
-    let (mut sum, mut area) = (0.0, 0.0);
-    for face in &m.faces {
-        let [a, b, c] = face.map(|v| m.vertices[v as usize].map(|x| x as f64));
-        let (u, w) = (
-            [0, 1, 2].map(|k| b[k] - a[k]),
-            [0, 1, 2].map(|k| c[k] - a[k]),
-        );
-        let n = [
-            u[1] * w[2] - u[2] * w[1],
-            u[2] * w[0] - u[0] * w[2],
-            u[0] * w[1] - u[1] * w[0],
-        ];
-        let twice = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-        sum += n[2].abs() / 2.0;
-        area += twice / 2.0;
-    }
+    let flat = common::normal_consistency(&m.vertices, &m.faces, |_| [0.0, 0.0, 1.0]);
     let note = report
         .notes
         .iter()
         .find(|n| n.starts_with("surface filter:"))
         .cloned();
-    (sum / area, note)
+    (flat, note)
 }
 
 fn check(backend: &dyn RenderBackend<f32>) {

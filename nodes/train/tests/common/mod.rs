@@ -228,3 +228,26 @@ pub fn wgpu_backend() -> Option<objectsplat_raster_gpu::WgpuBackend> {
     eprintln!("SKIPPED (no wgpu adapter): {err:#}");
     None
 }
+
+/// Area-weighted mean |cos| between each face's normal and `truth(centroid)`
+/// (what `evaluate` calls normal consistency, against an analytic surface).
+pub fn normal_consistency(
+    vertices: &[[f32; 3]],
+    faces: &[[u32; 3]],
+    truth: impl Fn([f64; 3]) -> [f64; 3],
+) -> f64 {
+    let (mut sum, mut area) = (0.0, 0.0);
+    for face in faces {
+        let corners = face.map(|v| vertices[v as usize].map(|x| x as f64));
+        let m = objectsplat_core::geometry::triangle_cross(&corners);
+        let twice = (m[0] * m[0] + m[1] * m[1] + m[2] * m[2]).sqrt();
+        if twice == 0.0 {
+            continue;
+        }
+        let centroid = [0, 1, 2].map(|k| corners.iter().map(|c| c[k]).sum::<f64>() / 3.0);
+        let t = truth(centroid);
+        sum += 0.5 * (m[0] * t[0] + m[1] * t[1] + m[2] * t[2]).abs();
+        area += 0.5 * twice;
+    }
+    sum / area
+}
