@@ -25,6 +25,8 @@
 
 use crate::vec3::{V3, dot, sub};
 use objectsplat_core::geometry::triangle_cross;
+use objectsplat_raster::parallel::{chunk_size, for_chunks_mut};
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// One pass's numbers.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -90,104 +92,135 @@ fn vertex_faces(vertex_count: usize, faces: &[[u32; 3]]) -> (Vec<usize>, Vec<u32
     (start, faces_of)
 }
 
+/// `out[i] = value(i)` for every `i`, spread over `threads` (each value
+/// depends only on its index, so the result does not depend on the thread count).
+fn fill<T: Send>(threads: usize, out: &mut [T], value: impl Fn(usize) -> T + Sync) {
+    let chunk = chunk_size(out.len(), threads, 4096);
+    for_chunks_mut(threads, out, chunk, |first, part| {
+        for (i, slot) in part.iter_mut().enumerate() {
+            *slot = value(first + i);
+        }
+    });
+}
+
 impl SurfaceFilter {
     /// Filters the normals of `faces` and moves `vertices` to fit them (see
-    /// the module docs). Vertices of no non-degenerate face stay where they
-    /// are; a move that is not finite is not made. Face indices must be in
-    /// range (a validated model's are).
-    pub fn apply(&self, vertices: &mut [[f32; 3]], faces: &[[u32; 3]]) -> FilterReport {
-        let mut points: Vec<V3> = vertices.iter().map(|&p| to64(p)).collect();
+    /// the module docs), on up to `threads` threads (the result does not
+    /// depend on how many). Vertices of no non-degenerate face stay where
+    /// they are; a move that is not finite is not made. Face indices must be
+    /// in range (a validated model's are).
+    pub fn apply(
+        &self,
+        vertices: &mut [[f32; 3]],
+        faces: &[[u32; 3]],
+        threads: usize,
+    ) -> FilterReport {
+        let mut points: Vec<V3> = vec![[0.0; 3]; vertices.len()];
+        fill(threads, &mut points, |v| to64(vertices[v]));
         let (start, faces_of) = vertex_faces(points.len(), faces);
-        let geometry: Vec<Option<(V3, f64, V3)>> =
-            faces.iter().map(|&f| face_geometry(&points, f)).collect();
+        let faces_at = |v: usize| &faces_of[start[v]..start[v + 1]];
+        let mut geometry: Vec<Option<(V3, f64, V3)>> = vec![None; faces.len()];
+        fill(threads, &mut geometry, |f| face_geometry(&points, faces[f]));
         let area: Vec<f64> = geometry.iter().map(|g| g.map_or(0.0, |g| g.1)).collect();
         let mut normals: Vec<Option<V3>> = geometry.iter().map(|g| g.map(|g| g.0)).collect();
+        let mut filtered = vec![None; faces.len()];
         for _ in 0..self.normal_rounds {
-            normals = (0..faces.len())
-                .map(|f| {
-                    let own = normals[f]?;
-                    let mut sum = [0.0; 3];
-                    // A neighbour sharing an edge is reached through two
-                    // vertices and counts twice: it is the closer one.
-                    for &v in &faces[f] {
-                        let v = v as usize;
-                        for &g in &faces_of[start[v]..start[v + 1]] {
-                            let g = g as usize;
-                            let Some(n) = normals[g] else { continue };
-                            let cos = dot(own, n);
-                            let parallel = cos.abs() - self.crease_cos;
-                            if parallel <= 0.0 {
-                                continue;
-                            }
-                            let w = area[g] * parallel * parallel * cos.signum();
-                            for k in 0..3 {
-                                sum[k] += w * n[k];
-                            }
+            fill(threads, &mut filtered, |f| {
+                let own = normals[f]?;
+                let mut sum = [0.0; 3];
+                // A neighbour sharing an edge is reached through two
+                // vertices and counts twice: it is the closer one.
+                for &v in &faces[f] {
+                    for &g in faces_at(v as usize) {
+                        let g = g as usize;
+                        let Some(n) = normals[g] else { continue };
+                        let cos = dot(own, n);
+                        let parallel = cos.abs() - self.crease_cos;
+                        if parallel <= 0.0 {
+                            continue;
+                        }
+                        let w = area[g] * parallel * parallel * cos.signum();
+                        for k in 0..3 {
+                            sum[k] += w * n[k];
                         }
                     }
-                    let length = dot(sum, sum).sqrt();
-                    // The face itself always takes part (cos 1), so only
-                    // cancelling neighbours leave no direction: keep its own.
-                    Some(if length > 0.0 && length.is_finite() {
-                        sum.map(|x| x / length)
-                    } else {
-                        own
-                    })
+                }
+                let length = dot(sum, sum).sqrt();
+                // The face itself always takes part (cos 1), so only
+                // cancelling neighbours leave no direction: keep its own.
+                Some(if length > 0.0 && length.is_finite() {
+                    sum.map(|x| x / length)
+                } else {
+                    own
                 })
-                .collect();
+            });
+            std::mem::swap(&mut normals, &mut filtered);
         }
         let original = points.clone();
-        let mut limited = 0;
+        let limited = AtomicUsize::new(0);
+        let mut reach = vec![f64::INFINITY; points.len()];
+        let mut centroids = vec![None; faces.len()];
         for _ in 0..self.vertex_rounds {
             // A vertex that moves further than half its shortest edge can fold
             // its faces over one another: a large face whose filtered normal
             // turned by θ asks its corners to move by up to its size × sin θ.
-            let mut reach = vec![f64::INFINITY; points.len()];
-            for face in faces {
-                for k in 0..3 {
-                    let (a, b) = (face[k] as usize, face[(k + 1) % 3] as usize);
-                    let e = sub(points[a], points[b]);
-                    let half = 0.5 * dot(e, e).sqrt();
-                    if half > 0.0 {
-                        reach[a] = reach[a].min(half);
-                        reach[b] = reach[b].min(half);
-                    }
-                }
-            }
-            let centroids: Vec<Option<V3>> = faces
-                .iter()
-                .map(|&f| face_geometry(&points, f).map(|g| g.2))
-                .collect();
-            for v in 0..points.len() {
-                let x = points[v];
-                let (mut shift, mut weight) = ([0.0; 3], 0.0);
-                for &f in &faces_of[start[v]..start[v + 1]] {
-                    let f = f as usize;
-                    let (Some(n), Some(c)) = (normals[f], centroids[f]) else {
-                        continue;
-                    };
-                    let along = dot(n, sub(c, x));
+            fill(threads, &mut reach, |v| {
+                let mut reach = f64::INFINITY;
+                for &f in faces_at(v) {
+                    let face = faces[f as usize];
                     for k in 0..3 {
-                        shift[k] += area[f] * along * n[k];
-                    }
-                    weight += area[f];
-                }
-                if weight > 0.0 {
-                    let mut step = shift.map(|c| c / weight);
-                    let length = dot(step, step).sqrt();
-                    if length > reach[v] {
-                        step = step.map(|c| c * reach[v] / length);
-                        limited += 1;
-                    }
-                    let moved = [0, 1, 2].map(|k| x[k] + step[k]);
-                    if moved.iter().all(|c| c.is_finite()) {
-                        points[v] = moved;
+                        let (a, b) = (face[k] as usize, face[(k + 1) % 3] as usize);
+                        if a != v && b != v {
+                            continue;
+                        }
+                        let e = sub(points[a], points[b]);
+                        let half = 0.5 * dot(e, e).sqrt();
+                        if half > 0.0 {
+                            reach = reach.min(half);
+                        }
                     }
                 }
-            }
+                reach
+            });
+            fill(threads, &mut centroids, |f| {
+                face_geometry(&points, faces[f]).map(|g| g.2)
+            });
+            // Each vertex reads only its own position, the round's centroids and reach.
+            let chunk = chunk_size(points.len(), threads, 4096);
+            for_chunks_mut(threads, &mut points, chunk, |first, part| {
+                let mut shortened = 0;
+                for (i, x) in part.iter_mut().enumerate() {
+                    let v = first + i;
+                    let (mut shift, mut weight) = ([0.0; 3], 0.0);
+                    for &f in faces_at(v) {
+                        let f = f as usize;
+                        let (Some(n), Some(c)) = (normals[f], centroids[f]) else {
+                            continue;
+                        };
+                        let along = dot(n, sub(c, *x));
+                        for k in 0..3 {
+                            shift[k] += area[f] * along * n[k];
+                        }
+                        weight += area[f];
+                    }
+                    if weight > 0.0 {
+                        let mut step = shift.map(|c| c / weight);
+                        let length = dot(step, step).sqrt();
+                        if length > reach[v] {
+                            step = step.map(|c| c * reach[v] / length);
+                            shortened += 1;
+                        }
+                        let moved = [0, 1, 2].map(|k| x[k] + step[k]);
+                        if moved.iter().all(|c| c.is_finite()) {
+                            *x = moved;
+                        }
+                    }
+                }
+                limited.fetch_add(shortened, Ordering::Relaxed);
+            });
         }
         let mut report = FilterReport {
-            limited,
+            limited: limited.into_inner(),
             ..FilterReport::default()
         };
         for (v, p) in points.iter().enumerate() {

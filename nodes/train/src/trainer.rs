@@ -686,7 +686,7 @@ pub fn train_component_with_hook(
             }
         }
         if surface {
-            let moved = surface_filter.apply(&mut model.vertices, &model.faces);
+            let moved = surface_filter.apply(&mut model.vertices, &model.faces, settings.threads);
             surface_passes += 1;
             surface_largest_move = surface_largest_move.max(moved.largest_move);
             surface_limited += moved.limited;

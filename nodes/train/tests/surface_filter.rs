@@ -58,7 +58,7 @@ fn an_exact_plane_and_an_exact_crease_do_not_move() {
     // A tilted plane.
     let (mut vertices, faces) = grid(12, |u, v| [0.01 * u, 0.01 * v, 0.3 + 0.004 * u - 0.002 * v]);
     let before = vertices.clone();
-    let report = FILTER.apply(&mut vertices, &faces);
+    let report = FILTER.apply(&mut vertices, &faces, 1);
     let moved = largest_move(&before, &vertices);
     assert!(moved <= 1e-7, "a plane moved by {moved} ({report:?})");
     // A floor meeting a wall at 90° along u = 6.
@@ -70,7 +70,7 @@ fn an_exact_plane_and_an_exact_crease_do_not_move() {
         }
     });
     let before = vertices.clone();
-    FILTER.apply(&mut vertices, &faces);
+    FILTER.apply(&mut vertices, &faces, 1);
     let moved = largest_move(&before, &vertices);
     assert!(moved <= 1e-7, "the crease moved by {moved}");
 }
@@ -87,7 +87,7 @@ fn a_shingled_plane_turns_flat_in_place() {
     let before = consistency(&vertices, &faces, up);
     let xy: Vec<[f32; 2]> = vertices.iter().map(|p| [p[0], p[1]]).collect();
     for _ in 0..20 {
-        FILTER.apply(&mut vertices, &faces);
+        FILTER.apply(&mut vertices, &faces, 1);
     }
     let after = consistency(&vertices, &faces, up);
     eprintln!("plane: normal consistency {before:.4} -> {after:.4}");
@@ -191,7 +191,7 @@ fn a_noisy_sphere_keeps_its_radius() {
         mean_radius(&vertices),
     );
     for _ in 0..20 {
-        FILTER.apply(&mut vertices, &faces);
+        FILTER.apply(&mut vertices, &faces, 1);
     }
     let (after, r1) = (
         consistency(&vertices, &faces, radial),
@@ -226,9 +226,27 @@ fn degenerate_and_non_finite_input_does_not_spread() {
     // A vertex at NaN and one at infinity, each in a face beside the grid.
     vertices.extend([[f32::NAN, 0.0, 0.0], [f32::INFINITY, 0.0, 0.0]]);
     faces.extend([[0, 1, n + 4], [1, 2, n + 5]]);
-    FILTER.apply(&mut vertices, &faces);
+    FILTER.apply(&mut vertices, &faces, 1);
     for (v, p) in vertices.iter().enumerate().take(n as usize + 4) {
         assert!(p.iter().all(|c| c.is_finite()), "vertex {v} became {p:?}");
     }
     assert!(vertices[n as usize + 4][0].is_nan() && vertices[n as usize + 5][0].is_infinite());
+}
+
+#[test]
+fn several_threads_move_the_vertices_exactly_as_one() {
+    let mut rng = Pcg64Mcg::seed_from_u64(9);
+    // 20 000 faces and 10 201 vertices: several chunks of work per pass.
+    let (mut one, faces) = grid(100, |u, v| [0.01 * u, 0.01 * v, 0.0]);
+    for p in &mut one {
+        p[2] = (rng.random::<f64>() * 0.008 - 0.004) as f32;
+    }
+    let mut three = one.clone();
+    let (a, b) = (
+        FILTER.apply(&mut one, &faces, 1),
+        FILTER.apply(&mut three, &faces, 3),
+    );
+    assert!(a.moved > 10_000 - 1000, "{a:?}");
+    assert_eq!(a, b);
+    assert!(one == three, "the vertices differ between 1 and 3 threads");
 }
