@@ -44,6 +44,17 @@ fn grid(n: usize, place: impl Fn(f64, f64) -> [f64; 3]) -> (Vec<[f32; 3]>, Vec<[
     (vertices, faces)
 }
 
+/// The plane z = 0 as an `n × n` grid of 1 cm squares, each vertex offset by up
+/// to ±4 mm along the normal (seeded): faces tilted by up to ~40°.
+fn shingled_plane(n: usize, seed: u64) -> (Vec<[f32; 3]>, Vec<[u32; 3]>) {
+    let mut rng = Pcg64Mcg::seed_from_u64(seed);
+    let (mut vertices, faces) = grid(n, |u, v| [0.01 * u, 0.01 * v, 0.0]);
+    for p in &mut vertices {
+        p[2] = (rng.random::<f64>() * 0.008 - 0.004) as f32;
+    }
+    (vertices, faces)
+}
+
 /// The largest coordinate change between two vertex lists.
 fn largest_move(before: &[[f32; 3]], after: &[[f32; 3]]) -> f32 {
     before
@@ -77,12 +88,7 @@ fn an_exact_plane_and_an_exact_crease_do_not_move() {
 
 #[test]
 fn a_shingled_plane_turns_flat_in_place() {
-    let mut rng = Pcg64Mcg::seed_from_u64(3);
-    // 1 cm faces, ±4 mm offsets along the normal: tilts up to ~40°.
-    let (mut vertices, faces) = grid(30, |u, v| [0.01 * u, 0.01 * v, 0.0]);
-    for p in &mut vertices {
-        p[2] = (rng.random::<f64>() * 0.008 - 0.004) as f32;
-    }
+    let (mut vertices, faces) = shingled_plane(30, 3);
     let up = |_| [0.0, 0.0, 1.0];
     let before = consistency(&vertices, &faces, up);
     let xy: Vec<[f32; 2]> = vertices.iter().map(|p| [p[0], p[1]]).collect();
@@ -235,12 +241,8 @@ fn degenerate_and_non_finite_input_does_not_spread() {
 
 #[test]
 fn several_threads_move_the_vertices_exactly_as_one() {
-    let mut rng = Pcg64Mcg::seed_from_u64(9);
     // 20 000 faces and 10 201 vertices: several chunks of work per pass.
-    let (mut one, faces) = grid(100, |u, v| [0.01 * u, 0.01 * v, 0.0]);
-    for p in &mut one {
-        p[2] = (rng.random::<f64>() * 0.008 - 0.004) as f32;
-    }
+    let (mut one, faces) = shingled_plane(100, 9);
     let mut three = one.clone();
     let (a, b) = (
         FILTER.apply(&mut one, &faces, 1),
