@@ -3,7 +3,7 @@
 
 use crate::job::{Job, JobError, JobOutcome, MAX_FAILURE_TEXT, RunOptions, Timing, cached};
 use crate::keys::{compute_key, params_key};
-use crate::node::{Context, InputValue, Outcome, PortFolders, TypeRef};
+use crate::node::{Context, InputValue, Outcome, PortFolders, Threads, TypeRef};
 use crate::plan::Plan;
 use crate::report::Status;
 use crate::store::{ActionRecord, Corrupt, Manifest, RanOn, Store, short};
@@ -13,8 +13,8 @@ use std::panic::{AssertUnwindSafe, catch_unwind};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::time::Instant;
 
-/// Runs `job` on a worker thread: its threads from the jobs running now, its outcome
-/// with status and timing.
+/// Runs `job` on a worker thread: its threads from the jobs running when it asks
+/// (see [`Threads`]), its outcome with status and timing.
 pub(crate) fn execute(
     plan: &Plan,
     store: &Store,
@@ -27,8 +27,11 @@ pub(crate) fn execute(
     let t0 = Instant::now();
     let queued = t0.saturating_duration_since(job.queued_at).as_secs_f64();
     opts.observer.job_started(&job.label);
-    let running = active.fetch_add(1, Ordering::SeqCst) + 1;
-    let threads = opts.threads_per_job.unwrap_or(jobs / running).max(1);
+    active.fetch_add(1, Ordering::SeqCst);
+    let threads = match opts.threads_per_job {
+        Some(n) => Threads::Fixed(n.max(1)),
+        None => Threads::Share { jobs, active },
+    };
     let mut warnings = Vec::new();
     let here = RanOn::local();
     let result = execute_inner(
@@ -99,7 +102,7 @@ pub(crate) fn execute_inner(
     store: &Store,
     opts: &RunOptions,
     job: &Job,
-    threads: usize,
+    threads: Threads<'_>,
     cancel: &AtomicBool,
     warnings: &mut Vec<String>,
     ran_on: &RanOn,
@@ -301,7 +304,7 @@ pub(crate) fn compute_action(
         store,
         opts,
         &job,
-        threads,
+        Threads::Fixed(threads.max(1)),
         &cancel,
         &mut warnings,
         ran_on,

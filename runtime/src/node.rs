@@ -9,7 +9,7 @@ use anyhow::{Result, anyhow};
 use std::collections::BTreeMap;
 use std::fmt;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// A port's type: one artifact, or a collection of named items (`[T]`).
 #[derive(Debug, Clone, PartialEq, Eq, Hash)]
@@ -294,6 +294,17 @@ impl ProgressSink for NoProgress {
     fn progress(&self, _: &str, _: u64, _: u64, _: &str) {}
 }
 
+/// How many threads a job may use.
+#[derive(Clone, Copy)]
+pub(crate) enum Threads<'a> {
+    Fixed(usize),
+    /// `jobs` workers shared by the `active` jobs.
+    Share {
+        jobs: usize,
+        active: &'a AtomicUsize,
+    },
+}
+
 /// Everything a running node may touch. Nodes write only into their output folders
 /// and their scratch folder; both live inside the cache's staging area.
 pub struct Context<'a> {
@@ -305,7 +316,7 @@ pub struct Context<'a> {
     pub(crate) notes: Vec<(String, String)>,
     pub(crate) measurements: BTreeMap<String, serde_json::Value>,
     pub(crate) warnings: Vec<String>,
-    pub(crate) threads: usize,
+    pub(crate) threads: Threads<'a>,
     pub(crate) scratch: PathBuf,
     pub(crate) resume: PathBuf,
     pub(crate) progress: &'a dyn ProgressSink,
@@ -365,9 +376,15 @@ impl<'a> Context<'a> {
         self.item.as_deref()
     }
 
-    /// Worker threads this run may use.
+    /// Worker threads this run may use: the scheduler's workers over the jobs
+    /// running when it asks (at least 1), unless the run fixed a count per job.
+    /// Asked again later, a job started beside a short one (an item passed
+    /// through) gets the cores that one freed.
     pub fn threads(&self) -> usize {
-        self.threads
+        match self.threads {
+            Threads::Fixed(n) => n,
+            Threads::Share { jobs, active } => (jobs / active.load(Ordering::SeqCst).max(1)).max(1),
+        }
     }
 
     /// A private scratch folder, deleted after the run.

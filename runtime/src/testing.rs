@@ -114,7 +114,7 @@ pub fn run_node(
         notes: vec![],
         measurements: BTreeMap::new(),
         warnings: vec![],
-        threads: 2,
+        threads: crate::node::Threads::Fixed(2),
         scratch: scratch.clone(),
         resume: out_dir.join(".resume"),
         progress: &NoProgress,

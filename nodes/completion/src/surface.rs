@@ -40,7 +40,7 @@ pub const MIN_INLIER_FRACTION: f64 = 0.6;
 pub(crate) const RANSAC_ITERATIONS: usize = 256;
 
 /// The file written into each completed component with what was done.
-pub const COMPLETION_JSON: &str = "completion.json";
+pub use objectsplat_core::artifact::COMPONENT_COMPLETION_JSON as COMPLETION_JSON;
 
 #[derive(Debug, Clone, PartialEq)]
 pub struct SurfaceParams {

@@ -25,6 +25,8 @@ pub const COMPONENT_JSON: &str = "component.json";
 pub const COMPONENT_MASKS_DIR: &str = "masks";
 /// A Component's completed target colours, where completion filled pixels.
 pub const COMPONENT_TARGETS_DIR: &str = "targets";
+/// Written into a Component by surface completion: it is a completed support surface.
+pub const COMPONENT_COMPLETION_JSON: &str = "completion.json";
 /// A Model's triangles, SH coefficients and opacities.
 pub const MODEL_PLY: &str = "model.ply";
 /// A Model's settings and metadata.

@@ -10,9 +10,12 @@
 //!   random background colour, the background gives it zero weight); [`IGNORE`] =
 //!   never supervised (invalid pixels);
 //! - `targets/<frame stem>.png` (optional): replacement target colours, used for owned
-//!   pixels instead of the frame image (set by surface completion for filled pixels).
+//!   pixels instead of the frame image (set by surface completion for filled pixels);
+//! - `completion.json` (optional): what surface completion did to a support surface.
 
-use crate::artifact::{COMPONENT_JSON, COMPONENT_MASKS_DIR, COMPONENT_TARGETS_DIR};
+use crate::artifact::{
+    COMPONENT_COMPLETION_JSON, COMPONENT_JSON, COMPONENT_MASKS_DIR, COMPONENT_TARGETS_DIR,
+};
 use crate::frames::{Frame, Frames, frame_stem};
 use crate::image::{read_gray8, read_rgb8_sized, write_gray8, write_rgb8};
 use crate::label_runs::LabelRuns;
@@ -107,6 +110,11 @@ impl ComponentFolder {
             .iter()
             .map(|(name, dir)| Self::read_item(name, dir))
             .collect()
+    }
+
+    /// Whether surface completion completed this component as a support surface.
+    pub fn is_completed_surface(&self) -> bool {
+        self.dir.join(COMPONENT_COMPLETION_JSON).is_file()
     }
 
     pub fn has_frame(&self, name: &str) -> bool {

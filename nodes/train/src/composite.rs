@@ -74,6 +74,11 @@ impl Composite {
         m
     }
 
+    /// The occluders alone.
+    pub fn frozen(&self) -> &Model<f32> {
+        &self.frozen
+    }
+
     /// The last assembled composite.
     pub fn merged(&self) -> &Model<f32> {
         &self.merged

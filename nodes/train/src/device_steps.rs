@@ -3,8 +3,10 @@
 //! the random view and background choices, densification, pruning and
 //! connectivity; the device keeps the parameters, Adam's moments and the
 //! per-face weight statistics between those events, renders the trained
-//! model with its frozen occluders (the background behind the objects), adds
-//! the depth loss at measured points and the planar prior, renders only each
+//! model with its frozen occluders (the background behind the objects, or an
+//! object among its neighbours, whose layer is rendered into the view's
+//! targets once, at upload), adds the depth loss at measured points and the
+//! planar prior, renders only each
 //! view's footprint when cropping is on (as the host steps do), and scores
 //! the held-out views. Parameters cross to the host only at [`StepRunner::sync`],
 //! losses when the device's result slots fill up or the loop waits for them.
@@ -15,10 +17,12 @@
 //! the model. The epoch count stays with the host's `FaceWeights`.
 
 use crate::composite::Composite;
+use crate::neighbours::render_layer;
 use crate::point_depth::PointDepth;
 use crate::steps::{HeldOut, StepInput, StepLoss, StepRunner, Subject, TrainingState};
-use crate::supervision::{ComponentData, supervision_parts};
+use crate::supervision::{ComponentData, TargetPlanes, ViewSummary, supervision_parts};
 use anyhow::{Result, bail};
+use objectsplat_core::ComponentKind;
 use objectsplat_core::component::OWN;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::loss::{CROP_MARGIN, DEFAULT_LAMBDA_DSSIM};
@@ -76,7 +80,9 @@ impl<'a> DeviceSteps<'a> {
     /// (indices into `data.views`; a view in both is uploaded once), with the
     /// measured points each sees when `depth_supervised`. With `crop`, steps
     /// and evaluations render each view's footprint only; every pass takes
-    /// `supersample²` samples per pixel.
+    /// `supersample²` samples per pixel. `world_scale` scales the depth
+    /// thresholds of the frozen neighbours' renders.
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         backend: &WgpuBackend,
         data: &'a ComponentData,
@@ -85,6 +91,7 @@ impl<'a> DeviceSteps<'a> {
         crop: bool,
         depth_supervised: bool,
         supersample: u32,
+        world_scale: f64,
     ) -> Result<Self> {
         let mut views: Vec<usize> = train.to_vec();
         views.extend(held_out.iter().filter(|v| !train.contains(v)));
@@ -104,12 +111,46 @@ impl<'a> DeviceSteps<'a> {
         let upload = |k: usize| {
             let i = views[k];
             let view = &data.views[i];
-            let (target, weights, from_background) = supervision_parts(view, data.rule());
+            let layer = match (&data.occluders, data.kind) {
+                (Some(frozen), ComponentKind::Object) => {
+                    let include = ViewSummary::of(view, data.rule()).include;
+                    let settings = RenderSettings {
+                        region: if crop {
+                            Region::Footprint {
+                                include,
+                                margin: CROP_MARGIN,
+                            }
+                        } else {
+                            Region::Full
+                        },
+                        ..RenderSettings::for_model(frozen).with_world_scale(world_scale)
+                    };
+                    Some(render_layer(
+                        backend,
+                        frozen,
+                        &view.camera,
+                        &settings,
+                        supersample,
+                    )?)
+                }
+                _ => None,
+            };
+            let TargetPlanes {
+                target,
+                weights,
+                from_background,
+                background_share,
+            } = supervision_parts(view, data.rule(), layer.as_ref());
             Ok(TrainingView {
                 camera: view.camera,
                 target,
                 weights,
                 from_background,
+                background_share: if layer.is_some() {
+                    background_share
+                } else {
+                    Vec::new()
+                },
                 own: view
                     .labels
                     .to_plane()
@@ -469,8 +510,9 @@ mod tests {
     /// component of four 96×72 views of it: OWN pixels in a box around its
     /// image, OTHER pixels elsewhere and a band of IGNORE pixels; the last view
     /// is held out; measured points on the trained model's faces.
-    /// `behind` makes it the background behind frozen occluders (a second
-    /// soup, nearer the cameras, with its own σ per face and SH degree 3).
+    /// `behind` gives it frozen occluders (a second soup, nearer the cameras,
+    /// with its own σ per face and SH degree 3): the background behind them,
+    /// an object among them.
     fn component(kind: ComponentKind, behind: bool) -> (Model<f32>, ComponentData) {
         let mut rng = Rng(0x5eed_0042);
         let model = soup(&mut rng, 60, [0.0; 3], 0.3, 2);
@@ -609,7 +651,7 @@ mod tests {
         let mut host = HostSteps::new(&cpu, &data, true, depth, samples).unwrap();
         let (host_losses, host_state) = run(&mut host, &model, &inputs);
         let mut device =
-            DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, depth, samples).unwrap();
+            DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, depth, samples, 1.0).unwrap();
         let (device_losses, device_state) = run(&mut device, &model, &inputs);
         let fraction = (&device as &dyn StepRunner).rendered_fraction().unwrap();
         let want_fraction = (&host as &dyn StepRunner).rendered_fraction().unwrap();
@@ -663,6 +705,12 @@ mod tests {
     }
 
     #[test]
+    fn an_object_step_among_frozen_neighbours_matches_the_host_step() {
+        steps_agree(ComponentKind::Object, true, 0.0, 0.0);
+        steps_agree_at(ComponentKind::Object, true, 0.0, 0.0, 2);
+    }
+
+    #[test]
     fn a_background_step_with_both_depth_terms_matches_the_host_step() {
         steps_agree(ComponentKind::Background, true, 1.0, 3.0);
         steps_agree(ComponentKind::Background, false, 1.0, 3.0);
@@ -684,7 +732,8 @@ mod tests {
             let render = RenderSettings::for_model(&model);
             for (crop, samples) in [(true, 1), (false, 1), (true, 2), (false, 2)] {
                 let mut device =
-                    DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], crop, false, samples).unwrap();
+                    DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], crop, false, samples, 1.0)
+                        .unwrap();
                 let mut host = HostSteps::new(&cpu, &data, crop, false, samples).unwrap();
                 for views in [&[3usize][..], &[0, 1, 2, 3][..]] {
                     for subject in [Subject::Training(&state), Subject::Other(&model)] {
@@ -721,7 +770,7 @@ mod tests {
                         assert!((a - b).abs() <= 1e-4, "face {f}: {a} vs {b}");
                     }
                 }
-                let err = DeviceSteps::new(&gpu, &data, &[0], &[], crop, false, 1)
+                let err = DeviceSteps::new(&gpu, &data, &[0], &[], crop, false, 1, 1.0)
                     .unwrap()
                     .evaluate(Subject::Training(&state), &[3], &render)
                     .unwrap_err();
@@ -736,7 +785,8 @@ mod tests {
         let (model, data) = component(ComponentKind::Object, false);
         let mut state = state(&model);
         let nf = model.face_count();
-        let mut device = DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, false, 1).unwrap();
+        let mut device =
+            DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, false, 1, 1.0).unwrap();
         let current: Vec<f32> = (0..nf)
             .map(|f| if f % 2 == 0 { 2.0 } else { 0.0 })
             .collect();
@@ -774,7 +824,7 @@ mod tests {
         assert!(points.count(0) > 3, "the view must see measured points");
         for (point_weight, planar_weight) in [(1.0, 0.0), (0.0, 3.0), (0.7, 2.0)] {
             let mut device =
-                DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, true, 1).unwrap();
+                DeviceSteps::new(&gpu, &data, &[0, 1, 2], &[3], true, true, 1, 1.0).unwrap();
             let mut state = state(&model);
             let mut input = inputs(&model, point_weight, planar_weight).swap_remove(1);
             input.render.sh_degree = model.sh_degree;

@@ -3,7 +3,8 @@
 //! Each pass renders only the view's [`Region::Footprint`]: the bounding box
 //! of the pixels whose target is not the background colour and of the drawn
 //! faces, grown by the loss's [`CROP_MARGIN`]. Everywhere else render and
-//! target are both the background colour, so the loss there is exactly what
+//! target are both the background colour (for an object among frozen
+//! neighbours: what they draw over it), so the loss there is exactly what
 //! the crop's normalization adds and no gradient flows (see
 //! `objectsplat_raster::loss`). For the background component the region is
 //! the whole frame; for an object it is its neighbourhood. On the CPU backend
@@ -12,12 +13,13 @@
 use crate::composite::Composite;
 use crate::depth_smoothness::{self, DepthImage};
 use crate::face_stats::FaceWeights;
+use crate::neighbours::{NeighbourLayer, render_layer};
 use crate::point_depth::PointDepth;
 use crate::steps::{HeldOut, StepInput, StepLoss, StepRunner, Subject, TrainingState};
 use crate::supervision::{ComponentData, ViewSummary, fill_region};
 use anyhow::{Context, Result, bail};
-use objectsplat_core::Camera;
 use objectsplat_core::component::OWN;
+use objectsplat_core::{Camera, ComponentKind};
 use objectsplat_optim::Optim;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::cpu::{Background, CpuWorkspace};
@@ -150,6 +152,12 @@ impl<'a> Renderer<'a> {
         }
     }
 
+    fn set_threads(&mut self, threads: usize) {
+        if let Backend::Cpu { backend, .. } = &mut self.backend {
+            backend.threads = threads;
+        }
+    }
+
     /// The last forward pass's outputs, per pixel.
     fn output(&self) -> &RenderOutput<f32> {
         if self.supersample > 1 {
@@ -212,6 +220,7 @@ impl<'a> Renderer<'a> {
 /// Renders, scores and back-propagates a component's views.
 pub(crate) struct HostSteps<'a> {
     data: &'a ComponentData,
+    backend: &'a dyn RenderBackend<f32>,
     renderer: Renderer<'a>,
     loss: PhotometricLoss<f32>,
     target: Vec<f32>,
@@ -226,6 +235,10 @@ pub(crate) struct HostSteps<'a> {
     steps: u64,
     rendered: f64,
     composite: Option<Composite>,
+    /// Per view, what an object's frozen neighbours draw there (rendered at
+    /// the view's first use; none for the background, whose occluders'
+    /// pixels are supervised by the image).
+    layers: Vec<Option<NeighbourLayer>>,
     /// Depth supervision at measured points (none kept when it is off).
     point_depth: PointDepth,
     /// Reused dL/ddepth and dL/dalpha planes of the depth loss.
@@ -250,6 +263,7 @@ impl<'a> HostSteps<'a> {
         };
         Ok(HostSteps {
             data,
+            backend,
             renderer: Renderer::new(backend, supersample)?,
             loss: PhotometricLoss::new(),
             target: Vec::new(),
@@ -264,11 +278,17 @@ impl<'a> HostSteps<'a> {
             steps: 0,
             rendered: 0.0,
             composite: data.occluders.as_ref().map(Composite::new).transpose()?,
+            layers: (0..data.views.len()).map(|_| None).collect(),
             point_depth,
             d_depth: Vec::new(),
             d_alpha: Vec::new(),
             losses: Vec::new(),
         })
+    }
+
+    /// An object trained among frozen neighbours.
+    fn among_neighbours(&self) -> bool {
+        self.composite.is_some() && self.data.kind == ComponentKind::Object
     }
 
     fn region(&self, view: usize) -> Region {
@@ -300,6 +320,9 @@ impl<'a> HostSteps<'a> {
             ..render.clone()
         };
         let threads = self.renderer.threads();
+        if self.among_neighbours() && self.layers[view].is_none() {
+            self.layers[view] = Some(self.neighbour_layer(view, render)?);
+        }
         let rendered = match self.composite.as_mut() {
             Some(c) => {
                 let merged = c.assemble(model, render.sigma);
@@ -320,6 +343,7 @@ impl<'a> HostSteps<'a> {
             v,
             data.rule(),
             b,
+            self.layers[view].as_ref(),
             region,
             &mut self.target,
             &mut self.weights,
@@ -351,6 +375,25 @@ impl<'a> HostSteps<'a> {
             }
         }
         Ok((value.total, squared))
+    }
+
+    /// The frozen neighbours alone in view `view`, over black, over the pixels
+    /// they draw and the view's footprint.
+    fn neighbour_layer(&self, view: usize, render: &RenderSettings) -> Result<NeighbourLayer> {
+        let Some(frozen) = self.composite.as_ref().map(Composite::frozen) else {
+            bail!("no frozen neighbours to render");
+        };
+        let settings = RenderSettings {
+            region: self.region(view),
+            ..render.clone()
+        };
+        render_layer(
+            self.backend,
+            frozen,
+            &self.data.views[view].camera,
+            &settings,
+            self.renderer.supersample,
+        )
     }
 
     /// One iteration: render the input's view over its background, loss (with
@@ -487,6 +530,10 @@ impl<'a> HostSteps<'a> {
 }
 
 impl StepRunner for HostSteps<'_> {
+    fn set_threads(&mut self, threads: usize) {
+        self.renderer.set_threads(threads);
+    }
+
     fn step(&mut self, state: &mut TrainingState, iteration: u64, input: &StepInput) -> Result<()> {
         let TrainingState {
             model,

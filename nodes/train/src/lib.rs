@@ -28,6 +28,7 @@ pub mod free_space;
 mod host_steps;
 pub mod hull;
 pub mod init;
+pub mod neighbours;
 pub mod point_depth;
 pub mod schedule;
 mod screen;

@@ -16,6 +16,7 @@ use objectsplat_runtime::{
 use serde_json::{Map, Number, Value};
 use std::collections::BTreeMap;
 use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 
 /// Numbers from the graph as JSON: whole numbers as integers (iteration counts
 /// are integers in the schedule), the rest as floats.
@@ -86,8 +87,10 @@ objectsplat_runtime::node_params! {
         /// the evaluation scores too (the paper's protocol)
         select_on: String = "\"validation\"" as ParamType::enumeration(&["validation", "training", "test"]),
         /// which components this node trains; the others are skipped, or passed through from
-        /// `occluders` when it holds an item of the same name
-        components: String = "\"all\"" as ParamType::enumeration(&["all", "objects", "background"]),
+        /// `occluders` when it holds an item of the same name. supports: the objects
+        /// surface_completion completed (tables, desks: what others rest on); non_supports:
+        /// every other object
+        components: String = "\"all\"" as ParamType::enumeration(&["all", "objects", "background", "supports", "non_supports"]),
         /// seconds between saves of the training state into the cache: a run killed half-way
         /// resumes from the last save and ends with the same model (0: never save)
         state_every_s: f64 = "60.0" as ParamType::float_range(0.0, 1e9),
@@ -113,9 +116,11 @@ node_ports! {
         points: input "Points",
         /// which points every frame sees (point_visibility's); computed here when not wired
         visibility: optional "Visibility",
-        /// trained objects (another train node's models): the background is trained behind
-        /// them, frozen, so every pixel is supervised by the composite; items of kinds not
-        /// trained here (`components`) are passed through from it by name
+        /// trained objects (another train node's models), rendered frozen with the component:
+        /// the background is trained behind them, every pixel supervised by the image; an
+        /// object among the others, its foreign and completed pixels supervised by what they
+        /// draw over its target (so a table learns to stay under the cup resting on it);
+        /// items not trained here (`components`) are passed through from it by name
         occluders: optional_items "Model",
         /// the best model on the component's held-out views
         model: output "Model",
@@ -124,7 +129,7 @@ node_ports! {
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("train", "20")
+        NodeSpec::new("train", "22")
             .doc(
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
@@ -171,9 +176,12 @@ impl Node for TrainNode {
         // The one read of the Component folder's description and frames.
         let folder = ComponentFolder::read(&ports.component)?;
         let info = &folder.info;
+        let is_object = info.kind == ComponentKind::Object;
         let wanted = match p.components.as_str() {
-            "objects" => info.kind == ComponentKind::Object,
-            "background" => info.kind == ComponentKind::Background,
+            "objects" => is_object,
+            "supports" => is_object && folder.is_completed_surface(),
+            "non_supports" => is_object && !folder.is_completed_surface(),
+            "background" => !is_object,
             _ => true,
         };
         let occluders = ports.occluders.unwrap_or_default();
@@ -208,8 +216,6 @@ impl Node for TrainNode {
         let state_every: f64 = p.state_every_s;
         let overrides: BTreeMap<String, f64> = p.schedule;
         let schedule = Schedule::new(iterations as u64, &schedule_overrides(&overrides)?)?;
-        let (backend, why) = objectsplat_raster_gpu::backend_for(&backend_name, ctx.threads())?;
-        ctx.note("backend", why);
         let points_path = ports.points.join(POINTS_PLY);
         let all_points = Points::read_ply(&points_path)?;
         let mut data = ComponentData::from_folder(folder, ctx.threads())?;
@@ -250,10 +256,10 @@ impl Node for TrainNode {
             },
         );
         data.depth_points = points.positions[..points.positions.len() - seeded].to_vec();
-        if data.kind == ComponentKind::Background && !occluders.is_empty() {
+        if !occluders.is_empty() {
             let models = occluders
                 .iter()
-                .filter(|(name, _)| name.starts_with("obj_"))
+                .filter(|(name, _)| name.starts_with("obj_") && **name != data.name)
                 .map(|(name, dir)| load_model(dir).with_context(|| format!("occluder {name:?}")))
                 .collect::<Result<Vec<_>>>()?;
             let parts: Vec<&Model<f32>> = models.iter().collect();
@@ -261,8 +267,15 @@ impl Node for TrainNode {
                 "occluders",
                 format!("{} trained objects, frozen", parts.len()),
             );
-            data.occluders = Some(Model::union(&parts)?);
+            if !parts.is_empty() {
+                data.occluders = Some(Model::union(&parts)?);
+            }
         }
+        // Asked after the reads: a job started beside items passed through gets
+        // the workers they freed.
+        let (backend, why) = objectsplat_raster_gpu::backend_for(&backend_name, ctx.threads())?;
+        ctx.note("backend", why);
+        let budget = Arc::new(AtomicUsize::new(ctx.threads()));
         let settings = TrainSettings {
             seed: seed as u64,
             background_randomization: randomize,
@@ -272,6 +285,7 @@ impl Node for TrainNode {
             resume_dir: (state_every > 0.0).then(|| ctx.resume().to_path_buf()),
             save_seconds: state_every,
             threads: ctx.threads(),
+            thread_budget: Some(budget.clone()),
             ..TrainSettings::new(schedule)
         };
         let report = {
@@ -282,6 +296,7 @@ impl Node for TrainNode {
                 &points,
                 &settings,
                 |done, total| {
+                    budget.store(ctx_ref.threads(), Ordering::Relaxed);
                     if done % 50 == 0 || done == total {
                         ctx_ref.progress(done, total, "training");
                     }

@@ -86,6 +86,10 @@ pub(crate) struct StepLoss {
 }
 
 pub(crate) trait StepRunner {
+    /// The threads the host's passes may use from now on (results do not
+    /// depend on it); a device's steps ignore it.
+    fn set_threads(&mut self, _threads: usize) {}
+
     /// Iteration `iteration` (1-based): render, loss (with the geometric
     /// terms), backward, Adam, the render's face weights into the statistics.
     /// Its loss comes back through [`StepRunner::losses`] (at once on the host).

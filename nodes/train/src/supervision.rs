@@ -10,6 +10,7 @@
 //! supervised by the composite, so nothing of the background may hang in
 //! front of an object.
 
+use crate::neighbours::NeighbourLayer;
 use anyhow::{Context, Result, bail};
 use objectsplat_core::component::{IGNORE, OTHER, OWN};
 use objectsplat_core::visibility::{Visibility, neighbour_spacing, visible_pixels};
@@ -31,6 +32,9 @@ pub struct View {
     pub target: RgbWindow,
     /// Per-pixel ownership label (OWN / OTHER / IGNORE).
     pub labels: LabelRuns,
+    /// Own pixels whose targets surface completion inpainted (1; others 0):
+    /// pixels of the objects resting on a completed surface, adopted by it.
+    pub completed: Option<LabelRuns>,
     pub split: Split,
 }
 
@@ -56,6 +60,7 @@ impl View {
             camera,
             target: RgbWindow::from_rgb_f32(w, target, [0, 0, w, h]),
             labels: LabelRuns::from_plane(w, h, labels)?,
+            completed: None,
             split,
         })
     }
@@ -77,7 +82,9 @@ impl View {
 
     /// Bytes this view holds (for memory reports).
     pub fn bytes(&self) -> usize {
-        self.target.bytes() + self.labels.bytes()
+        self.target.bytes()
+            + self.labels.bytes()
+            + self.completed.as_ref().map_or(0, LabelRuns::bytes)
     }
 }
 
@@ -86,8 +93,9 @@ pub struct ComponentData {
     pub name: String,
     pub kind: ComponentKind,
     pub views: Vec<View>,
-    /// Trained objects rendered, frozen, with the background (their union, see
-    /// `Model::union`); only for the background component.
+    /// Trained components rendered, frozen, with this one (their union, see
+    /// `Model::union`): the objects in front of the background, or an
+    /// object's neighbours around it.
     pub occluders: Option<objectsplat_raster::Model<f32>>,
     /// Measured points on this component's surfaces (its SfM or scanner points,
     /// not seeds), which supervise depth (see `crate::point_depth`).
@@ -252,22 +260,31 @@ fn read_view(folder: &ComponentFolder, frame: &objectsplat_core::Frame) -> Resul
     let image = folder.frames.image_path(frame);
     let mut target =
         RgbWindow::load(&image, w, h, window).with_context(|| format!("frame {:?}", frame.name))?;
+    let mut completed = None;
     if let Some(replacement) = folder.load_replacement_target(frame)? {
+        // Completion wrote the whole frame, the image itself where it adopted nothing.
+        let mut adopted = vec![0u8; (w * h) as usize];
         for y in window[1]..window[3] {
             for (start, end, label) in labels.row(y) {
                 if label != OWN {
                     continue;
                 }
                 for x in start.max(window[0])..end.min(window[2]) {
-                    let p = 3 * (y * w + x) as usize;
-                    target.set_rgb8(
-                        x,
-                        y,
-                        [replacement[p], replacement[p + 1], replacement[p + 2]],
-                    );
+                    let p = (y * w + x) as usize;
+                    let rgb = [
+                        replacement[3 * p],
+                        replacement[3 * p + 1],
+                        replacement[3 * p + 2],
+                    ];
+                    let image = target.get(x, y);
+                    if (0..3).any(|k| (rgb[k] as f32 - 255.0 * image[k]).abs() > 0.5) {
+                        adopted[p] = 1;
+                    }
+                    target.set_rgb8(x, y, rgb);
                 }
             }
         }
+        completed = Some(LabelRuns::from_plane(w, h, &adopted)?);
     }
     if let Some(i) = target.first_non_finite() {
         bail!("frame {:?}: target value {i} is not finite", frame.name);
@@ -277,6 +294,7 @@ fn read_view(folder: &ComponentFolder, frame: &objectsplat_core::Frame) -> Resul
         camera: frame.camera(),
         target,
         labels,
+        completed,
         split: frame.split,
     })
 }
@@ -315,7 +333,12 @@ impl PixelRule {
 
 /// Pixel weights and targets of one view under background colour `b`.
 pub fn supervision(view: &View, kind: ComponentKind, b: [f32; 3]) -> (Vec<f32>, Vec<f32>) {
-    let (mut target, weights, from_background) = supervision_parts(view, PixelRule::new(kind));
+    let TargetPlanes {
+        mut target,
+        weights,
+        from_background,
+        ..
+    } = supervision_parts(view, PixelRule::new(kind), None);
     for p in (0..weights.len()).filter(|&p| from_background[p]) {
         target[3 * p..3 * p + 3].copy_from_slice(&b);
     }
@@ -323,18 +346,55 @@ pub fn supervision(view: &View, kind: ComponentKind, b: [f32; 3]) -> (Vec<f32>, 
 }
 
 /// The parts of [`supervision`] that do not depend on the background colour,
-/// over the whole frame: targets (0 where the background colour is the
-/// target), weights, and which pixels take the background colour as target.
-pub(crate) fn supervision_parts(view: &View, rule: PixelRule) -> (Vec<f32>, Vec<f32>, Vec<bool>) {
+/// over the whole frame.
+pub(crate) struct TargetPlanes {
+    /// RGB per pixel: the target, or where it takes the background colour
+    /// what lies over it (0 without neighbours).
+    pub target: Vec<f32>,
+    pub weights: Vec<f32>,
+    /// Which pixels' targets take the background colour.
+    pub from_background: Vec<bool>,
+    /// Per pixel, the share of the background colour in such a target: what
+    /// the neighbours leave uncovered (1 without them).
+    pub background_share: Vec<f32>,
+}
+
+/// [`TargetPlanes`] of a view, with the frozen neighbours' `layer` over the
+/// targets of the pixels it does not own and of its completed ones.
+pub(crate) fn supervision_parts(
+    view: &View,
+    rule: PixelRule,
+    layer: Option<&NeighbourLayer>,
+) -> TargetPlanes {
     let labels = view.labels.to_plane();
     let w = view.camera.width as usize;
     let (weights, from_background): (Vec<f32>, Vec<bool>) =
         labels.iter().map(|&l| rule.apply(l)).unzip();
     let mut target = vec![0.0f32; 3 * labels.len()];
-    for (p, _) in from_background.iter().enumerate().filter(|(_, b)| !**b) {
-        target[3 * p..3 * p + 3].copy_from_slice(&view.target_at((p % w) as u32, (p / w) as u32));
+    let mut background_share = vec![1.0f32; labels.len()];
+    for (p, &from_b) in from_background.iter().enumerate() {
+        let (x, y) = ((p % w) as u32, (p / w) as u32);
+        let over = layer.and_then(|l| l.premultiplied(x, y));
+        let completed = view.completed.as_ref().is_some_and(|c| c.get(x, y) != 0);
+        let rgb = match (from_b, over) {
+            (false, Some(_)) if completed => layer.map(|l| l.over(x, y, view.target_at(x, y))),
+            (false, _) => Some(view.target_at(x, y)),
+            (true, Some((colour, alpha))) => {
+                background_share[p] = 1.0 - alpha;
+                Some(colour)
+            }
+            (true, None) => None,
+        };
+        if let Some(rgb) = rgb {
+            target[3 * p..3 * p + 3].copy_from_slice(&rgb);
+        }
     }
-    (target, weights, from_background)
+    TargetPlanes {
+        target,
+        weights,
+        from_background,
+        background_share,
+    }
 }
 
 /// What stays fixed about a view's supervision whatever the background colour.
@@ -373,11 +433,14 @@ impl ViewSummary {
 
 /// Fills `target` (RGB) and `weights` for the pixels of `region` under
 /// background colour `b`, reusing the buffers (and `labels`, a row's scratch);
-/// returns the region's weight sum.
+/// returns the region's weight sum. With `layer`, the targets of the pixels
+/// the component does not own and of its completed ones are the layer over them.
+#[allow(clippy::too_many_arguments)]
 pub fn fill_region(
     view: &View,
     rule: PixelRule,
     b: [f32; 3],
+    layer: Option<&NeighbourLayer>,
     region: PixelRect,
     target: &mut Vec<f32>,
     weights: &mut Vec<f32>,
@@ -386,17 +449,27 @@ pub fn fill_region(
     target.clear();
     weights.clear();
     let mut sum = 0.0;
+    let mut completed = Vec::new();
     for y in region.y0..region.y1 {
         labels.clear();
         view.labels.extend_row(y, region.x0, region.x1, labels);
-        for (x, &label) in (region.x0..region.x1).zip(labels.iter()) {
+        completed.clear();
+        if let (Some(_), Some(c)) = (layer, &view.completed) {
+            c.extend_row(y, region.x0, region.x1, &mut completed);
+        }
+        for (i, (x, &label)) in (region.x0..region.x1).zip(labels.iter()).enumerate() {
             let (weight, from_background) = rule.apply(label);
             weights.push(weight);
             sum += weight as f64;
-            if from_background {
-                target.extend_from_slice(&b);
+            let under = if from_background {
+                b
             } else {
-                target.extend_from_slice(&view.target_at(x, y));
+                view.target_at(x, y)
+            };
+            let covered = from_background || completed.get(i).is_some_and(|&c| c != 0);
+            match layer {
+                Some(l) if covered => target.extend_from_slice(&l.over(x, y, under)),
+                _ => target.extend_from_slice(&under),
             }
         }
     }

@@ -45,6 +45,8 @@ use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use serde::{Deserialize, Serialize};
 use std::collections::VecDeque;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
 
 pub use crate::steps::HeldOut;
@@ -107,6 +109,10 @@ pub struct TrainSettings {
     /// Worker threads of the host-side passes over every face and view (prune
     /// statistics); results do not depend on it.
     pub threads: usize,
+    /// The threads the run may use now, set by whoever runs it (a job whose
+    /// neighbours finished gets their cores); read every iteration, it sets
+    /// `threads` and the host renderer's. None: `threads` throughout.
+    pub thread_budget: Option<Arc<AtomicUsize>>,
 }
 
 impl TrainSettings {
@@ -125,6 +131,7 @@ impl TrainSettings {
             resume_dir: None,
             save_seconds: 60.0,
             threads: 1,
+            thread_budget: None,
         }
     }
 }
@@ -531,6 +538,7 @@ pub fn train_component_with_hook(
                 settings.crop,
                 depth_supervised,
                 supersample,
+                settings.world_scale,
             )?)
         }
         None => Box::new(HostSteps::new(
@@ -632,7 +640,15 @@ pub fn train_component_with_hook(
     };
     let (mut surface_passes, mut surface_largest_move, mut surface_limited) = (0u64, 0.0f64, 0);
     let mut last_save = Instant::now();
+    let mut threads = settings.threads;
     while it < finish.map_or(s.iterations, |f| f.until) {
+        if let Some(budget) = &settings.thread_budget {
+            let now = budget.load(Ordering::Relaxed).max(1);
+            if now != threads {
+                threads = now;
+                runner.set_threads(now);
+            }
+        }
         // Where the schedule stands: the loop's iteration, or within a finish
         // the compressed rest of the schedule, whose structural edits are over.
         let at = finish.map_or(it, |f| f.schedule_iteration(it, s.iterations));
@@ -686,7 +702,7 @@ pub fn train_component_with_hook(
             }
         }
         if surface {
-            let moved = surface_filter.apply(&mut model.vertices, &model.faces, settings.threads);
+            let moved = surface_filter.apply(&mut model.vertices, &model.faces, threads);
             surface_passes += 1;
             surface_largest_move = surface_largest_move.max(moved.largest_move);
             surface_limited += moved.limited;
@@ -708,7 +724,7 @@ pub fn train_component_with_hook(
             } else {
                 runner.face_max_weight(Subject::Other(model), &train, &render)?
             };
-            let mut sizes = screen_sizes(model, &train_cameras, settings.threads);
+            let mut sizes = screen_sizes(model, &train_cameras, threads);
             if let Some(threshold) = prune {
                 let floats = floating(model, runner.seen_points());
                 let keep: Vec<bool> = (0..model.face_count())

@@ -170,3 +170,32 @@ fn a_component_unseen_in_every_training_view_is_skipped_with_a_reason() {
         other => panic!("expected a skip, got {other:?}"),
     }
 }
+
+/// `components: "supports"` trains the objects surface completion completed
+/// (`completion.json`), `"non_supports"` every other object.
+#[test]
+fn supports_are_the_completed_objects() {
+    let plate = PlateInputs::write();
+    let trains = |components: &str, out: &str| {
+        let run = plate
+            .train(
+                &format!("(iterations: 30, components: \"{components}\")"),
+                out,
+            )
+            .unwrap();
+        match run.outcome {
+            objectsplat_runtime::Outcome::Done => true,
+            objectsplat_runtime::Outcome::Skipped(reason) => {
+                assert!(reason.contains("not among the components"), "{reason}");
+                false
+            }
+            other => panic!("{other:?}"),
+        }
+    };
+    assert!(!trains("supports", "a"));
+    assert!(trains("non_supports", "b"));
+    std::fs::write(plate.component.join("completion.json"), "{}").unwrap();
+    assert!(trains("supports", "c"));
+    assert!(!trains("non_supports", "d"));
+    assert!(trains("objects", "e"));
+}

@@ -170,7 +170,7 @@ fn request(kind: &str, ctx: &Context) -> Result<RunRequest> {
         kind: kind.to_string(),
         job: ctx.job.clone(),
         item: ctx.item.clone(),
-        threads: ctx.threads,
+        threads: ctx.threads(),
         scratch: utf8(&ctx.scratch)?,
         inputs,
         outputs: ctx

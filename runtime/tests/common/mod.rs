@@ -19,13 +19,13 @@ use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::sync::Arc;
 
-fn read_num(dir: &Path) -> Result<i64> {
+pub fn read_num(dir: &Path) -> Result<i64> {
     Ok(std::fs::read_to_string(dir.join("value.txt"))?
         .trim()
         .parse()?)
 }
 
-fn write_num(dir: &Path, v: i64) -> Result<()> {
+pub fn write_num(dir: &Path, v: i64) -> Result<()> {
     std::fs::write(dir.join("value.txt"), v.to_string())?;
     Ok(())
 }

@@ -57,7 +57,8 @@ const C2: f32 = 0.0009;
 // Per pixel of the view: target colour and weight (0 = not supervised).
 @group(0) @binding(2) var<storage, read> targets: array<vec4<f32>>;
 // Per pixel of the view: FLAG_BACKGROUND where the target is the step's
-// background colour (and FLAG_OWN on the component's own pixels).
+// background colour (with FLAG_LAYERED: times its share, plus the target's
+// colour) and FLAG_OWN on the component's own pixels.
 @group(0) @binding(3) var<storage, read> flags: array<u32>;
 @group(0) @binding(4) var<storage, read_write> rows: array<f32>;
 @group(0) @binding(5) var<storage, read_write> maps: array<f32>;
@@ -101,7 +102,11 @@ fn view_pixel(r: Region, x: u32, y: u32) -> u32 {
 }
 
 fn target_color(q: u32) -> vec3<f32> {
-    if ((flags[q] & FLAG_BACKGROUND) != 0u) {
+    let f = flags[q];
+    if ((f & FLAG_LAYERED) != 0u) {
+        return targets[q].xyz + params.background.xyz * (f32(f >> SHARE_SHIFT) / SHARE_ONE);
+    }
+    if ((f & FLAG_BACKGROUND) != 0u) {
         return params.background.xyz;
     }
     return targets[q].xyz;

@@ -12,3 +12,9 @@ const STATUS_OVERFLOW: u32 = 512u;
 
 const FLAG_BACKGROUND: u32 = 1u;
 const FLAG_OWN: u32 = 2u;
+// A FLAG_BACKGROUND pixel under frozen neighbours: its target is the target
+// colour (what they draw) plus the background colour times the share in the
+// high bits, in units of 1 / SHARE_ONE.
+const FLAG_LAYERED: u32 = 4u;
+const SHARE_SHIFT: u32 = 16u;
+const SHARE_ONE: f32 = 65535.0;

@@ -7,14 +7,21 @@ use objectsplat_core::Camera;
 use objectsplat_gpu::GpuContext;
 use objectsplat_raster::backend::PixelRect;
 
-/// Bits of a view pixel's flags word (status.wgsl's FLAG_*).
+/// Bits of a view pixel's flags word (status.wgsl's FLAG_*); with
+/// FLAG_LAYERED the high 16 bits hold the background colour's share of a
+/// FLAG_BACKGROUND target.
 const FLAG_BACKGROUND: u32 = 1;
 const FLAG_OWN: u32 = 2;
+const FLAG_LAYERED: u32 = 4;
+const SHARE_SHIFT: u32 = 16;
+const SHARE_ONE: f32 = 65535.0;
 
 /// One training view: its camera and supervision. `target` is RGB per pixel,
 /// `weights` the per-pixel loss weight (0 = not supervised), and where
 /// `from_background` is set the target is the step's background colour
-/// instead. `own` marks the component's own pixels (the planar prior's
+/// instead — or, when `background_share` is not empty, `target` plus the
+/// background colour times the pixel's share (frozen neighbours drawn over
+/// the background: `target` is what they draw, premultiplied). `own` marks the component's own pixels (the planar prior's
 /// domain; empty: none) and `points` the measured points the view sees, as
 /// (pixel index in the image, camera depth), one per pixel at most.
 #[derive(Debug, Clone)]
@@ -23,6 +30,7 @@ pub struct TrainingView {
     pub target: Vec<f32>,
     pub weights: Vec<f32>,
     pub from_background: Vec<bool>,
+    pub background_share: Vec<f32>,
     pub own: Vec<bool>,
     pub points: Vec<(u32, f32)>,
 }
@@ -40,6 +48,7 @@ impl TrainingView {
             target,
             weights,
             from_background,
+            background_share: Vec::new(),
             own: Vec::new(),
             points: Vec::new(),
         }
@@ -55,14 +64,26 @@ impl TrainingView {
             || self.weights.len() != pixels
             || self.from_background.len() != pixels
             || !(self.own.is_empty() || self.own.len() == pixels)
+            || !(self.background_share.is_empty() || self.background_share.len() == pixels)
         {
             bail!(
-                "training view {index}: {} target values, {} weights, {} background flags and \
-                 {} own flags for {pixels} pixels",
+                "training view {index}: {} target values, {} weights, {} background flags, \
+                 {} background shares and {} own flags for {pixels} pixels",
                 self.target.len(),
                 self.weights.len(),
                 self.from_background.len(),
+                self.background_share.len(),
                 self.own.len()
+            );
+        }
+        if let Some(i) = self
+            .background_share
+            .iter()
+            .position(|s| !(0.0..=1.0).contains(s))
+        {
+            bail!(
+                "training view {index}: background share {i} is {} (expected 0 to 1)",
+                self.background_share[i]
             );
         }
         if let Some(i) = self.target.iter().position(|v| !v.is_finite()) {
@@ -142,7 +163,13 @@ impl ViewBuffers {
         let flags: Vec<u32> = (0..view.from_background.len())
             .map(|p| {
                 let own = view.own.get(p).copied().unwrap_or(false);
-                view.from_background[p] as u32 * FLAG_BACKGROUND + own as u32 * FLAG_OWN
+                let layered = match view.background_share.get(p) {
+                    Some(&share) if view.from_background[p] => {
+                        FLAG_LAYERED + (((share * SHARE_ONE).round() as u32) << SHARE_SHIFT)
+                    }
+                    _ => 0,
+                };
+                view.from_background[p] as u32 * FLAG_BACKGROUND + own as u32 * FLAG_OWN + layered
             })
             .collect();
         let mut points: Vec<[u32; 2]> = view
@@ -187,5 +214,8 @@ mod tests {
         let wgsl = include_str!("status.wgsl");
         assert!(wgsl.contains(&format!("const FLAG_BACKGROUND: u32 = {FLAG_BACKGROUND}u;")));
         assert!(wgsl.contains(&format!("const FLAG_OWN: u32 = {FLAG_OWN}u;")));
+        assert!(wgsl.contains(&format!("const FLAG_LAYERED: u32 = {FLAG_LAYERED}u;")));
+        assert!(wgsl.contains(&format!("const SHARE_SHIFT: u32 = {SHARE_SHIFT}u;")));
+        assert!(wgsl.contains(&format!("const SHARE_ONE: f32 = {SHARE_ONE:.1};")));
     }
 }

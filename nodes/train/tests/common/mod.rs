@@ -197,6 +197,7 @@ pub fn settings_with(
         resume_dir: None,
         save_seconds: 60.0,
         threads: 1,
+        thread_budget: None,
     }
 }
 
