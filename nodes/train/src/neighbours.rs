@@ -148,11 +148,8 @@ mod tests {
         )
     }
 
-    #[test]
-    fn foreign_and_completed_targets_take_the_neighbours_layer() {
-        let (view, layer) = fixture();
-        let rule = PixelRule::new(ComponentKind::Object);
-        let b = [0.1f32, 0.9, 0.3];
+    /// An object's targets and weights over the whole fixture view under `b`.
+    fn filled(view: &View, layer: &NeighbourLayer, b: [f32; 3]) -> (Vec<f32>, Vec<f32>) {
         let (mut target, mut weights, mut labels) = (Vec::new(), Vec::new(), Vec::new());
         let full = PixelRect {
             x0: 0,
@@ -160,16 +157,25 @@ mod tests {
             x1: 6,
             y1: 4,
         };
+        let rule = PixelRule::new(ComponentKind::Object);
         fill_region(
-            &view,
+            view,
             rule,
             b,
-            Some(&layer),
+            Some(layer),
             full,
             &mut target,
             &mut weights,
             &mut labels,
         );
+        (target, weights)
+    }
+
+    #[test]
+    fn foreign_and_completed_targets_take_the_neighbours_layer() {
+        let (view, layer) = fixture();
+        let b = [0.1f32, 0.9, 0.3];
+        let (target, weights) = filled(&view, &layer, b);
         // 8-bit layer: 0.4 → 102/255, 0.5 → 128/255.
         let (c, a) = ([102.0 / 255.0, 51.0 / 255.0, 26.0 / 255.0], 128.0 / 255.0);
         for y in 0..4u32 {
@@ -207,24 +213,8 @@ mod tests {
         let (view, layer) = fixture();
         let rule = PixelRule::new(ComponentKind::Object);
         let planes = supervision_parts(&view, rule, Some(&layer));
-        let full = PixelRect {
-            x0: 0,
-            y0: 0,
-            x1: 6,
-            y1: 4,
-        };
         for b in [[0.0f32; 3], [1.0; 3], [0.25, 0.5, 0.75]] {
-            let (mut target, mut weights, mut labels) = (Vec::new(), Vec::new(), Vec::new());
-            fill_region(
-                &view,
-                rule,
-                b,
-                Some(&layer),
-                full,
-                &mut target,
-                &mut weights,
-                &mut labels,
-            );
+            let (target, weights) = filled(&view, &layer, b);
             for p in 0..24 {
                 for k in 0..3 {
                     let device = if planes.from_background[p] {

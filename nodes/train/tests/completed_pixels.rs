@@ -9,10 +9,8 @@ use objectsplat_train::trainer::ComponentData;
 const W: u32 = 12;
 const H: u32 = 8;
 
-#[test]
-fn inpainted_own_pixels_are_the_completed_ones() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
+/// A table component's description in `dir` and its one frame.
+fn table_frame(dir: &std::path::Path) -> Frame {
     ComponentInfo::object(7, "table").write(dir).unwrap();
     let camera = Camera::look_at(
         W,
@@ -23,7 +21,14 @@ fn inpainted_own_pixels_are_the_completed_ones() {
         DVec3::ZERO,
         DVec3::Z,
     );
-    let frame = Frame::new("f0", "images/f0.png".to_string(), &camera, Split::Train);
+    Frame::new("f0", "images/f0.png".to_string(), &camera, Split::Train)
+}
+
+#[test]
+fn inpainted_own_pixels_are_the_completed_ones() {
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let frame = table_frame(dir);
     // Own left of column 9, other from it on.
     let mask: Vec<u8> = (0..W * H)
         .map(|p| if p % W < 9 { OWN } else { OTHER })
@@ -69,19 +74,9 @@ fn inpainted_own_pixels_are_the_completed_ones() {
 
 #[test]
 fn a_component_without_targets_has_no_completed_pixels() {
-    let dir = tempfile::tempdir().unwrap();
-    let dir = dir.path();
-    ComponentInfo::object(7, "table").write(dir).unwrap();
-    let camera = Camera::look_at(
-        W,
-        H,
-        10.0,
-        10.0,
-        DVec3::new(0.0, -4.0, 0.0),
-        DVec3::ZERO,
-        DVec3::Z,
-    );
-    let frame = Frame::new("f0", "images/f0.png".to_string(), &camera, Split::Train);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path();
+    let frame = table_frame(dir);
     component::write_mask(dir, &frame, &vec![OWN; (W * H) as usize]).unwrap();
     std::fs::create_dir_all(dir.join("images")).unwrap();
     image::RgbImage::new(W, H)
