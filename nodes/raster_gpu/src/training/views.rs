@@ -21,9 +21,10 @@ const SHARE_ONE: f32 = 65535.0;
 /// `from_background` is set the target is the step's background colour
 /// instead — or, when `background_share` is not empty, `target` plus the
 /// background colour times the pixel's share (frozen neighbours drawn over
-/// the background: `target` is what they draw, premultiplied). `own` marks the component's own pixels (the planar prior's
-/// domain; empty: none) and `points` the measured points the view sees, as
-/// (pixel index in the image, camera depth), one per pixel at most.
+/// the background: `target` is what they draw, premultiplied). `own` marks
+/// the component's own pixels (the planar prior's domain; empty: none) and
+/// `points` the measured points the view sees, as (pixel index in the image,
+/// camera depth), one per pixel at most.
 #[derive(Debug, Clone)]
 pub struct TrainingView {
     pub camera: Camera,
