@@ -375,9 +375,10 @@ pub(crate) fn supervision_parts(
     for (p, &from_b) in from_background.iter().enumerate() {
         let (x, y) = ((p % w) as u32, (p / w) as u32);
         let over = layer.and_then(|l| l.premultiplied(x, y));
-        let completed = view.completed.as_ref().is_some_and(|c| c.get(x, y) != 0);
+        // Only where a layer covers the pixel: the lookup is a search per pixel.
+        let completed = || view.completed.as_ref().is_some_and(|c| c.get(x, y) != 0);
         let rgb = match (from_b, over) {
-            (false, Some(_)) if completed => layer.map(|l| l.over(x, y, view.target_at(x, y))),
+            (false, Some(_)) if completed() => layer.map(|l| l.over(x, y, view.target_at(x, y))),
             (false, _) => Some(view.target_at(x, y)),
             (true, Some((colour, alpha))) => {
                 background_share[p] = 1.0 - alpha;
