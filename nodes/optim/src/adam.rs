@@ -265,6 +265,44 @@ impl Adam {
         Ok(())
     }
 
+    /// Renumbers the rows of every group: row `i` becomes what row
+    /// `order[i]` was (`order` a permutation of the rows).
+    pub fn permute_rows(&mut self, order: &[u32]) -> Result<()> {
+        let mut seen = vec![false; order.len()];
+        for &r in order {
+            match seen.get_mut(r as usize) {
+                Some(s) if !*s => *s = true,
+                _ => bail!(
+                    "a row order of {} names row {r} twice or beyond its length",
+                    order.len()
+                ),
+            }
+        }
+        for g in &mut self.groups {
+            if order.len() != g.rows() {
+                bail!(
+                    "Adam group {:?} has {} rows but the row order has {}",
+                    g.name,
+                    g.rows(),
+                    order.len()
+                );
+            }
+        }
+        for g in &mut self.groups {
+            let w = g.width;
+            let gather = |values: &[f32]| -> Vec<f32> {
+                order
+                    .iter()
+                    .flat_map(|&r| &values[r as usize * w..(r as usize + 1) * w])
+                    .copied()
+                    .collect()
+            };
+            g.m = gather(&g.m);
+            g.v = gather(&g.v);
+        }
+        Ok(())
+    }
+
     /// Every group to `rows` rows (moments of new rows zero), e.g. before
     /// restoring saved moments of a model of that size.
     pub fn resize_rows(&mut self, rows: usize) {

@@ -98,6 +98,12 @@ impl Optim {
         Ok(())
     }
 
+    /// The state follows a renumbering of the vertices: row `i` becomes
+    /// what row `order[i]` was.
+    pub fn follow_order(&mut self, order: &[u32]) -> Result<()> {
+        self.adam.permute_rows(order)
+    }
+
     /// One Adam step of every group, in place. SH bands above the model's
     /// degree have no gradient and no moments yet, so they are skipped.
     /// `grads` may cover more vertices than the model (a render of the model

@@ -9,7 +9,8 @@
 //! - [`point_depth`] and [`depth_smoothness`]: depth at the measured points and the
 //!   background's planar prior, the two geometric losses;
 //! - [`free_space`]: faces the training views saw measured points through;
-//! - [`surface_filter`]: normal filtering that keeps the connected mesh a surface.
+//! - [`surface_filter`]: normal filtering that keeps the connected mesh a surface;
+//! - [`spatial_order`]: the connected mesh renumbered along a space-filling curve.
 
 // Negated comparisons are deliberate: NaN must fail every acceptance test.
 // Numerical loops index several parallel arrays with one index.
@@ -32,6 +33,7 @@ pub mod neighbours;
 pub mod point_depth;
 pub mod schedule;
 mod screen;
+pub mod spatial_order;
 mod steps;
 
 pub use objectsplat_optim::{Adam, LogLinearDecay, Optim, adam};

@@ -32,6 +32,7 @@ use crate::init::{InitSettings, init_model};
 use crate::point_depth::PointDepth;
 use crate::schedule::Schedule;
 use crate::screen::{pixel_footprint, screen_sizes};
+use crate::spatial_order::spatial_order;
 use crate::steps::{StepInput, StepLoss, StepRunner, Subject, TrainingState};
 use crate::surface_filter::SurfaceFilter;
 use anyhow::{Context, Result, bail};
@@ -691,6 +692,8 @@ pub fn train_component_with_hook(
                 ));
             } else {
                 model.faces = faces;
+                let order = spatial_order(model)?;
+                optim.follow_order(&order)?;
                 stats.reset(model.face_count());
                 cleanup_pending = true;
                 notes.push(format!(

@@ -176,3 +176,52 @@ fn several_threads_step_exactly_as_one() {
     let err = adam.step_columns(g, &mut p, &g0, width, 4).unwrap_err();
     assert!(format!("{err:#}").contains("not finite"), "{err:#}");
 }
+
+/// Renumbered rows continue exactly as the same rows did in their old places:
+/// two optimizers, one stepping the rows as given and one the rows reversed
+/// from the start, agree after the first is renumbered.
+#[test]
+fn renumbered_rows_continue_like_an_optimizer_of_that_order() {
+    let grads =
+        |k: usize| -> Vec<f32> { (0..6).map(|i| ((i * 5 + k * 7) % 9) as f32 - 4.3).collect() };
+    // Rows of width 2: row r holds values 2r, 2r + 1.
+    let order = [2u32, 0, 1];
+    let reorder = |v: &[f32]| -> Vec<f32> {
+        order
+            .iter()
+            .flat_map(|&r| [v[2 * r as usize], v[2 * r as usize + 1]])
+            .collect()
+    };
+    let mut given = Adam::new();
+    let g = given.add_group("x", 0.05, 2, 3);
+    let mut p: Vec<f32> = (0..6).map(|i| i as f32).collect();
+    let mut renumbered = Adam::new();
+    let r = renumbered.add_group("x", 0.05, 2, 3);
+    let mut q = reorder(&p);
+    for k in 0..3 {
+        given.step(g, &mut p, &grads(k)).unwrap();
+        renumbered.step(r, &mut q, &reorder(&grads(k))).unwrap();
+    }
+    given.permute_rows(&order).unwrap();
+    let mut p = reorder(&p);
+    assert_eq!(p, q);
+    assert_eq!(
+        given.groups[g].second_moment(),
+        renumbered.groups[r].second_moment()
+    );
+    given.step(g, &mut p, &grads(3)).unwrap();
+    renumbered.step(r, &mut q, &grads(3)).unwrap();
+    assert_eq!(p, q);
+    assert!(
+        given.permute_rows(&[0, 1]).is_err(),
+        "a short order is refused"
+    );
+    assert!(
+        given.permute_rows(&[0, 0, 1]).is_err(),
+        "a repeated row is refused"
+    );
+    assert!(
+        given.permute_rows(&[0, 1, 3]).is_err(),
+        "a row beyond is refused"
+    );
+}
