@@ -37,6 +37,24 @@ pub fn bounding_box(points: impl IntoIterator<Item = [f64; 3]>) -> ([f64; 3], [f
     (lo, hi)
 }
 
+/// The Morton (Z-order) code of a grid cell: bit `b` of `cell[k]` goes to bit
+/// `3b + k` (21 bits per axis; higher bits are dropped). Sorting by it walks the
+/// grid block by block, so what is close in space ends up close in the order.
+pub fn morton_code(cell: [u64; 3]) -> u64 {
+    spread_bits(cell[0]) | spread_bits(cell[1]) << 1 | spread_bits(cell[2]) << 2
+}
+
+/// Moves bit b of a 21-bit value to bit 3b.
+fn spread_bits(v: u64) -> u64 {
+    let mut x = v & 0x1f_ffff;
+    x = (x | x << 32) & 0x1f_0000_0000_ffff;
+    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+    x = (x | x << 2) & 0x1249_2492_4924_9249;
+    x
+}
+
 /// A triangle mesh, optionally annotated with a per-vertex object id.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Mesh {
@@ -109,5 +127,18 @@ mod tests {
         assert_eq!(triangle_area(&t), 6.0);
         let line = [[0.0, 0.0, 0.0], [1.0, 2.0, 3.0], [2.0, 4.0, 6.0]];
         assert_eq!(triangle_cross(&line), [0.0; 3]);
+    }
+
+    #[test]
+    fn the_morton_code_interleaves_the_cells_bits() {
+        // x bit b → code bit 3b, y → 3b + 1, z → 3b + 2.
+        assert_eq!(morton_code([1, 0, 0]), 1);
+        assert_eq!(morton_code([0, 1, 0]), 2);
+        assert_eq!(morton_code([0, 0, 1]), 4);
+        assert_eq!(morton_code([2, 0, 0]), 8);
+        assert_eq!(morton_code([0b1011, 0, 0]), 0b001_000_001_001);
+        let all = (1 << 21) - 1;
+        assert_eq!(morton_code([all, all, all]), u64::MAX >> 1);
+        assert_eq!(morton_code([1 << 21, 0, 0]), 0, "bits above 21 are dropped");
     }
 }

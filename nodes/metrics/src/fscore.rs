@@ -77,25 +77,14 @@ fn morton_order(points: &[[f64; 3]]) -> Vec<usize> {
         .iter()
         .enumerate()
         .map(|(i, p)| {
-            let code = (0..3).fold(0u64, |code, k| {
-                code | spread_bits(((p[k] - lo[k]) * scale[k]) as u64) << k
-            });
+            let code = objectsplat_core::geometry::morton_code(std::array::from_fn(|k| {
+                ((p[k] - lo[k]) * scale[k]) as u64
+            }));
             (code, i)
         })
         .collect();
     keyed.par_sort_unstable();
     keyed.into_iter().map(|(_, i)| i).collect()
-}
-
-/// Moves bit b of a 21-bit value to bit 3b.
-fn spread_bits(v: u64) -> u64 {
-    let mut x = v & 0x1f_ffff;
-    x = (x | x << 32) & 0x1f_0000_0000_ffff;
-    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-    x = (x | x << 2) & 0x1249_2492_4924_9249;
-    x
 }
 
 /// Precision/recall/F at threshold `tau` (strict `d < τ`, as the indoor-scene and

@@ -7,6 +7,7 @@
 //! Exact duplicates are inserted once; the others are reported as skipped.
 
 use anyhow::{Result, bail};
+use objectsplat_core::geometry::morton_code;
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 use robust::{Coord3D, insphere, orient3d};
@@ -237,15 +238,9 @@ impl Mesh {
 /// Interleaves the bits of three 10-bit grid coordinates (Morton order), so
 /// consecutive insertions are spatially close and the walks stay short.
 fn morton(p: [f64; 3], lo: [f64; 3], extent: f64) -> u32 {
-    let mut code = 0u32;
-    let cell = |k: usize| (((p[k] - lo[k]) / extent * 1023.0) as u32).min(1023);
-    let (x, y, z) = (cell(0), cell(1), cell(2));
-    for b in 0..10 {
-        code |= (((x >> b) & 1) << (3 * b))
-            | (((y >> b) & 1) << (3 * b + 1))
-            | (((z >> b) & 1) << (3 * b + 2));
-    }
-    code
+    let cell = |k: usize| (((p[k] - lo[k]) / extent * 1023.0) as u64).min(1023);
+    // Three 10-bit coordinates interleave into the low 30 bits.
+    morton_code([cell(0), cell(1), cell(2)]) as u32
 }
 
 /// The Delaunay tetrahedralization of `points` (fewer than 4 distinct points,

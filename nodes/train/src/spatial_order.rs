@@ -15,30 +15,19 @@
 //! are the same, renumbered.
 
 use anyhow::{Result, bail};
+use objectsplat_core::geometry::morton_code;
 use objectsplat_raster::Model;
 
 /// Bits of each coordinate in a key (three of them fill 63 bits).
 const BITS: u32 = 21;
 
-/// The 21 low bits of `v` spread to every third bit.
-fn spread(v: u64) -> u64 {
-    let mut x = v & 0x1f_ffff;
-    x = (x | x << 32) & 0x1f_0000_0000_ffff;
-    x = (x | x << 16) & 0x1f_0000_ff00_00ff;
-    x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
-    x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
-    x = (x | x << 2) & 0x1249_2492_4924_9249;
-    x
-}
-
 /// The Morton key of `p` in the box from `lo` with `1 / scale` per cell.
 fn morton_key(p: [f32; 3], lo: [f32; 3], scale: [f32; 3]) -> u64 {
-    let cell = |k: usize| {
+    morton_code(std::array::from_fn(|k| {
         let c = ((p[k] - lo[k]) * scale[k]).clamp(0.0, ((1u64 << BITS) - 1) as f32);
         // A NaN coordinate (never in a validated model) casts to cell 0.
         c as u64
-    };
-    spread(cell(0)) | spread(cell(1)) << 1 | spread(cell(2)) << 2
+    }))
 }
 
 /// Renumbers `model`'s vertices along a Morton curve and orders its faces by
@@ -128,18 +117,6 @@ mod tests {
             opacity_logits: (0..n).map(|v| -(v as f32)).collect(),
             ..Model::empty()
         }
-    }
-
-    #[test]
-    fn the_key_interleaves_the_coordinates_bits() {
-        // x bit i → key bit 3i, y → 3i + 1, z → 3i + 2.
-        assert_eq!(spread(0b1011), 0b001_000_001_001);
-        assert_eq!(spread((1 << BITS) - 1), 0x1249_2492_4924_9249);
-        let key = |x, y, z| spread(x) | spread(y) << 1 | spread(z) << 2;
-        assert_eq!(key(1, 0, 0), 1);
-        assert_eq!(key(0, 1, 0), 2);
-        assert_eq!(key(0, 0, 1), 4);
-        assert_eq!(key(2, 0, 0), 8);
     }
 
     #[test]
