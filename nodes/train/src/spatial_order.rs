@@ -10,7 +10,7 @@
 //! read; on the 640×480 background (a million faces) those passes took more
 //! of a step than the tile kernels. After this step vertices follow a Morton
 //! (Z-order) curve through the model's bounding box and faces follow their
-//! first corner, so the passes read memory nearly in order. Nothing but the
+//! lowest corner, so the passes read memory nearly in order. Nothing but the
 //! order changes: the mesh, every vertex's parameters and optimizer moments
 //! are the same, renumbered.
 
