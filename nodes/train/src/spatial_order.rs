@@ -15,7 +15,7 @@
 //! are the same, renumbered.
 
 use anyhow::{Result, bail};
-use objectsplat_core::geometry::morton_code;
+use objectsplat_core::geometry::{bounding_box, morton_code};
 use objectsplat_raster::Model;
 
 /// Bits of each coordinate in a key (three of them fill 63 bits).
@@ -53,17 +53,15 @@ pub fn spatial_order(model: &mut Model<f32>) -> Result<Vec<u32>> {
             model.faces[f]
         );
     }
-    let (mut lo, mut hi) = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    for p in model
-        .vertices
-        .iter()
-        .filter(|p| p.iter().all(|c| c.is_finite()))
-    {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    // f32 → f64 → f32 is exact, so the box is the f32 vertices' own.
+    let (lo, hi) = bounding_box(
+        model
+            .vertices
+            .iter()
+            .filter(|p| p.iter().all(|c| c.is_finite()))
+            .map(|p| p.map(f64::from)),
+    );
+    let (lo, hi) = (lo.map(|c| c as f32), hi.map(|c| c as f32));
     // Cubic cells: the curve's blocks are cubes in space, whatever the box's shape.
     let extent = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f32, f32::max);
     let per_cell = if extent > 0.0 && extent.is_finite() {
