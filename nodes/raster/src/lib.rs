@@ -17,6 +17,7 @@
 
 pub mod backend;
 pub mod cpu;
+pub mod exported;
 pub mod loss;
 pub mod model;
 pub mod model_io;

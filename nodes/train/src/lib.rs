@@ -10,7 +10,9 @@
 //!   background's planar prior, the two geometric losses;
 //! - [`free_space`]: faces the training views saw measured points through;
 //! - [`surface_filter`]: normal filtering that keeps the connected mesh a surface;
-//! - [`spatial_order`]: the connected mesh renumbered along a space-filling curve.
+//! - [`spatial_order`]: the connected mesh renumbered along a space-filling curve;
+//! - [`flat_color`] and `flat_fit`: the flat colours a mesh export draws, baked from
+//!   the SH colours and then fitted to the training views as exported.
 
 // Negated comparisons are deliberate: NaN must fail every acceptance test.
 // Numerical loops index several parallel arrays with one index.
@@ -25,6 +27,7 @@ pub mod depth_smoothness;
 mod device_steps;
 pub mod face_stats;
 pub mod flat_color;
+mod flat_fit;
 pub mod free_space;
 mod host_steps;
 pub mod hull;

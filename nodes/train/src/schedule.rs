@@ -120,6 +120,12 @@ pub struct Schedule {
 
     /// After training, faces whose max blending weight over the training views is ≤ this are removed.
     pub final_prune_threshold: f64,
+    /// After the final prune and the bake, passes over the training views that
+    /// fit the flat colours to them as the export draws them (see
+    /// `crate::flat_fit`); 0 keeps the bake.
+    pub flat_fit_epochs: u64,
+    /// Adam's learning rate of the flat colours' DC coefficients in that fit.
+    pub flat_fit_lr: f64,
     /// A depth-supervised component (the background, by default) also loses, at
     /// every prune during training, the faces its training views saw measured
     /// points through at least this many times and more often than they saw
@@ -275,6 +281,8 @@ impl Schedule {
             surface_normal_rounds: 2,
             surface_vertex_rounds: 5,
             final_prune_threshold: 0.5,
+            flat_fit_epochs: 2,
+            flat_fit_lr: 5e-3,
             free_space_min_sightings: 2,
             point_depth_weight: 1.0,
             object_point_depth_weight: 0.0,
@@ -337,6 +345,7 @@ impl Schedule {
             ("densify_growth", self.densify_growth),
             ("densify_min_area", self.densify_min_area),
             ("final_prune_threshold", self.final_prune_threshold),
+            ("flat_fit_lr", self.flat_fit_lr),
             ("point_depth_weight", self.point_depth_weight),
             ("object_point_depth_weight", self.object_point_depth_weight),
             ("depth_smoothness_weight", self.depth_smoothness_weight),

@@ -26,6 +26,7 @@ use crate::densify::{DensifyPolicy, prune_faces, select_faces_to_split, subdivid
 use crate::device_steps::DeviceSteps;
 use crate::face_stats::FaceWeights;
 use crate::flat_color::{FlatColors, Sighting};
+use crate::flat_fit::FlatFit;
 use crate::free_space::sightings;
 use crate::host_steps::HostSteps;
 use crate::init::{InitSettings, init_model};
@@ -1083,6 +1084,19 @@ pub fn train_component_with_hook(
         })?;
     }
     model.flat_dc = flat.finish();
+    let fit = FlatFit {
+        epochs: s.flat_fit_epochs,
+        lr: s.flat_fit_lr,
+        seed: settings.seed,
+        randomize_background: settings.background_randomization,
+        fixed_background: settings.fixed_background,
+    };
+    if let Some(r) = fit.apply(runner.as_mut(), &mut model, &train, settings.world_scale)? {
+        notes.push(format!(
+            "flat colours fitted as exported over {} steps: training loss {:.5} → {:.5} (first and last pass)",
+            r.steps, r.first_pass_loss, r.last_pass_loss
+        ));
+    }
     let final_score = runner.evaluate(Subject::Other(&model), &report_views, &render)?;
     notes.extend(runner.summary());
     let times = TrainingTimes {
