@@ -4,7 +4,7 @@
 //! its own SH colours over the training directions, one vertex at a time. What a
 //! user sees in the `.glb` is different: opaque, hard-edged faces whose pixels
 //! blend their corners' flat colours, where the trained model blended soft,
-//! view-dependent ones. At 320×240 the exported scene stayed 0.4–0.5 dB below the
+//! view-dependent ones. At 320×240 the exported scene stayed up to 0.52 dB below the
 //! trained one after the bake (docs/benchmarks.md). So the bake is only the
 //! start: the exported model (`objectsplat_raster::exported`) then trains on the
 //! component's own training loss — its views, masks, random backgrounds and
