@@ -56,7 +56,7 @@ impl FlatFit {
         views: &[usize],
         world_scale: f64,
     ) -> Result<Option<FitReport>> {
-        if self.epochs == 0 || views.is_empty() || model.face_count() == 0 {
+        if self.epochs == 0 || views.is_empty() {
             return Ok(None);
         }
         if !(self.lr.is_finite() && self.lr > 0.0) {
@@ -66,6 +66,11 @@ impl FlatFit {
             );
         }
         let exported = exported_model(model);
+        // A run whose final prune was skipped can end with no face opaque enough to
+        // draw: the export is empty and there is nothing to fit.
+        if exported.face_count() == 0 {
+            return Ok(None);
+        }
         let nv = exported.vertex_count();
         let rates = LearningRates {
             positions: 0.0,
