@@ -48,13 +48,18 @@ pub fn run_iter<I, S>(
         return;
     }
     // The pool is busy (another thread's pass, or a pass inside a job): threads of our own.
-    crossbeam::scope(|scope| {
-        for _ in 0..threads {
-            scope.spawn(|_| worker());
-        }
-    })
-    // Only a panic inside `work` gets here; propagate it unchanged.
-    .unwrap_or_else(|e| std::panic::resume_unwind(e));
+    let first_panic = std::thread::scope(|scope| {
+        let helpers: Vec<_> = (1..threads).map(|_| scope.spawn(worker)).collect();
+        let own = std::panic::catch_unwind(std::panic::AssertUnwindSafe(worker)).err();
+        // Every helper is joined here, so none panics unobserved (which would make
+        // the scope raise its own message instead of the job's).
+        let helpers: Vec<_> = helpers.into_iter().filter_map(|h| h.join().err()).collect();
+        own.into_iter().chain(helpers).next()
+    });
+    // Re-raise the job's own panic payload, as the pool path does.
+    if let Some(p) = first_panic {
+        std::panic::resume_unwind(p);
+    }
 }
 
 /// Threads started once and reused by every parallel pass.

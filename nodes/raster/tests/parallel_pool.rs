@@ -1,9 +1,11 @@
 //! The worker pool behind every parallel pass: each job runs exactly once
 //! for any thread count, passes from several threads at once (one uses the
 //! pool, the others their own threads) all complete, and a panicking job
-//! reaches the caller without breaking later passes.
+//! reaches the caller, with its own message, without breaking later passes —
+//! also when the pool is busy and the pass runs on threads of its own.
 
 use objectsplat_raster::parallel::{run_iter, run_jobs};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU32, Ordering};
 
 fn run_counted(threads: usize, jobs: usize) -> Vec<u32> {
@@ -75,4 +77,48 @@ fn a_panicking_job_reaches_the_caller_and_the_pool_keeps_working() {
         assert!(text.contains("job 37"), "{text:?}");
         assert!(run_counted(threads, 100).iter().all(|&c| c == 1));
     }
+}
+
+fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_default()
+}
+
+#[test]
+fn a_panic_in_a_pass_nested_in_a_busy_pool_keeps_its_message() {
+    // The outer pass holds the pool, so the inner one runs on threads of its own.
+    let seen = Mutex::new(Vec::new());
+    run_iter(
+        2,
+        0..2,
+        || (),
+        |_, outer| {
+            let outcome = std::panic::catch_unwind(|| {
+                run_iter(
+                    3,
+                    0..64,
+                    || (),
+                    |_, j| {
+                        if j == 37 {
+                            panic!("job 37 fails in pass {outer}");
+                        }
+                    },
+                )
+            });
+            let text = outcome.err().map(|p| panic_text(p.as_ref()));
+            seen.lock().unwrap().push((outer, text));
+        },
+    );
+    let mut seen = seen.into_inner().unwrap();
+    seen.sort();
+    assert_eq!(
+        seen,
+        vec![
+            (0, Some("job 37 fails in pass 0".to_string())),
+            (1, Some("job 37 fails in pass 1".to_string())),
+        ]
+    );
 }
