@@ -21,6 +21,15 @@ fn run_counted(threads: usize, jobs: usize) -> Vec<u32> {
     counts.into_iter().map(AtomicU32::into_inner).collect()
 }
 
+/// A panic's message, whether it was formatted or not.
+fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
+    payload
+        .downcast_ref::<&str>()
+        .map(|s| s.to_string())
+        .or_else(|| payload.downcast_ref::<String>().cloned())
+        .unwrap_or_default()
+}
+
 #[test]
 fn every_job_runs_once_for_any_thread_count() {
     for threads in 1..=5 {
@@ -69,22 +78,10 @@ fn a_panicking_job_reaches_the_caller_and_the_pool_keeps_working() {
                 },
             )
         });
-        let message = outcome.expect_err("the panic is re-raised");
-        let text = message
-            .downcast_ref::<&str>()
-            .map(|s| s.to_string())
-            .unwrap_or_default();
+        let text = panic_text(outcome.expect_err("the panic is re-raised").as_ref());
         assert!(text.contains("job 37"), "{text:?}");
         assert!(run_counted(threads, 100).iter().all(|&c| c == 1));
     }
-}
-
-fn panic_text(payload: &(dyn std::any::Any + Send)) -> String {
-    payload
-        .downcast_ref::<&str>()
-        .map(|s| s.to_string())
-        .or_else(|| payload.downcast_ref::<String>().cloned())
-        .unwrap_or_default()
 }
 
 #[test]

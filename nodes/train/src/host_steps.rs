@@ -97,6 +97,25 @@ impl<'a> Backend<'a> {
         }
     }
 
+    /// Per face, the largest blending weight of a render (the CPU backend
+    /// skips colour and what a backward pass needs; another backend renders).
+    fn face_max_weight(
+        &mut self,
+        model: &Model<f32>,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> Result<&[f32]> {
+        match self {
+            Backend::Cpu { backend, ws } => {
+                backend.face_max_weight_into(ws, model, camera, settings)
+            }
+            Backend::Other(_) => {
+                self.forward(model, camera, settings, [0.0; 3])?;
+                Ok(&self.output().face_max_weight)
+            }
+        }
+    }
+
     fn backward(
         &mut self,
         model: &Model<f32>,
@@ -183,6 +202,21 @@ impl<'a> Renderer<'a> {
             supersample::downsample_into(self.backend.output(), s, &mut self.coarse)?;
         }
         Ok(self.output())
+    }
+
+    /// Per face, the largest blending weight over the samples of a render
+    /// (as [`Self::forward`]'s `face_max_weight`, without its pixels).
+    fn face_max_weight(
+        &mut self,
+        model: &Model<f32>,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> Result<&[f32]> {
+        if self.supersample == 1 {
+            return self.backend.face_max_weight(model, camera, settings);
+        }
+        let (camera, settings) = supersample::fine_view(camera, settings, self.supersample);
+        self.backend.face_max_weight(model, &camera, &settings)
     }
 
     fn backward(
@@ -518,10 +552,10 @@ impl<'a> HostSteps<'a> {
                 region: self.region(view),
                 ..render.clone()
             };
-            let out =
+            let weights =
                 self.renderer
-                    .forward(model, &data.views[view].camera, &settings, [0.0; 3])?;
-            for (m, &w) in max.iter_mut().zip(&out.face_max_weight) {
+                    .face_max_weight(model, &data.views[view].camera, &settings)?;
+            for (m, &w) in max.iter_mut().zip(weights) {
                 *m = m.max(w);
             }
         }

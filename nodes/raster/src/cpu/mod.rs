@@ -434,6 +434,76 @@ fn backward_tiles<R: Real>(
     );
 }
 
+/// Projects, culls, orders and bins `model`'s faces for a render from
+/// `camera` into `ws.state` (shading their corners when `shade`), and returns
+/// the region of pixels the render covers.
+fn bin_faces<R: Real>(
+    threads: usize,
+    ws: &mut CpuWorkspace<R>,
+    model: &Model<R>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    shade: bool,
+) -> PixelRect {
+    let cam = CameraParams::<R>::new(camera);
+    let (st, fw) = (&mut ws.state, &mut ws.forward);
+    preprocess_vertices(model, &cam, threads, &mut st.verts);
+    preprocess_faces(model, &st.verts, &cam, settings, threads, &mut fw.visible);
+    let (w, h) = (camera.width, camera.height);
+    let region = match settings.region {
+        Region::Full => PixelRect::full(w, h),
+        Region::Footprint { include, margin } => {
+            // One rectangle per run of faces, in parallel; their union is the footprint.
+            let mut rects = vec![PixelRect::default(); fw.visible.len()];
+            let visible = &fw.visible;
+            for_chunks_mut(threads, &mut rects, 1, |run, rect| {
+                rect[0] = footprint(visible[run].iter());
+            });
+            rects
+                .into_iter()
+                .fold(PixelRect::default(), PixelRect::union)
+                .union(include)
+                .grown_to_tiles(margin, TILE, w, h)
+        }
+    };
+    st.grid = TileGrid::new(w, h, region);
+    order_by_tile(
+        &fw.visible,
+        &st.grid,
+        &mut st.faces,
+        &mut st.face_ids,
+        &mut fw.counts,
+    );
+    if shade {
+        shade_vertices(
+            model,
+            &mut st.verts,
+            &mut st.faces,
+            &st.face_ids,
+            settings.sh_degree,
+            threads,
+            &mut fw.used,
+        );
+    }
+    st.tiles.bin(&st.faces, &st.grid, threads);
+    refill(&mut st.stats, st.tiles.entries.len(), EntryStats::default());
+    st.tiles.row_offsets(&st.grid, &mut st.row_offsets);
+    region
+}
+
+/// Per face of the model, the largest blending weight and the pixel count
+/// over the entries of `st`'s last composite.
+fn face_maxima<R: Real>(st: &ForwardState<R>, faces: usize, out: &mut RenderOutput<R>) {
+    let (tiles, face_ids) = (&st.tiles, &st.face_ids);
+    refill(&mut out.face_max_weight, faces, R::zero());
+    refill(&mut out.face_pixel_count, faces, 0);
+    for (e, s) in st.stats.iter().enumerate() {
+        let f = face_ids[tiles.entries[e] as usize] as usize;
+        out.face_max_weight[f] = out.face_max_weight[f].max(s.max_weight);
+        out.face_pixel_count[f] += s.pixels;
+    }
+}
+
 impl CpuBackend {
     /// Renders into `ws.output` and keeps in `ws` what the backward pass needs.
     pub fn forward_into<R: Real>(
@@ -446,54 +516,12 @@ impl CpuBackend {
     ) -> Result<()> {
         check_inputs(model, camera, settings, &background)?;
         let threads = self.threads;
-        let cam = CameraParams::<R>::new(camera);
-        let (st, fw) = (&mut ws.state, &mut ws.forward);
-        preprocess_vertices(model, &cam, threads, &mut st.verts);
-        preprocess_faces(model, &st.verts, &cam, settings, threads, &mut fw.visible);
-        let (w, h) = (camera.width, camera.height);
-        let region = match settings.region {
-            Region::Full => PixelRect::full(w, h),
-            Region::Footprint { include, margin } => {
-                // One rectangle per run of faces, in parallel; their union is the footprint.
-                let mut rects = vec![PixelRect::default(); fw.visible.len()];
-                let visible = &fw.visible;
-                for_chunks_mut(threads, &mut rects, 1, |run, rect| {
-                    rect[0] = footprint(visible[run].iter());
-                });
-                rects
-                    .into_iter()
-                    .fold(PixelRect::default(), PixelRect::union)
-                    .union(include)
-                    .grown_to_tiles(margin, TILE, w, h)
-            }
-        };
-        st.grid = TileGrid::new(w, h, region);
-        order_by_tile(
-            &fw.visible,
-            &st.grid,
-            &mut st.faces,
-            &mut st.face_ids,
-            &mut fw.counts,
-        );
-        shade_vertices(
-            model,
-            &mut st.verts,
-            &mut st.faces,
-            &st.face_ids,
-            settings.sh_degree,
-            threads,
-            &mut fw.used,
-        );
-        st.tiles.bin(&st.faces, &st.grid, threads);
-        let rules = PixelRules::<R>::new(settings);
-
-        refill(&mut st.stats, st.tiles.entries.len(), EntryStats::default());
-        st.tiles.row_offsets(&st.grid, &mut st.row_offsets);
-
+        let region = bin_faces(threads, ws, model, camera, settings, true);
+        let st = &mut ws.state;
         let out = &mut ws.output;
         let n = region.pixels();
-        out.width = w;
-        out.height = h;
+        out.width = camera.width;
+        out.height = camera.height;
         out.region = region;
         // The kernels write every pixel of the region: no need to clear.
         for plane in [&mut out.color, &mut st.background] {
@@ -503,20 +531,68 @@ impl CpuBackend {
             plane.resize(n, R::zero());
         }
         st.kernel = self.lanes::<R>();
+        let rules = PixelRules::<R>::new(settings);
         composite_tiles(threads, st, out, &background, &rules);
-        let (tiles, face_ids) = (&st.tiles, &st.face_ids);
-        refill(&mut out.face_max_weight, model.face_count(), R::zero());
-        refill(&mut out.face_pixel_count, model.face_count(), 0);
-        for (e, s) in st.stats.iter().enumerate() {
-            let f = face_ids[tiles.entries[e] as usize] as usize;
-            out.face_max_weight[f] = out.face_max_weight[f].max(s.max_weight);
-            out.face_pixel_count[f] += s.pixels;
-        }
+        face_maxima(st, model.face_count(), out);
         st.settings = settings.clone();
-        st.camera = Some(cam);
+        st.camera = Some(CameraParams::<R>::new(camera));
         st.vertex_count = model.vertex_count();
         st.face_count = model.face_count();
         Ok(())
+    }
+
+    /// Per face, the largest blending weight of a render of `model` from
+    /// `camera` (as [`Self::forward_into`]'s `face_max_weight`, bit for bit),
+    /// without shading or storing colour, depth or what a backward pass needs
+    /// when the eight-lane kernels run (the scalar ones render in full).
+    /// `ws.output`'s pixel planes are left as they were, and a backward pass
+    /// refuses the workspace until the next [`Self::forward_into`].
+    pub fn face_max_weight_into<'w, R: Real>(
+        &self,
+        ws: &'w mut CpuWorkspace<R>,
+        model: &Model<R>,
+        camera: &Camera,
+        settings: &RenderSettings,
+    ) -> Result<&'w [R]> {
+        let kernel = self.lanes::<R>();
+        let mut weights_only = false;
+        #[cfg(target_arch = "x86_64")]
+        if let TileKernel::Avx2(t) = kernel
+            && let Some(ws) = (ws as &mut dyn std::any::Any).downcast_mut::<CpuWorkspace<f32>>()
+            && let Some(model) = (model as &dyn std::any::Any).downcast_ref::<Model<f32>>()
+        {
+            let background = Background::Uniform([0.0; 3]);
+            check_inputs(model, camera, settings, &background)?;
+            bin_faces(self.threads, ws, model, camera, settings, false);
+            let st = &mut ws.state;
+            // What the workspace holds is no longer a forward pass a backward could use.
+            st.camera = None;
+            st.kernel = kernel;
+            let rules = PixelRules::<f32>::new(settings);
+            let (grid, tiles, faces) = (&st.grid, &st.tiles, &st.faces);
+            // The weights-only kernel writes no pixel and keeps no per-tile record.
+            let mut no_records = vec![(); grid.tile_count()];
+            for_each_tile_row(
+                self.threads,
+                grid,
+                tiles,
+                &st.row_offsets,
+                std::iter::repeat_n((), grid.tiles_y as usize),
+                &mut st.stats,
+                &mut no_records,
+                |tile, entries, _, stats, _| {
+                    let entries = &tiles.entries[entries];
+                    simd::forward::tile_weights(t, grid, tile, faces, entries, &rules, stats);
+                },
+            );
+            face_maxima(st, model.face_count(), &mut ws.output);
+            weights_only = true;
+        }
+        if !weights_only {
+            let background = Background::Uniform([R::zero(); 3]);
+            self.forward_into(ws, model, camera, settings, background)?;
+        }
+        Ok(&ws.output.face_max_weight)
     }
 
     /// Back-propagates `grads` (covering the last forward's region) to the

@@ -153,26 +153,45 @@ pub fn render_tile(
 ) {
     // SAFETY: the token proves the CPU has AVX2, FMA and POPCNT.
     unsafe {
-        render_tile_avx2(
-            t, grid, tile, faces, entries, background, rules, band, stats, kept,
-        )
+        let s = composite_avx2::<true>(t, grid, tile, faces, entries, rules, stats, kept);
+        write_band(grid, tile, &s, background, band);
     }
 }
 
-#[target_feature(enable = "avx2,fma,popcnt")]
-#[allow(clippy::too_many_arguments)]
-fn render_tile_avx2(
+/// Only `stats` of [`render_tile`]: the same blending, without colour, depth
+/// or what a backward pass reads (for renders that only ask which faces show).
+pub fn tile_weights(
     t: Avx2,
     grid: &TileGrid,
     tile: usize,
     faces: &[ScreenFace<f32>],
     entries: &[u32],
-    background: &Background<'_, f32>,
     rules: &PixelRules<f32>,
-    band: &mut Band<'_, f32>,
+    stats: &mut [EntryStats<f32>],
+) {
+    // The weights-only pass records nothing: an empty record, never grown.
+    let mut none = TileChunks::default();
+    // SAFETY: the token proves the CPU has AVX2, FMA and POPCNT.
+    unsafe {
+        composite_avx2::<false>(t, grid, tile, faces, entries, rules, stats, &mut none);
+    }
+}
+
+/// Front-to-back blending of a tile's entries into its pixels' state. With
+/// `FULL` false only transmittance and `stats` are kept (the face colours
+/// need not be shaded); the blending, and so `stats`, are the same.
+#[target_feature(enable = "avx2,fma,popcnt")]
+#[allow(clippy::too_many_arguments)]
+fn composite_avx2<const FULL: bool>(
+    t: Avx2,
+    grid: &TileGrid,
+    tile: usize,
+    faces: &[ScreenFace<f32>],
+    entries: &[u32],
+    rules: &PixelRules<f32>,
     stats: &mut [EntryStats<f32>],
     kept: &mut TileChunks,
-) {
+) -> TileState {
     let rect = grid.tile_rect(tile);
     let [x0, y0, x1, y1] = rect;
     let mut s = TileState {
@@ -204,13 +223,17 @@ fn render_tile_avx2(
             t.prefetch(&faces[next as usize]);
         }
         let Some((xa, xb, ya, yb)) = clip_to_tile(f, rect) else {
-            kept.entry_end.push(kept.chunks.len() as u32);
+            if FULL {
+                kept.entry_end.push(kept.chunks.len() as u32);
+            }
             continue;
         };
         let columns = bit_range(xa - x0, xb - x0);
         let rows = (ya - y0) as usize..=(yb - y0) as usize;
         if active[rows.clone()].iter().all(|&a| a & columns == 0) {
-            kept.entry_end.push(kept.chunks.len() as u32);
+            if FULL {
+                kept.entry_end.push(kept.chunks.len() as u32);
+            }
             continue;
         }
         let face = FaceLanes::new(t, f);
@@ -260,24 +283,26 @@ fn render_tile_avx2(
                 // stores, which are slow on AMD CPUs.
                 let alpha = m.keep(alpha);
                 let w = alpha * t_old;
-                let c = face.color_at(&lambda);
-                let z = FaceLanes::interpolate(&lambda, face.z);
-                for ch in 0..3 {
-                    let old = F32x8::load_at(t, &s.color[ch], first);
-                    w.mul_add(c[ch], old).store_at(&mut s.color[ch], first);
-                }
-                let old = F32x8::load_at(t, &s.depth, first);
-                w.mul_add(z, old).store_at(&mut s.depth, first);
-                let median = m & t_old.gt(lanes.half);
-                // Only the first fragments of a pixel can set it: rarely taken deeper down.
-                if median.any() {
-                    let chunk = kept.chunks.len() as i32;
-                    let old = F32x8::load_at(t, &s.median_depth, first);
-                    median.select(z, old).store_at(&mut s.median_depth, first);
-                    let old = I32x8::load_at(t, &s.median, first);
-                    median
-                        .select_i32(I32x8::splat(t, chunk), old)
-                        .store_at(&mut s.median, first);
+                if FULL {
+                    let c = face.color_at(&lambda);
+                    let z = FaceLanes::interpolate(&lambda, face.z);
+                    for ch in 0..3 {
+                        let old = F32x8::load_at(t, &s.color[ch], first);
+                        w.mul_add(c[ch], old).store_at(&mut s.color[ch], first);
+                    }
+                    let old = F32x8::load_at(t, &s.depth, first);
+                    w.mul_add(z, old).store_at(&mut s.depth, first);
+                    let median = m & t_old.gt(lanes.half);
+                    // Only the first fragments of a pixel can set it: rarely taken deeper down.
+                    if median.any() {
+                        let chunk = kept.chunks.len() as i32;
+                        let old = F32x8::load_at(t, &s.median_depth, first);
+                        median.select(z, old).store_at(&mut s.median_depth, first);
+                        let old = I32x8::load_at(t, &s.median, first);
+                        median
+                            .select_i32(I32x8::splat(t, chunk), old)
+                            .store_at(&mut s.median, first);
+                    }
                 }
                 let t_new = t_old * (one - alpha);
                 t_new.store_at(&mut s.t, first);
@@ -288,25 +313,43 @@ fn render_tile_avx2(
                 // NaN weights do not count, as in f32::max.
                 max_weight = w.max(max_weight);
                 blended += bits.count_ones();
-                kept.chunks.push(LaneChunk {
-                    intensity: intensity.to_array(),
-                    t_before: t_old.to_array(),
-                    // A tile has 256 pixels.
-                    first: first as u8,
-                    mask: bits,
-                });
+                if FULL {
+                    kept.chunks.push(LaneChunk {
+                        intensity: intensity.to_array(),
+                        t_before: t_old.to_array(),
+                        // A tile has 256 pixels.
+                        first: first as u8,
+                        mask: bits,
+                    });
+                }
             }
         }
         stats[slot] = EntryStats {
             max_weight: max_weight.max_lane(),
             pixels: blended,
         };
-        kept.entry_end.push(kept.chunks.len() as u32);
+        if FULL {
+            kept.entry_end.push(kept.chunks.len() as u32);
+        }
     }
-    kept.median.clear();
-    kept.median.extend_from_slice(&s.median);
-    kept.transmittance.clear();
-    kept.transmittance.extend_from_slice(&s.t[..TILE_PIXELS]);
+    if FULL {
+        kept.median.clear();
+        kept.median.extend_from_slice(&s.median);
+        kept.transmittance.clear();
+        kept.transmittance.extend_from_slice(&s.t[..TILE_PIXELS]);
+    }
+    s
+}
+
+/// Writes a composited tile's pixels into `band`.
+fn write_band(
+    grid: &TileGrid,
+    tile: usize,
+    s: &TileState,
+    background: &Background<'_, f32>,
+    band: &mut Band<'_, f32>,
+) {
+    let [x0, y0, x1, y1] = grid.tile_rect(tile);
     let n = (x1 - x0) as usize;
     for y in y0..y1 {
         let row = ((y - y0) * TILE) as usize..((y - y0) * TILE) as usize + n;
