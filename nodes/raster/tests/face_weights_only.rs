@@ -6,9 +6,24 @@
 mod common;
 
 use common::*;
+use objectsplat_core::Camera;
 use objectsplat_raster::backend::{PixelRect, Region};
 use objectsplat_raster::cpu::{Background, CpuWorkspace};
-use objectsplat_raster::{CpuBackend, Kernel, OutputGrads, RenderSettings};
+use objectsplat_raster::{CpuBackend, Kernel, Model, OutputGrads, RenderSettings};
+
+/// A full forward pass over a black background into `ws`.
+fn full_forward(
+    backend: &CpuBackend,
+    ws: &mut CpuWorkspace<f32>,
+    model: &Model<f32>,
+    camera: &Camera,
+    settings: &RenderSettings,
+) {
+    let black = Background::Uniform([0.0; 3]);
+    backend
+        .forward_into(ws, model, camera, settings, black)
+        .expect("valid scene");
+}
 
 fn bits(v: &[f32]) -> Vec<u32> {
     v.iter().map(|x| x.to_bits()).collect()
@@ -52,15 +67,7 @@ fn weights_only_pass_matches_the_forward_pass_bit_for_bit() {
                 .face_max_weight_into(&mut ws, &model, &camera, &settings)
                 .expect("valid scene")
                 .to_vec();
-            backend
-                .forward_into(
-                    &mut ws,
-                    &model,
-                    &camera,
-                    &settings,
-                    Background::Uniform([0.0; 3]),
-                )
-                .expect("valid scene");
+            full_forward(&backend, &mut ws, &model, &camera, &settings);
             let full = &ws.output.face_max_weight;
             let shown = full.iter().filter(|&&m| m > 0.0).count();
             assert!(
@@ -78,15 +85,7 @@ fn a_backward_pass_refuses_a_weights_only_workspace() {
     let (model, camera, _) = random_soup_f32(21, 300, 64, 48);
     let settings = RenderSettings::default();
     let mut ws = CpuWorkspace::<f32>::default();
-    backend
-        .forward_into(
-            &mut ws,
-            &model,
-            &camera,
-            &settings,
-            Background::Uniform([0.0; 3]),
-        )
-        .expect("valid scene");
+    full_forward(&backend, &mut ws, &model, &camera, &settings);
     backend
         .face_max_weight_into(&mut ws, &model, &camera, &settings)
         .expect("valid scene");
