@@ -86,7 +86,7 @@ node_ports! {
 
 impl Node for ReportNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("report", "7")
+        NodeSpec::new("report", "8")
             .doc("A self-contained HTML report (index.html): the run's graph with each node's status and time (read from the run.js `objectsplat run` writes beside the outputs), the interactive 3D view of the scene (when a `viewer` folder is wired), metrics table, test-view triplets (ground truth / render / error heatmap), training curves of the models; no external resources.")
             .ports::<ReportNodePorts>()
             .params::<ReportParams>()

@@ -92,7 +92,7 @@ fn section_metrics(data: &ReportData, html: &mut String) {
     }
     html.push_str("</table>");
     if exported {
-        html.push_str("<p>As exported: the test views rendered as the <code>.glb</code> holds the scene (visible faces only, opaque, hard-edged, one colour per vertex: its SH colour averaged over the views that trained it) — what a user who opens the export sees.</p>");
+        html.push_str("<p>As exported: the test views rendered as the <code>.glb</code> holds the scene (visible faces only, opaque, hard-edged, one colour per vertex, fitted to the training views as the export draws them) — what a user who opens the export sees.</p>");
     }
     if metrics.scene.background_in_front.is_some() {
         html.push_str("<p>Background in front: the share of an object's true pixels in the test views where the background renders a surface nearer than the object (floaters, sheets).</p>");
