@@ -253,11 +253,16 @@ fn brute_force(
 
 /// A pile of random overlapping triangles in front of a rotated camera.
 fn random_scene(seed: u64, count: usize) -> (Model<f64>, Camera, Vec<f64>) {
+    random_scene_in(seed, count, [0.9, 0.8, 0.6])
+}
+
+/// Random triangles with centres in the box ±`extent` around the point the camera looks at.
+fn random_scene_in(seed: u64, count: usize, extent: [f64; 3]) -> (Model<f64>, Camera, Vec<f64>) {
     let mut rng = Rng(seed);
     let camera = orbit_camera(56, 44, 48.0, DVec3::new(0.2, 0.3, -3.2));
     let mut model = Model::<f64>::empty();
     for _ in 0..count {
-        let corners = random_corners(&mut rng, [0.9, 0.8, 0.6], (0.3, 0.8));
+        let corners = random_corners(&mut rng, extent, (0.3, 0.8));
         let logits = [0, 1, 2].map(|_| rng.uniform(-1.0, 3.0));
         push_triangle(&mut model, &mut rng, corners, logits);
     }
@@ -321,5 +326,56 @@ fn rendered_alpha_is_one_minus_the_final_transmittance() {
             opaque > 0 || sigma > 0.1,
             "seed {seed}: the sharp scene has fully covered pixels"
         );
+    }
+}
+
+/// The renderer rejects most faces from a byte per corner (behind the near
+/// plane, or all three beyond one image edge) before it reads their corners;
+/// the brute force tests every pixel of every face. Triangles spread far
+/// beyond the view — across its edges, across the near plane, behind the
+/// camera — must still render the same image.
+#[test]
+fn faces_across_the_image_edges_and_the_near_plane_render_as_the_brute_force() {
+    for (seed, sigma) in [(6, 0.5), (7, 0.05)] {
+        let (model, camera, bg) = random_scene_in(seed, 400, [4.0, 3.0, 4.0]);
+        let s = settings(sigma, 0);
+        let out = render(&model, &camera, &s, &bg);
+        let want = brute_force(&model, &camera, &s, &bg);
+        let near = model
+            .faces
+            .iter()
+            .filter(|f| {
+                let z = f.map(|v| {
+                    camera
+                        .to_camera(DVec3::from_array(model.vertices[v as usize]))
+                        .z
+                });
+                z.iter().any(|&z| z <= s.z_near) && z.iter().any(|&z| z > s.z_near)
+            })
+            .count();
+        let drawn = out.face_pixel_count.iter().filter(|&&c| c > 0).count();
+        assert!(
+            near >= 10,
+            "seed {seed}: faces across the near plane ({near})"
+        );
+        assert!(
+            drawn >= 20 && drawn <= model.face_count() / 2,
+            "seed {seed}: some faces drawn, most outside the view ({drawn} of {})",
+            model.face_count()
+        );
+        for (i, (c, t, _, _)) in want.iter().enumerate() {
+            for ch in 0..3 {
+                assert!(
+                    (out.color[i * 3 + ch] - c[ch]).abs() < 1e-9,
+                    "seed {seed} pixel {i} ch {ch}: {} vs {}",
+                    out.color[i * 3 + ch],
+                    c[ch]
+                );
+            }
+            assert!(
+                (out.alpha[i] - (1.0 - t)).abs() < 1e-12,
+                "seed {seed} pixel {i} alpha"
+            );
+        }
     }
 }

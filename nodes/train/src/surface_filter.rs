@@ -54,9 +54,17 @@ fn to64(p: [f32; 3]) -> V3 {
     [p[0] as f64, p[1] as f64, p[2] as f64]
 }
 
-/// A face's unit normal, area and centroid; `None` for a degenerate face
-/// (no normal to filter or fit).
-fn face_geometry(vertices: &[V3], face: [u32; 3]) -> Option<(V3, f64, V3)> {
+/// A face's unit normal and area, read together for every neighbour of
+/// every face (so stored together); `None` for a degenerate face (no normal
+/// to filter or fit).
+#[derive(Debug, Clone, Copy)]
+struct Facet {
+    normal: V3,
+    area: f64,
+}
+
+/// The unit normal and area of a non-degenerate face.
+fn facet(vertices: &[V3], face: [u32; 3]) -> Option<Facet> {
     let [a, b, c] = face.map(|v| vertices[v as usize]);
     let m = triangle_cross(&[a, b, c]);
     let twice_area = dot(m, m).sqrt();
@@ -65,9 +73,30 @@ fn face_geometry(vertices: &[V3], face: [u32; 3]) -> Option<(V3, f64, V3)> {
     if !(twice_area > 1e-9 * scale) || !twice_area.is_finite() {
         return None;
     }
-    let n = m.map(|x| x / twice_area);
-    let centroid = [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0);
-    Some((n, 0.5 * twice_area, centroid))
+    Some(Facet {
+        normal: m.map(|x| x / twice_area),
+        area: 0.5 * twice_area,
+    })
+}
+
+/// What a vertex round needs of a face: its centroid (`None` when the face is
+/// degenerate) and half the length of each edge `k → k + 1`.
+#[derive(Debug, Clone, Copy, Default)]
+struct RoundFace {
+    centroid: Option<V3>,
+    half_edges: [f64; 3],
+}
+
+fn round_face(vertices: &[V3], face: [u32; 3]) -> RoundFace {
+    let corners = face.map(|v| vertices[v as usize]);
+    let [a, b, c] = corners;
+    RoundFace {
+        centroid: facet(vertices, face).map(|_| [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0)),
+        half_edges: [0, 1, 2].map(|k| {
+            let e = sub(corners[k], corners[(k + 1) % 3]);
+            0.5 * dot(e, e).sqrt()
+        }),
+    }
 }
 
 /// For each vertex, the faces that use it (compressed rows: `faces_of[start[v]..start[v + 1]]`).
@@ -119,27 +148,27 @@ impl SurfaceFilter {
         fill(threads, &mut points, |v| to64(vertices[v]));
         let (start, faces_of) = vertex_faces(points.len(), faces);
         let faces_at = |v: usize| &faces_of[start[v]..start[v + 1]];
-        let mut geometry: Vec<Option<(V3, f64, V3)>> = vec![None; faces.len()];
-        fill(threads, &mut geometry, |f| face_geometry(&points, faces[f]));
-        let area: Vec<f64> = geometry.iter().map(|g| g.map_or(0.0, |g| g.1)).collect();
-        let mut normals: Vec<Option<V3>> = geometry.iter().map(|g| g.map(|g| g.0)).collect();
-        let mut filtered = vec![None; faces.len()];
+        let mut facets: Vec<Option<Facet>> = vec![None; faces.len()];
+        fill(threads, &mut facets, |f| facet(&points, faces[f]));
+        let mut filtered = facets.clone();
         for _ in 0..self.normal_rounds {
             fill(threads, &mut filtered, |f| {
-                let own = normals[f]?;
+                let own = facets[f]?;
                 let mut sum = [0.0; 3];
                 // A neighbour sharing an edge is reached through two
                 // vertices and counts twice: it is the closer one.
                 for &v in &faces[f] {
                     for &g in faces_at(v as usize) {
-                        let g = g as usize;
-                        let Some(n) = normals[g] else { continue };
-                        let cos = dot(own, n);
+                        let Some(neighbour) = facets[g as usize] else {
+                            continue;
+                        };
+                        let n = neighbour.normal;
+                        let cos = dot(own.normal, n);
                         let parallel = cos.abs() - self.crease_cos;
                         if parallel <= 0.0 {
                             continue;
                         }
-                        let w = area[g] * parallel * parallel * cos.signum();
+                        let w = neighbour.area * parallel * parallel * cos.signum();
                         for k in 0..3 {
                             sum[k] += w * n[k];
                         }
@@ -148,66 +177,58 @@ impl SurfaceFilter {
                 let length = dot(sum, sum).sqrt();
                 // The face itself always takes part (cos 1), so only
                 // cancelling neighbours leave no direction: keep its own.
-                Some(if length > 0.0 && length.is_finite() {
-                    sum.map(|x| x / length)
-                } else {
-                    own
+                Some(Facet {
+                    normal: if length > 0.0 && length.is_finite() {
+                        sum.map(|x| x / length)
+                    } else {
+                        own.normal
+                    },
+                    area: own.area,
                 })
             });
-            std::mem::swap(&mut normals, &mut filtered);
+            std::mem::swap(&mut facets, &mut filtered);
         }
         let original = points.clone();
         let limited = AtomicUsize::new(0);
-        let mut reach = vec![f64::INFINITY; points.len()];
-        let mut centroids = vec![None; faces.len()];
+        let mut round_faces = vec![RoundFace::default(); faces.len()];
         for _ in 0..self.vertex_rounds {
-            // A vertex that moves further than half its shortest edge can fold
-            // its faces over one another: a large face whose filtered normal
-            // turned by θ asks its corners to move by up to its size × sin θ.
-            fill(threads, &mut reach, |v| {
-                let mut reach = f64::INFINITY;
-                for &f in faces_at(v) {
-                    let face = faces[f as usize];
-                    for k in 0..3 {
-                        let (a, b) = (face[k] as usize, face[(k + 1) % 3] as usize);
-                        if a != v && b != v {
-                            continue;
-                        }
-                        let e = sub(points[a], points[b]);
-                        let half = 0.5 * dot(e, e).sqrt();
-                        if half > 0.0 {
-                            reach = reach.min(half);
-                        }
-                    }
-                }
-                reach
-            });
-            fill(threads, &mut centroids, |f| {
-                face_geometry(&points, faces[f]).map(|g| g.2)
-            });
-            // Each vertex reads only its own position, the round's centroids and reach.
+            fill(threads, &mut round_faces, |f| round_face(&points, faces[f]));
+            // Each vertex reads only its own position and the round's faces.
             let chunk = chunk_size(points.len(), threads, 4096);
             for_chunks_mut(threads, &mut points, chunk, |first, part| {
                 let mut shortened = 0;
                 for (i, x) in part.iter_mut().enumerate() {
                     let v = first + i;
                     let (mut shift, mut weight) = ([0.0; 3], 0.0);
+                    // A vertex that moves further than half its shortest edge can fold
+                    // its faces over one another: a large face whose filtered normal
+                    // turned by θ asks its corners to move by up to its size × sin θ.
+                    let mut reach = f64::INFINITY;
                     for &f in faces_at(v) {
                         let f = f as usize;
-                        let (Some(n), Some(c)) = (normals[f], centroids[f]) else {
+                        let round = &round_faces[f];
+                        for k in 0..3 {
+                            let touches =
+                                faces[f][k] as usize == v || faces[f][(k + 1) % 3] as usize == v;
+                            if touches && round.half_edges[k] > 0.0 {
+                                reach = reach.min(round.half_edges[k]);
+                            }
+                        }
+                        let (Some(facet), Some(c)) = (facets[f], round.centroid) else {
                             continue;
                         };
+                        let n = facet.normal;
                         let along = dot(n, sub(c, *x));
                         for k in 0..3 {
-                            shift[k] += area[f] * along * n[k];
+                            shift[k] += facet.area * along * n[k];
                         }
-                        weight += area[f];
+                        weight += facet.area;
                     }
                     if weight > 0.0 {
                         let mut step = shift.map(|c| c / weight);
                         let length = dot(step, step).sqrt();
-                        if length > reach[v] {
-                            step = step.map(|c| c * reach[v] / length);
+                        if length > reach {
+                            step = step.map(|c| c * reach / length);
                             shortened += 1;
                         }
                         let moved = [0, 1, 2].map(|k| x[k] + step[k]);

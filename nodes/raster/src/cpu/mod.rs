@@ -141,6 +141,8 @@ struct ForwardState<R: Real> {
 struct ForwardScratch<R: Real> {
     /// The faces that survive culling, in runs (see [`preprocess_faces`]).
     visible: Vec<Vec<ScreenFace<R>>>,
+    /// Per vertex, where it lies against the view (see [`preprocess_vertices`]).
+    sides: Vec<u8>,
     counts: Vec<usize>,
     used: Vec<bool>,
 }
@@ -447,8 +449,16 @@ fn bin_faces<R: Real>(
 ) -> PixelRect {
     let cam = CameraParams::<R>::new(camera);
     let (st, fw) = (&mut ws.state, &mut ws.forward);
-    preprocess_vertices(model, &cam, threads, &mut st.verts);
-    preprocess_faces(model, &st.verts, &cam, settings, threads, &mut fw.visible);
+    preprocess_vertices(model, &cam, settings, threads, &mut st.verts, &mut fw.sides);
+    preprocess_faces(
+        model,
+        &st.verts,
+        &fw.sides,
+        &cam,
+        settings,
+        threads,
+        &mut fw.visible,
+    );
     let (w, h) = (camera.width, camera.height);
     let region = match settings.region {
         Region::Full => PixelRect::full(w, h),

@@ -12,7 +12,7 @@
 use super::binning::TileGrid;
 use crate::backend::{PixelRect, RenderSettings};
 use crate::model::Model;
-use crate::parallel::{chunk_size, for_chunks_mut};
+use crate::parallel::{chunk_size, for_chunks_mut, run_iter};
 use crate::real::Real;
 use crate::sh;
 use objectsplat_core::Camera;
@@ -84,8 +84,10 @@ pub type VertexData<R> = Vec<VertexRow<R>>;
 pub fn preprocess_vertices<R: Real>(
     model: &Model<R>,
     cam: &CameraParams<R>,
+    settings: &RenderSettings,
     threads: usize,
     rows: &mut VertexData<R>,
+    sides: &mut Vec<u8>,
 ) {
     let n = model.vertex_count();
     let zero = VertexRow {
@@ -99,12 +101,20 @@ pub fn preprocess_vertices<R: Real>(
     };
     rows.clear();
     rows.resize(n, zero);
-    for_chunks_mut(
+    sides.clear();
+    sides.resize(n, 0);
+    let chunk = chunk_size(n, threads, 4096);
+    // Each job owns the same vertex range of both arrays.
+    let jobs = rows.chunks_mut(chunk).zip(sides.chunks_mut(chunk));
+    let z_near = R::of(settings.z_near);
+    let (w, h) = (cam.width as f64, cam.height as f64);
+    run_iter(
         threads,
-        rows,
-        chunk_size(n, threads, 4096),
-        |start, chunk| {
-            for (i, row) in chunk.iter_mut().enumerate() {
+        jobs.enumerate(),
+        || (),
+        |_, (job, (rows, sides))| {
+            let start = job * chunk;
+            for (i, (row, side)) in rows.iter_mut().zip(sides).enumerate() {
                 let v = start + i;
                 let p = model.vertices[v];
                 let c = cam.to_camera(p);
@@ -125,9 +135,36 @@ pub fn preprocess_vertices<R: Real>(
                     distance,
                     opacity: model.vertex_opacity(v),
                 };
+                let (x, y) = (screen[0].f64(), screen[1].f64());
+                let bit = |set: bool, bit: u8| if set { bit } else { 0 };
+                *side = bit(!(c[2] > z_near), BEHIND)
+                    | bit(x < 0.5, LEFT)
+                    | bit(x > w - 0.5, RIGHT)
+                    | bit(y < 0.5, ABOVE)
+                    | bit(y > h - 0.5, BELOW);
             }
         },
     );
+}
+
+/// Where a vertex lies against the view ([`preprocess_vertices`]), as bits:
+/// at or behind the near plane, or beyond an edge of the image far enough
+/// that no pixel centre is on its side. A face with a corner behind, or
+/// whose three corners are beyond the same edge, fails [`preprocess_face`]'s
+/// near-plane or pixel-box test; `preprocess_faces` rejects it from three
+/// bytes instead of three vertex rows (most faces of a room are outside a
+/// view, and the rows are 56 bytes each).
+const BEHIND: u8 = 1;
+const LEFT: u8 = 2;
+const RIGHT: u8 = 4;
+const ABOVE: u8 = 8;
+const BELOW: u8 = 16;
+
+/// Whether the corners' [`BEHIND`]… bits alone reject a face.
+#[inline]
+fn outside(corners: [u8; 3]) -> bool {
+    (corners[0] | corners[1] | corners[2]) & BEHIND != 0
+        || corners[0] & corners[1] & corners[2] != 0
 }
 
 /// Everything the pixel loop needs about one visible face, in a local 2D
@@ -302,6 +339,7 @@ pub fn preprocess_face<R: Real>(
 pub fn preprocess_faces<R: Real>(
     model: &Model<R>,
     verts: &VertexData<R>,
+    sides: &[u8],
     cam: &CameraParams<R>,
     settings: &RenderSettings,
     threads: usize,
@@ -314,7 +352,13 @@ pub fn preprocess_faces<R: Real>(
         let out = &mut out[0];
         out.clear();
         let faces = index * run..((index + 1) * run).min(n);
-        out.extend(faces.filter_map(|f| preprocess_face(model, verts, cam, settings, f)));
+        out.extend(faces.filter_map(|f| {
+            let corners = model.faces[f].map(|v| sides[v as usize]);
+            if outside(corners) {
+                return None;
+            }
+            preprocess_face(model, verts, cam, settings, f)
+        }));
     });
 }
 
