@@ -62,7 +62,7 @@ node_ports! {
 impl Node for ExportGltf {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("export_gltf", "3")
-            .doc("Exports the scene as scene.glb (a node per member named obj_<id>_<label> or background, its origin on the member's centre and its placement — edits included — as the node's translation / rotation / scale, vertices in the object's frame, extras with id and label, linear vertex colours from each vertex's flat colour (its SH colour averaged over the directions its training views saw it from), the view-dependent SH coefficients as _SH_0 … _SH_15 attributes (sh_degree in the extras) for viewers that evaluate them, unlit material, Z-up → Y-up root) and ply/<member>.ply (capture frame, 8-bit sRGB). Faces too faint for the renderer to draw (opacity < 0.01) are left out.")
+            .doc("Exports the scene as scene.glb (a node per member named obj_<id>_<label> or background, its origin on the member's centre and its placement — edits included — as the node's translation / rotation / scale, vertices in the object's frame, extras with id and label, linear vertex colours from each vertex's flat colour (fitted to its training views as this export draws them), the view-dependent SH coefficients as _SH_0 … _SH_15 attributes (sh_degree in the extras) for viewers that evaluate them, unlit material, Z-up → Y-up root) and ply/<member>.ply (capture frame, 8-bit sRGB). Faces too faint for the renderer to draw (opacity < 0.01) are left out.")
             .ports::<ExportGltfPorts>()
     }
 

@@ -39,10 +39,10 @@ pub struct Model<R: Real = f32> {
     /// together ([`Model::union`]); not saved.
     pub face_sigma: Vec<f64>,
     /// Per vertex, the DC coefficients a flat-coloured copy draws with (a mesh
-    /// export, whose viewers show one colour per vertex): the SH colour averaged
-    /// over the directions the training views saw the vertex from, which the SH
-    /// DC term alone is not when those views cover part of the sphere. Empty:
-    /// the DC term. See [`Model::flat_dc`].
+    /// export, whose viewers show one colour per vertex): `train` bakes the SH
+    /// colour averaged over the directions the training views saw the vertex
+    /// from, then fits it to those views as the export draws them. Empty: the
+    /// DC term. See [`Model::flat_dc`].
     pub flat_dc: Vec<[R; 3]>,
     /// Free-form metadata carried through model.json.
     pub metadata: Map<String, Value>,

@@ -304,7 +304,7 @@ node_ports! {
 impl Node for Render {
     fn spec(&self) -> NodeSpec {
         NodeSpec::new("render", "4")
-            .doc("Renders the (composed or edited) scene: all members' triangles in one pass, the renderer's depth order deciding; as trained, or (appearance: exported) as the .glb holds it — visible faces only, opaque, hard-edged, each vertex in its flat colour (its SH colour averaged over its training views; the DC term for a model without one). Views: the frames' test/train/all cameras (PNG per frame, <frame stem>.png) or an orbit (orbit_000.png …) around the objects at the frames' mean height and distance. Where no triangle covers a pixel it shows the background fill of that frame (the `fills` input, else the scene's stored fills), else the `background` colour.")
+            .doc("Renders the (composed or edited) scene: all members' triangles in one pass, the renderer's depth order deciding; as trained, or (appearance: exported) as the .glb holds it — visible faces only, opaque, hard-edged, each vertex in its flat colour (fitted to its training views as the export draws them; the DC term for a model without one). Views: the frames' test/train/all cameras (PNG per frame, <frame stem>.png) or an orbit (orbit_000.png …) around the objects at the frames' mean height and distance. Where no triangle covers a pixel it shows the background fill of that frame (the `fills` input, else the scene's stored fills), else the `background` colour.")
             .ports::<RenderPorts>()
             .params::<RenderParams>()
     }
