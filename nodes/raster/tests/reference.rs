@@ -251,6 +251,20 @@ fn brute_force(
     out
 }
 
+/// Every pixel's colour within 1e-9 of the brute force's.
+fn assert_colours_match(seed: u64, out: &RenderOutput<f64>, want: &[([f64; 3], f64, f64, f64)]) {
+    for (i, (c, _, _, _)) in want.iter().enumerate() {
+        for ch in 0..3 {
+            assert!(
+                (out.color[i * 3 + ch] - c[ch]).abs() < 1e-9,
+                "seed {seed} pixel {i} ch {ch}: {} vs {}",
+                out.color[i * 3 + ch],
+                c[ch]
+            );
+        }
+    }
+}
+
 /// A pile of random overlapping triangles in front of a rotated camera.
 fn random_scene(seed: u64, count: usize) -> (Model<f64>, Camera, Vec<f64>) {
     random_scene_in(seed, count, [0.9, 0.8, 0.6])
@@ -279,15 +293,8 @@ fn compositing_matches_a_brute_force_per_pixel_depth_sort() {
         let want = brute_force(&model, &camera, &s, &bg);
         let drawn = out.face_pixel_count.iter().filter(|&&c| c > 0).count();
         assert!(drawn >= 15, "seed {seed}: most faces drawn ({drawn})");
-        for (i, (c, _, d, m)) in want.iter().enumerate() {
-            for ch in 0..3 {
-                assert!(
-                    (out.color[i * 3 + ch] - c[ch]).abs() < 1e-9,
-                    "seed {seed} pixel {i} ch {ch}: {} vs {}",
-                    out.color[i * 3 + ch],
-                    c[ch]
-                );
-            }
+        assert_colours_match(seed, &out, &want);
+        for (i, (_, _, d, m)) in want.iter().enumerate() {
             assert!(
                 (out.depth[i] - d).abs() < 1e-9,
                 "seed {seed} pixel {i} depth {} vs {d}",
@@ -363,15 +370,8 @@ fn faces_across_the_image_edges_and_the_near_plane_render_as_the_brute_force() {
             "seed {seed}: some faces drawn, most outside the view ({drawn} of {})",
             model.face_count()
         );
-        for (i, (c, t, _, _)) in want.iter().enumerate() {
-            for ch in 0..3 {
-                assert!(
-                    (out.color[i * 3 + ch] - c[ch]).abs() < 1e-9,
-                    "seed {seed} pixel {i} ch {ch}: {} vs {}",
-                    out.color[i * 3 + ch],
-                    c[ch]
-                );
-            }
+        assert_colours_match(seed, &out, &want);
+        for (i, (_, t, _, _)) in want.iter().enumerate() {
             assert!(
                 (out.alpha[i] - (1.0 - t)).abs() < 1e-12,
                 "seed {seed} pixel {i} alpha"
