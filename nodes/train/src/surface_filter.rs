@@ -63,16 +63,23 @@ struct Facet {
     area: f64,
 }
 
-/// The unit normal and area of a non-degenerate face.
-fn facet(vertices: &[V3], face: [u32; 3]) -> Option<Facet> {
-    let [a, b, c] = face.map(|v| vertices[v as usize]);
-    let m = triangle_cross(&[a, b, c]);
+/// A face's cross product and its length (twice its area); `None` for a
+/// degenerate face.
+fn proper_cross(corners: [V3; 3]) -> Option<(V3, f64)> {
+    let [a, b, c] = corners;
+    let m = triangle_cross(&corners);
     let twice_area = dot(m, m).sqrt();
     // Relative to the face's size: a sliver whose normal is rounding noise has none.
     let scale = dot(sub(b, a), sub(b, a)).max(dot(sub(c, a), sub(c, a)));
     if !(twice_area > 1e-9 * scale) || !twice_area.is_finite() {
         return None;
     }
+    Some((m, twice_area))
+}
+
+/// The unit normal and area of a non-degenerate face.
+fn facet(vertices: &[V3], face: [u32; 3]) -> Option<Facet> {
+    let (m, twice_area) = proper_cross(face.map(|v| vertices[v as usize]))?;
     Some(Facet {
         normal: m.map(|x| x / twice_area),
         area: 0.5 * twice_area,
@@ -91,7 +98,7 @@ fn round_face(vertices: &[V3], face: [u32; 3]) -> RoundFace {
     let corners = face.map(|v| vertices[v as usize]);
     let [a, b, c] = corners;
     RoundFace {
-        centroid: facet(vertices, face).map(|_| [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0)),
+        centroid: proper_cross(corners).map(|_| [0, 1, 2].map(|k| (a[k] + b[k] + c[k]) / 3.0)),
         half_edges: [0, 1, 2].map(|k| {
             let e = sub(corners[k], corners[(k + 1) % 3]);
             0.5 * dot(e, e).sqrt()
