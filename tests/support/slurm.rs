@@ -11,18 +11,28 @@ use std::time::{Duration, Instant};
 
 /// Whether the local cluster answers. Under `CI=true` a missing cluster fails the test
 /// (CI starts it); elsewhere the test says loudly that it skipped and returns early.
+///
+/// A node still `completing` (cleaning up after the jobs another test cancelled) is up:
+/// jobs queue behind the cleanup. Any other state is sampled again for up to 30 s before
+/// the cluster counts as missing, since one `sinfo` can catch the node mid-transition.
 pub fn cluster_up(test: &str) -> bool {
-    let sinfo = Command::new("sinfo").args(["-h", "-o", "%T"]).output();
-    let state = match &sinfo {
-        Ok(o) if o.status.success() => String::from_utf8_lossy(&o.stdout).to_string(),
-        Ok(o) => String::from_utf8_lossy(&o.stderr).to_string(),
-        Err(e) => e.to_string(),
+    let t0 = Instant::now();
+    let state = loop {
+        let state = sinfo_state();
+        let up = state.as_ref().is_ok_and(|s| {
+            ["idle", "mixed", "alloc", "completing"]
+                .iter()
+                .any(|x| s.contains(x))
+        });
+        if up {
+            return true;
+        }
+        // A cluster that is not installed or not started does not come up by waiting.
+        if state.is_err() || t0.elapsed() > Duration::from_secs(30) {
+            break state.unwrap_or_else(|e| e);
+        }
+        std::thread::sleep(Duration::from_millis(500));
     };
-    let up = sinfo.as_ref().is_ok_and(|o| o.status.success())
-        && ["idle", "mixed", "alloc"].iter().any(|s| state.contains(s));
-    if up {
-        return true;
-    }
     let why = format!(
         "no Slurm cluster answers (sinfo: {}); start one with `sudo scripts/slurm-local-cluster.sh up`",
         state.trim()
@@ -32,6 +42,15 @@ pub fn cluster_up(test: &str) -> bool {
     }
     eprintln!("\n!!!!! SKIPPED {test}: {why} !!!!!\n");
     false
+}
+
+/// The node states `sinfo` lists, or why it could not answer.
+fn sinfo_state() -> Result<String, String> {
+    match Command::new("sinfo").args(["-h", "-o", "%T"]).output() {
+        Ok(o) if o.status.success() => Ok(String::from_utf8_lossy(&o.stdout).to_string()),
+        Ok(o) => Err(String::from_utf8_lossy(&o.stderr).to_string()),
+        Err(e) => Err(e.to_string()),
+    }
 }
 
 /// A fresh folder for one test, with the fault-injection plugin in it.
