@@ -106,26 +106,58 @@ fn round_face(vertices: &[V3], face: [u32; 3]) -> RoundFace {
     }
 }
 
-/// For each vertex, the faces that use it (compressed rows: `faces_of[start[v]..start[v + 1]]`).
-fn vertex_faces(vertex_count: usize, faces: &[[u32; 3]]) -> (Vec<usize>, Vec<u32>) {
-    let mut start = vec![0usize; vertex_count + 1];
-    for face in faces {
-        for &v in face {
-            start[v as usize + 1] += 1;
+/// For each vertex, the faces that use it, in compressed rows
+/// (`faces_of[start[v]..start[v + 1]]`), built in buffers kept between passes.
+#[derive(Debug, Default)]
+struct VertexFaces {
+    start: Vec<usize>,
+    cursor: Vec<usize>,
+    faces_of: Vec<u32>,
+}
+
+impl VertexFaces {
+    fn rebuild(&mut self, vertex_count: usize, faces: &[[u32; 3]]) {
+        let start = &mut self.start;
+        start.clear();
+        start.resize(vertex_count + 1, 0);
+        for face in faces {
+            for &v in face {
+                start[v as usize + 1] += 1;
+            }
+        }
+        for v in 0..vertex_count {
+            start[v + 1] += start[v];
+        }
+        self.cursor.clear();
+        self.cursor.extend_from_slice(start);
+        self.faces_of.clear();
+        self.faces_of.resize(start[vertex_count], 0);
+        for (f, face) in faces.iter().enumerate() {
+            for &v in face {
+                let slot = &mut self.cursor[v as usize];
+                self.faces_of[*slot] = f as u32;
+                *slot += 1;
+            }
         }
     }
-    for v in 0..vertex_count {
-        start[v + 1] += start[v];
+
+    fn at(&self, v: usize) -> &[u32] {
+        &self.faces_of[self.start[v]..self.start[v + 1]]
     }
-    let mut fill = start.clone();
-    let mut faces_of = vec![0u32; start[vertex_count]];
-    for (f, face) in faces.iter().enumerate() {
-        for &v in face {
-            faces_of[fill[v as usize]] = f as u32;
-            fill[v as usize] += 1;
-        }
-    }
-    (start, faces_of)
+}
+
+/// The working arrays of [`SurfaceFilter::apply`], kept by the caller between
+/// passes: on a background of a million faces they are ~150 MB, and
+/// allocating them anew every pass cost more in page faults and zeroing than
+/// some of the rounds that fill them. Their contents never carry over from
+/// one pass to the next (every pass rewrites what it reads).
+#[derive(Debug, Default)]
+pub struct SurfaceScratch {
+    points: Vec<V3>,
+    vertex_faces: VertexFaces,
+    facets: Vec<Option<Facet>>,
+    filtered: Vec<Option<Facet>>,
+    round_faces: Vec<RoundFace>,
 }
 
 /// `out[i] = value(i)` for every `i`, spread over `threads` (each value
@@ -142,31 +174,42 @@ fn fill<T: Send>(threads: usize, out: &mut [T], value: impl Fn(usize) -> T + Syn
 impl SurfaceFilter {
     /// Filters the normals of `faces` and moves `vertices` to fit them (see
     /// the module docs), on up to `threads` threads (the result does not
-    /// depend on how many). Vertices of no non-degenerate face stay where
-    /// they are; a move that is not finite is not made. Face indices must be
-    /// in range (a validated model's are).
+    /// depend on how many, nor on what `scratch` held before). Vertices of no
+    /// non-degenerate face stay where they are; a move that is not finite is
+    /// not made. Face indices must be in range (a validated model's are).
     pub fn apply(
         &self,
         vertices: &mut [[f32; 3]],
         faces: &[[u32; 3]],
         threads: usize,
+        scratch: &mut SurfaceScratch,
     ) -> FilterReport {
-        let mut points: Vec<V3> = vec![[0.0; 3]; vertices.len()];
-        fill(threads, &mut points, |v| to64(vertices[v]));
-        let (start, faces_of) = vertex_faces(points.len(), faces);
-        let faces_at = |v: usize| &faces_of[start[v]..start[v + 1]];
-        let mut facets: Vec<Option<Facet>> = vec![None; faces.len()];
-        fill(threads, &mut facets, |f| facet(&points, faces[f]));
-        let mut filtered = facets.clone();
+        let SurfaceScratch {
+            points,
+            vertex_faces,
+            facets,
+            filtered,
+            round_faces,
+        } = scratch;
+        // Every element of each array is written by `fill` before it is read,
+        // so resizing (which keeps a previous pass's values) is enough.
+        points.resize(vertices.len(), [0.0; 3]);
+        fill(threads, points, |v| to64(vertices[v]));
+        vertex_faces.rebuild(points.len(), faces);
+        let faces_at = |v: usize| vertex_faces.at(v);
+        facets.resize(faces.len(), None);
+        fill(threads, facets, |f| facet(points, faces[f]));
+        filtered.resize(faces.len(), None);
         for _ in 0..self.normal_rounds {
-            fill(threads, &mut filtered, |f| {
-                let own = facets[f]?;
+            let facets_now: &[Option<Facet>] = facets;
+            fill(threads, filtered, |f| {
+                let own = facets_now[f]?;
                 let mut sum = [0.0; 3];
                 // A neighbour sharing an edge is reached through two
                 // vertices and counts twice: it is the closer one.
                 for &v in &faces[f] {
                     for &g in faces_at(v as usize) {
-                        let Some(neighbour) = facets[g as usize] else {
+                        let Some(neighbour) = facets_now[g as usize] else {
                             continue;
                         };
                         let n = neighbour.normal;
@@ -193,16 +236,16 @@ impl SurfaceFilter {
                     area: own.area,
                 })
             });
-            std::mem::swap(&mut facets, &mut filtered);
+            std::mem::swap(facets, filtered);
         }
-        let original = points.clone();
         let limited = AtomicUsize::new(0);
-        let mut round_faces = vec![RoundFace::default(); faces.len()];
+        round_faces.resize(faces.len(), RoundFace::default());
         for _ in 0..self.vertex_rounds {
-            fill(threads, &mut round_faces, |f| round_face(&points, faces[f]));
+            fill(threads, round_faces, |f| round_face(points, faces[f]));
+            let (facets, round_faces): (&[Option<Facet>], &[RoundFace]) = (facets, round_faces);
             // Each vertex reads only its own position and the round's faces.
             let chunk = chunk_size(points.len(), threads, 4096);
-            for_chunks_mut(threads, &mut points, chunk, |first, part| {
+            for_chunks_mut(threads, points, chunk, |first, part| {
                 let mut shortened = 0;
                 for (i, x) in part.iter_mut().enumerate() {
                     let v = first + i;
@@ -252,7 +295,8 @@ impl SurfaceFilter {
             ..FilterReport::default()
         };
         for (v, p) in points.iter().enumerate() {
-            let d = sub(*p, original[v]);
+            // The pass started from the model's own positions (`to64` is exact).
+            let d = sub(*p, to64(vertices[v]));
             let distance = dot(d, d).sqrt();
             if distance > 0.0 {
                 let narrowed = p.map(|c| c as f32);

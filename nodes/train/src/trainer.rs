@@ -35,7 +35,7 @@ use crate::schedule::Schedule;
 use crate::screen::{pixel_footprint, screen_sizes};
 use crate::spatial_order::spatial_order;
 use crate::steps::{StepInput, StepLoss, StepRunner, Subject, TrainingState};
-use crate::surface_filter::SurfaceFilter;
+use crate::surface_filter::{SurfaceFilter, SurfaceScratch};
 use anyhow::{Context, Result, bail};
 use objectsplat_core::{ComponentKind, Points, Split};
 use objectsplat_core::{EvalRecord, StepRecord, TrainingLog, TrainingTimes};
@@ -640,6 +640,7 @@ pub fn train_component_with_hook(
         normal_rounds: s.surface_normal_rounds as usize,
         vertex_rounds: s.surface_vertex_rounds as usize,
     };
+    let mut surface_scratch = SurfaceScratch::default();
     let (mut surface_passes, mut surface_largest_move, mut surface_limited) = (0u64, 0.0f64, 0);
     let mut last_save = Instant::now();
     let mut threads = settings.threads;
@@ -706,7 +707,12 @@ pub fn train_component_with_hook(
             }
         }
         if surface {
-            let moved = surface_filter.apply(&mut model.vertices, &model.faces, threads);
+            let moved = surface_filter.apply(
+                &mut model.vertices,
+                &model.faces,
+                threads,
+                &mut surface_scratch,
+            );
             surface_passes += 1;
             surface_largest_move = surface_largest_move.max(moved.largest_move);
             surface_limited += moved.limited;

@@ -7,7 +7,7 @@
 mod common;
 
 use common::normal_consistency as consistency;
-use objectsplat_train::surface_filter::SurfaceFilter;
+use objectsplat_train::surface_filter::{SurfaceFilter, SurfaceScratch};
 use rand::{Rng, SeedableRng};
 use rand_pcg::Pcg64Mcg;
 
@@ -69,7 +69,7 @@ fn an_exact_plane_and_an_exact_crease_do_not_move() {
     // A tilted plane.
     let (mut vertices, faces) = grid(12, |u, v| [0.01 * u, 0.01 * v, 0.3 + 0.004 * u - 0.002 * v]);
     let before = vertices.clone();
-    let report = FILTER.apply(&mut vertices, &faces, 1);
+    let report = FILTER.apply(&mut vertices, &faces, 1, &mut SurfaceScratch::default());
     let moved = largest_move(&before, &vertices);
     assert!(moved <= 1e-7, "a plane moved by {moved} ({report:?})");
     // A floor meeting a wall at 90° along u = 6.
@@ -81,7 +81,7 @@ fn an_exact_plane_and_an_exact_crease_do_not_move() {
         }
     });
     let before = vertices.clone();
-    FILTER.apply(&mut vertices, &faces, 1);
+    FILTER.apply(&mut vertices, &faces, 1, &mut SurfaceScratch::default());
     let moved = largest_move(&before, &vertices);
     assert!(moved <= 1e-7, "the crease moved by {moved}");
 }
@@ -92,8 +92,10 @@ fn a_shingled_plane_turns_flat_in_place() {
     let up = |_| [0.0, 0.0, 1.0];
     let before = consistency(&vertices, &faces, up);
     let xy: Vec<[f32; 2]> = vertices.iter().map(|p| [p[0], p[1]]).collect();
+    // One scratch for every pass, as the trainer keeps it.
+    let mut scratch = SurfaceScratch::default();
     for _ in 0..20 {
-        FILTER.apply(&mut vertices, &faces, 1);
+        FILTER.apply(&mut vertices, &faces, 1, &mut scratch);
     }
     let after = consistency(&vertices, &faces, up);
     eprintln!("plane: normal consistency {before:.4} -> {after:.4}");
@@ -196,8 +198,10 @@ fn a_noisy_sphere_keeps_its_radius() {
         consistency(&vertices, &faces, radial),
         mean_radius(&vertices),
     );
+    // One scratch for every pass, as the trainer keeps it.
+    let mut scratch = SurfaceScratch::default();
     for _ in 0..20 {
-        FILTER.apply(&mut vertices, &faces, 1);
+        FILTER.apply(&mut vertices, &faces, 1, &mut scratch);
     }
     let (after, r1) = (
         consistency(&vertices, &faces, radial),
@@ -232,7 +236,7 @@ fn degenerate_and_non_finite_input_does_not_spread() {
     // A vertex at NaN and one at infinity, each in a face beside the grid.
     vertices.extend([[f32::NAN, 0.0, 0.0], [f32::INFINITY, 0.0, 0.0]]);
     faces.extend([[0, 1, n + 4], [1, 2, n + 5]]);
-    FILTER.apply(&mut vertices, &faces, 1);
+    FILTER.apply(&mut vertices, &faces, 1, &mut SurfaceScratch::default());
     for (v, p) in vertices.iter().enumerate().take(n as usize + 4) {
         assert!(p.iter().all(|c| c.is_finite()), "vertex {v} became {p:?}");
     }
@@ -245,10 +249,40 @@ fn several_threads_move_the_vertices_exactly_as_one() {
     let (mut one, faces) = shingled_plane(100, 9);
     let mut three = one.clone();
     let (a, b) = (
-        FILTER.apply(&mut one, &faces, 1),
-        FILTER.apply(&mut three, &faces, 3),
+        FILTER.apply(&mut one, &faces, 1, &mut SurfaceScratch::default()),
+        FILTER.apply(&mut three, &faces, 3, &mut SurfaceScratch::default()),
     );
     assert!(a.moved > 10_000 - 1000, "{a:?}");
     assert_eq!(a, b);
     assert!(one == three, "the vertices differ between 1 and 3 threads");
+}
+
+#[test]
+fn a_scratch_left_by_another_mesh_filters_exactly_as_a_fresh_one() {
+    // A larger mesh first leaves longer arrays (and other values) behind:
+    // the next pass must read none of them.
+    let mut scratch = SurfaceScratch::default();
+    let (mut large, large_faces) = shingled_plane(40, 3);
+    FILTER.apply(&mut large, &large_faces, 2, &mut scratch);
+    let (mut reused, faces) = shingled_plane(12, 5);
+    let mut fresh = reused.clone();
+    let (a, b) = (
+        FILTER.apply(&mut reused, &faces, 2, &mut scratch),
+        FILTER.apply(&mut fresh, &faces, 2, &mut SurfaceScratch::default()),
+    );
+    assert!(a.moved > 100, "{a:?}");
+    assert_eq!(a, b);
+    assert!(
+        reused == fresh,
+        "a reused scratch moved the vertices differently"
+    );
+    // And a smaller mesh before a larger one (arrays grow).
+    let (mut grown, faces) = shingled_plane(60, 7);
+    let mut fresh = grown.clone();
+    FILTER.apply(&mut grown, &faces, 2, &mut scratch);
+    FILTER.apply(&mut fresh, &faces, 2, &mut SurfaceScratch::default());
+    assert!(
+        grown == fresh,
+        "a grown scratch moved the vertices differently"
+    );
 }
