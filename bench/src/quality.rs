@@ -144,6 +144,12 @@ const VARIANTS: &[Variant] = &[
         params: r#"schedule: {"depth_smoothness_weight": 30}"#,
     },
     Variant {
+        name: "object_normal_agreement",
+        what: "faces of the objects that share an edge agree on their normal (weight 0.003; default off)",
+        layout: Layout::BehindObjects,
+        params: r#"schedule: {"object_normal_agreement_weight": 0.003}"#,
+    },
+    Variant {
         name: "reference_lr",
         what: "the reference's vertex learning rates (1.5e-3 → 1.5e-5)",
         layout: Layout::BehindObjects,

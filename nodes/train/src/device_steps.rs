@@ -613,6 +613,7 @@ mod tests {
                 render: RenderSettings::for_model(model),
                 point_depth_weight: points,
                 smoothness_weight: planar,
+                normal_agreement_weight: 0.0,
             })
             .collect()
     }

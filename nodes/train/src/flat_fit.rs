@@ -104,6 +104,7 @@ impl FlatFit {
                     render: render.clone(),
                     point_depth_weight: 0.0,
                     smoothness_weight: 0.0,
+                    normal_agreement_weight: 0.0,
                 };
                 runner.step(&mut state, step, &input)?;
             }

@@ -14,6 +14,7 @@ use crate::composite::Composite;
 use crate::depth_smoothness::{self, DepthImage};
 use crate::face_stats::FaceWeights;
 use crate::neighbours::{NeighbourLayer, render_layer};
+use crate::normal_agreement;
 use crate::point_depth::PointDepth;
 use crate::steps::{HeldOut, StepInput, StepLoss, StepRunner, Subject, TrainingState};
 use crate::supervision::{ComponentData, ViewSummary, fill_region};
@@ -120,18 +121,18 @@ impl<'a> Backend<'a> {
         &mut self,
         model: &Model<f32>,
         grads: &OutputGrads<'_, f32>,
-    ) -> Result<&ModelGrads<f32>> {
+    ) -> Result<&mut ModelGrads<f32>> {
         match self {
             Backend::Cpu { backend, ws } => {
                 backend.backward_into(ws, model, grads)?;
-                Ok(&ws.grads)
+                Ok(&mut ws.grads)
             }
             Backend::Other(r) => {
                 let Some(s) = r.saved.as_ref() else {
                     bail!("backward pass before a forward pass");
                 };
                 r.grads = r.backend.backward(model, s, grads)?;
-                Ok(&r.grads)
+                Ok(&mut r.grads)
             }
         }
     }
@@ -223,7 +224,7 @@ impl<'a> Renderer<'a> {
         &mut self,
         model: &Model<f32>,
         grads: &OutputGrads<'_, f32>,
-    ) -> Result<&ModelGrads<f32>> {
+    ) -> Result<&mut ModelGrads<f32>> {
         let s = self.supersample;
         if s == 1 {
             return self.backend.backward(model, grads);
@@ -516,6 +517,14 @@ impl<'a> HostSteps<'a> {
             self.renderer
                 .backward(rendered, &OutputGrads::color_only(&self.loss.grad))?
         };
+        if input.normal_agreement_weight > 0.0 {
+            normal_agreement::add_gradient(
+                &model.vertices,
+                &model.faces,
+                input.normal_agreement_weight,
+                &mut grads.vertices,
+            );
+        }
         optim.step(model, grads, threads)?;
         Ok(loss)
     }

@@ -33,6 +33,7 @@ mod host_steps;
 pub mod hull;
 pub mod init;
 pub mod neighbours;
+pub mod normal_agreement;
 pub mod point_depth;
 pub mod schedule;
 mod screen;

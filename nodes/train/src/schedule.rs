@@ -154,6 +154,12 @@ pub struct Schedule {
     /// coverage, −2.7 dB at 1000 iterations on the dense bench), and never
     /// while the cleanup after the connectivity step is pending.
     pub depth_smoothness_start: u64,
+    /// Weight of the prior that faces sharing an edge agree on their normal
+    /// (see `crate::normal_agreement`), for a background component, from the
+    /// connectivity step on; 0 turns it off.
+    pub normal_agreement_weight: f64,
+    /// The same for object components.
+    pub object_normal_agreement_weight: f64,
 
     /// A run that returns a model from before the end of its budget (an early
     /// stop, or a best checkpoint before the last iteration) first finishes it:
@@ -290,6 +296,8 @@ impl Schedule {
             depth_smoothness_weight: 3.0,
             object_depth_smoothness_weight: 0.0,
             depth_smoothness_start: at(11_000) + 1,
+            normal_agreement_weight: 0.0,
+            object_normal_agreement_weight: 0.0,
             finish_iterations: every(3000),
             supersample: 2,
             object_supersample: 2,
@@ -352,6 +360,11 @@ impl Schedule {
             (
                 "object_depth_smoothness_weight",
                 self.object_depth_smoothness_weight,
+            ),
+            ("normal_agreement_weight", self.normal_agreement_weight),
+            (
+                "object_normal_agreement_weight",
+                self.object_normal_agreement_weight,
             ),
             ("densify_min_inradius", self.densify_min_inradius),
             (
@@ -474,6 +487,14 @@ impl Schedule {
         match kind {
             ComponentKind::Background => self.depth_smoothness_weight,
             ComponentKind::Object => self.object_depth_smoothness_weight,
+        }
+    }
+
+    /// The normal-agreement prior's weight for a component of `kind`.
+    pub fn normal_agreement_weight_for(&self, kind: ComponentKind) -> f64 {
+        match kind {
+            ComponentKind::Background => self.normal_agreement_weight,
+            ComponentKind::Object => self.object_normal_agreement_weight,
         }
     }
 

@@ -48,6 +48,8 @@ pub(crate) struct StepInput {
     pub point_depth_weight: f64,
     /// Weight of the planar prior this step (0: off).
     pub smoothness_weight: f64,
+    /// Weight of the normal-agreement prior this step (0: off).
+    pub normal_agreement_weight: f64,
 }
 
 /// A model's quality on some views of a component.

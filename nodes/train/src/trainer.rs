@@ -493,6 +493,7 @@ pub fn train_component_with_hook(
     let depth_weight = s.point_depth_weight_for(data.kind);
     let depth_supervised = depth_weight > 0.0 && !data.depth_points.is_empty();
     let smoothness_weight = s.depth_smoothness_weight_for(data.kind);
+    let normal_agreement_weight = s.normal_agreement_weight_for(data.kind);
     let mut notes = vec![format!(
         "vertex learning rate {:.2e} → {:.2e} ({:.1} mm per pixel at the initial surface)",
         s.lr_vertices_start,
@@ -508,6 +509,11 @@ pub fn train_component_with_hook(
     if smoothness_weight > 0.0 {
         notes.push(format!(
             "planarity prior on the rendered depth, weight {smoothness_weight}"
+        ));
+    }
+    if normal_agreement_weight > 0.0 {
+        notes.push(format!(
+            "normal agreement of faces sharing an edge, weight {normal_agreement_weight}"
         ));
     }
     if (s.connectivity_at + 1..=s.surface_until).any(|it| s.surface_at(data.kind, it)) {
@@ -530,6 +536,13 @@ pub fn train_component_with_hook(
         .and_then(|b| b.downcast_ref::<WgpuBackend>())
     {
         Some(gpu) => {
+            if normal_agreement_weight > 0.0 {
+                bail!(
+                    "the normal-agreement prior (normal_agreement_weight, \
+                     object_normal_agreement_weight) runs on the host only: set it to 0 or \
+                     train with the cpu backend"
+                );
+            }
             let mut scored = held_out.clone();
             scored.extend(report_views.iter().filter(|v| !held_out.contains(v)));
             Box::new(DeviceSteps::new(
@@ -841,6 +854,12 @@ pub fn train_component_with_hook(
                 && !(cleanup_pending && s.connectivity_cleanup_threshold > 0.0)
             {
                 smoothness_weight
+            } else {
+                0.0
+            },
+            // Before the connectivity step the faces share no edges.
+            normal_agreement_weight: if at >= s.connectivity_at {
+                normal_agreement_weight
             } else {
                 0.0
             },
