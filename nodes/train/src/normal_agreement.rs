@@ -23,14 +23,11 @@
 //!   shingles are pairs bent past 90°, which that form must unfold through
 //!   its steepest cost, while this one lays them on each other.
 //!
-//! Gradients go to the vertex positions only; a face whose area is numerically
-//! zero has no normal and takes no part.
+//! Gradients go to the vertex positions only; a face without a proper normal
+//! (the surface filter's test: twice its area at most 1e-9 of its longer
+//! edge from the first corner, squared) takes no part.
 
-use crate::vec3::{V3, cross, dot, sub};
-
-/// A face whose doubled area is below this fraction of its longest edge
-/// squared has no reliable normal.
-const MIN_RELATIVE_AREA: f64 = 1e-9;
+use crate::vec3::{V3, cross, dot, proper_cross, sub};
 
 fn scale(a: V3, s: f64) -> V3 {
     a.map(|x| x * s)
@@ -50,17 +47,7 @@ pub fn add_gradient(
     // Unit normal and the length of the cross product, per face with a normal.
     let normals: Vec<Option<(V3, f64)>> = faces
         .iter()
-        .map(|f| {
-            let [a, b, c] = corners(f);
-            let m = cross(sub(b, a), sub(c, a));
-            let len = dot(m, m).sqrt();
-            let longest = [sub(b, a), sub(c, b), sub(a, c)]
-                .iter()
-                .map(|e| dot(*e, *e))
-                .fold(0.0, f64::max);
-            (len.is_finite() && len > MIN_RELATIVE_AREA * longest)
-                .then(|| (scale(m, 1.0 / len), len))
-        })
+        .map(|f| proper_cross(corners(f)).map(|(m, len)| (scale(m, 1.0 / len), len)))
         .collect();
     let pairs = shared_edge_pairs(faces);
     let counted: Vec<(usize, usize)> = pairs

@@ -23,8 +23,7 @@
 //! two overlapping shingles are flattened into one plane rather than kept as
 //! a fold.
 
-use crate::vec3::{V3, dot, sub};
-use objectsplat_core::geometry::triangle_cross;
+use crate::vec3::{V3, dot, proper_cross, sub};
 use objectsplat_raster::parallel::{chunk_size, for_chunks_mut};
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -61,20 +60,6 @@ fn to64(p: [f32; 3]) -> V3 {
 struct Facet {
     normal: V3,
     area: f64,
-}
-
-/// A face's cross product and its length (twice its area); `None` for a
-/// degenerate face.
-fn proper_cross(corners: [V3; 3]) -> Option<(V3, f64)> {
-    let [a, b, c] = corners;
-    let m = triangle_cross(&corners);
-    let twice_area = dot(m, m).sqrt();
-    // Relative to the face's size: a sliver whose normal is rounding noise has none.
-    let scale = dot(sub(b, a), sub(b, a)).max(dot(sub(c, a), sub(c, a)));
-    if !(twice_area > 1e-9 * scale) || !twice_area.is_finite() {
-        return None;
-    }
-    Some((m, twice_area))
 }
 
 /// The unit normal and area of a non-degenerate face.
