@@ -150,6 +150,12 @@ const VARIANTS: &[Variant] = &[
         params: r#"schedule: {"object_normal_agreement_weight": 0.003}"#,
     },
     Variant {
+        name: "free_space_own_points",
+        what: "the free-space rule counts the component's own points only, not the other components' on their pixels",
+        layout: Layout::BehindObjects,
+        params: r#"schedule: {"free_space_other_components": 0}"#,
+    },
+    Variant {
         name: "reference_lr",
         what: "the reference's vertex learning rates (1.5e-3 → 1.5e-5)",
         layout: Layout::BehindObjects,

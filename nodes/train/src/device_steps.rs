@@ -572,6 +572,7 @@ mod tests {
             views,
             occluders,
             depth_points,
+            other_points: Vec::new(),
         };
         (model, data)
     }

@@ -17,6 +17,15 @@
 //! lie on every surface, so this changes little there; structure from motion's lie
 //! where features matched, none on a plain wall, and without it the rule removed
 //! whole walls around outliers (docs/benchmarks.md, "Structure from motion").
+//!
+//! The other components' points count too, on the pixels those components own
+//! (`ComponentData::other_points`): where a view's mask shows the chair and the
+//! chair's point lies 2 m away, nothing of the background is nearer than that
+//! along the ray. Those need no face of the model on them — the mask is the
+//! witness that a surface is there, and the model is not meant to have it. They
+//! catch the background faces that hang in front of an object where every view
+//! that sees them sees them against that object (docs/benchmarks.md, "Free space
+//! in front of the other components").
 
 use crate::screen::projected_faces;
 use objectsplat_core::Camera;
@@ -43,22 +52,33 @@ impl Sightings {
     }
 }
 
-/// One worker's share of [`sightings`]: `on` counts per face, and the
-/// (view, pixel) lists that decide `through` once every view is done.
+/// What one training view saw: (pixel index in the frame, camera depth) of the
+/// component's own points on its own pixels and of the other components' points
+/// on theirs, each sorted by pixel.
+#[derive(Debug, Clone, Copy)]
+pub struct Seen<'a> {
+    pub camera: &'a Camera,
+    pub own: &'a [(u32, f32)],
+    pub others: &'a [(u32, f32)],
+}
+
+/// One worker's share of [`sightings`]: `on` counts per face, the faces seen
+/// through to the other components' points (`witnessed`), and the (view, pixel)
+/// lists that decide the rest of `through` once every view is done.
 struct Partial {
     on: Vec<u32>,
+    witnessed: Vec<u32>,
     backed: Vec<(u32, u32)>,
     through: Vec<(u32, u32, u32)>,
     scratch: Vec<Option<crate::screen::Projected>>,
 }
 
-/// The sightings of every face of `model` over `views`: each a camera and its
-/// kept points (pixel index in the frame, camera depth), sorted by pixel. The
-/// views are shared among `threads` workers; counts and sorted lists make the
-/// result independent of which worker saw which view.
+/// The sightings of every face of `model` over `views`. The views are shared
+/// among `threads` workers; counts and sorted lists make the result independent
+/// of which worker saw which view.
 pub fn sightings(
     model: &Model<f32>,
-    views: &[(&Camera, &[(u32, f32)])],
+    views: &[Seen<'_>],
     world_scale: f64,
     threads: usize,
 ) -> Vec<Sightings> {
@@ -66,15 +86,19 @@ pub fn sightings(
     let mut partials = Vec::new();
     run_iter_pooled(
         threads,
-        views.iter().enumerate().filter(|(_, v)| !v.1.is_empty()),
+        views
+            .iter()
+            .enumerate()
+            .filter(|(_, v)| !(v.own.is_empty() && v.others.is_empty())),
         &mut partials,
         || Partial {
             on: vec![0; faces],
+            witnessed: vec![0; faces],
             backed: Vec::new(),
             through: Vec::new(),
             scratch: Vec::new(),
         },
-        |partial, (view, &(camera, points))| see(model, view, camera, points, world_scale, partial),
+        |partial, (view, seen)| see(model, view, seen, world_scale, partial),
     );
     let mut out = vec![Sightings::default(); faces];
     // (view, pixel) of every point some face lies on, and the candidate
@@ -82,8 +106,9 @@ pub fn sightings(
     let mut backed: Vec<(u32, u32)> = Vec::new();
     let mut through: Vec<(u32, u32, u32)> = Vec::new();
     for p in partials {
-        for (o, on) in out.iter_mut().zip(p.on) {
+        for ((o, on), witnessed) in out.iter_mut().zip(p.on).zip(p.witnessed) {
             o.on += on;
+            o.through += witnessed;
         }
         backed.extend(p.backed);
         through.extend(p.through);
@@ -99,17 +124,12 @@ pub fn sightings(
 }
 
 /// The sightings of one view into `partial`.
-fn see(
-    model: &Model<f32>,
-    view: usize,
-    camera: &Camera,
-    points: &[(u32, f32)],
-    world_scale: f64,
-    partial: &mut Partial,
-) {
+fn see(model: &Model<f32>, view: usize, seen: &Seen<'_>, world_scale: f64, partial: &mut Partial) {
+    let camera = seen.camera;
     let width = camera.width as usize;
     let Partial {
         on,
+        witnessed,
         backed,
         through,
         scratch,
@@ -134,8 +154,13 @@ fn see(
         for y in y0 as usize..=y1 as usize {
             let row_start = (y * width + x0 as usize) as u32;
             let row_end = (y * width + x1 as usize) as u32;
-            let first = points.partition_point(|&(p, _)| p < row_start);
-            for &(pixel, depth) in points[first..].iter().take_while(|&&(p, _)| p <= row_end) {
+            let own = in_pixels(seen.own, row_start, row_end)
+                .iter()
+                .map(|&p| (p, false));
+            let others = in_pixels(seen.others, row_start, row_end)
+                .iter()
+                .map(|&p| (p, true));
+            for ((pixel, depth), other_component) in own.chain(others) {
                 let (px, py) = ((pixel as usize % width) as f64 + 0.5, y as f64 + 0.5);
                 // Screen-space barycentrics; depth interpolates as 1/z.
                 let wa = ((b.0 - px) * (c.1 - py) - (c.0 - px) * (b.1 - py)) / area;
@@ -148,7 +173,11 @@ fn see(
                 let depth = depth as f64;
                 let margin = (ABSOLUTE_MARGIN * world_scale).max(RELATIVE_MARGIN * depth);
                 if face_depth < depth - margin {
-                    through.push((view as u32, pixel, f as u32));
+                    if other_component {
+                        witnessed[f] += 1;
+                    } else {
+                        through.push((view as u32, pixel, f as u32));
+                    }
                 } else if face_depth <= depth + margin {
                     on[f] += 1;
                     backed.push((view as u32, pixel));
@@ -156,6 +185,13 @@ fn see(
             }
         }
     }
+}
+
+/// The points of a pixel-sorted list whose pixel lies in `first..=last`.
+fn in_pixels(points: &[(u32, f32)], first: u32, last: u32) -> &[(u32, f32)] {
+    let start = points.partition_point(|&(p, _)| p < first);
+    let rest = &points[start..];
+    &rest[..rest.partition_point(|&(p, _)| p <= last)]
 }
 
 #[cfg(test)]
@@ -173,6 +209,23 @@ mod tests {
             DVec3::ZERO,
             DVec3::Y,
         )
+    }
+
+    /// Three points at depth 4 inside both faces' projections, sorted by pixel.
+    fn far_points() -> Vec<(u32, f32)> {
+        [(30u32, 30u32), (33, 31), (32, 32)]
+            .iter()
+            .map(|&(x, y)| (y * 64 + x, 4.0))
+            .collect()
+    }
+
+    /// A view of the component's own points only.
+    fn own<'a>(camera: &'a Camera, points: &'a [(u32, f32)]) -> Seen<'a> {
+        Seen {
+            camera,
+            own: points,
+            others: &[],
+        }
     }
 
     /// Two triangles facing the camera, each covering the image's centre: one at
@@ -196,17 +249,14 @@ mod tests {
         let cam = camera();
         let m = model();
         // Points on the far face (depth 4) at pixels inside both faces' projections.
-        let points: Vec<(u32, f32)> = [(30u32, 30u32), (32, 32), (33, 31)]
-            .iter()
-            .map(|&(x, y)| (y * 64 + x, 4.0))
-            .collect();
-        let s = sightings(&m, &[(&cam, &points)], 1.0, 1);
+        let points = far_points();
+        let s = sightings(&m, &[own(&cam, &points)], 1.0, 1);
         assert_eq!(s[0], Sightings { through: 0, on: 3 });
         assert_eq!(s[1], Sightings { through: 3, on: 0 });
         assert!(!s[0].floats(2) && s[1].floats(2) && !s[1].floats(4));
         // Points at the near face's depth: both faces are fine (the far one is behind).
         let near: Vec<(u32, f32)> = points.iter().map(|&(p, _)| (p, 2.0)).collect();
-        let s = sightings(&m, &[(&cam, &near)], 1.0, 1);
+        let s = sightings(&m, &[own(&cam, &near)], 1.0, 1);
         assert_eq!(s[1], Sightings { through: 0, on: 3 });
         assert_eq!(s[0], Sightings { through: 0, on: 0 });
     }
@@ -217,7 +267,7 @@ mod tests {
         let m = model();
         // (2, 2) lies outside both faces; the centre point 4 cm behind the near face.
         let points = vec![(2 * 64 + 2, 4.0f32), (32 * 64 + 32, 2.04)];
-        let s = sightings(&m, &[(&cam, &points)], 1.0, 1);
+        let s = sightings(&m, &[own(&cam, &points)], 1.0, 1);
         assert_eq!(s[1], Sightings { through: 0, on: 1 });
         assert_eq!(s[0].through + s[0].on, 0);
     }
@@ -229,12 +279,35 @@ mod tests {
         // Without the far face, the far points lie on nothing the model has: an outlier,
         // or a surface still missing. The near face stays.
         m.faces = vec![[3, 4, 5]];
-        let points: Vec<(u32, f32)> = [(30u32, 30u32), (32, 32), (33, 31)]
-            .iter()
-            .map(|&(x, y)| (y * 64 + x, 4.0))
-            .collect();
-        let s = sightings(&m, &[(&cam, &points)], 1.0, 1);
+        let points = far_points();
+        let s = sightings(&m, &[own(&cam, &points)], 1.0, 1);
         assert_eq!(s[0], Sightings { through: 0, on: 0 });
+    }
+
+    #[test]
+    fn another_components_point_is_seen_through_without_a_face_on_it() {
+        let cam = camera();
+        let mut m = model();
+        // The model has only the near face; another component's points lie 4 m away
+        // on its own pixels (the far face's place): the mask witnesses that surface.
+        m.faces = vec![[3, 4, 5]];
+        let points = far_points();
+        let seen = Seen {
+            camera: &cam,
+            own: &[],
+            others: &points,
+        };
+        assert_eq!(
+            sightings(&m, &[seen], 1.0, 1)[0],
+            Sightings { through: 3, on: 0 }
+        );
+        // In front of the near face they prove nothing about it.
+        let near: Vec<(u32, f32)> = points.iter().map(|&(p, _)| (p, 1.5)).collect();
+        let seen = Seen {
+            others: &near,
+            ..seen
+        };
+        assert_eq!(sightings(&m, &[seen], 1.0, 1)[0], Sightings::default());
     }
 
     #[test]
@@ -275,10 +348,19 @@ mod tests {
                 p
             })
             .collect();
-        let views: Vec<(&Camera, &[(u32, f32)])> = cameras
+        // Every other pixel's point is another component's.
+        let (own_points, other_points): (Vec<Vec<_>>, Vec<Vec<_>>) = points
             .iter()
-            .zip(&points)
-            .map(|(c, p)| (c, p.as_slice()))
+            .map(|p| p.iter().partition(|&&(px, _)| px % 2 == 0))
+            .unzip();
+        let views: Vec<Seen> = cameras
+            .iter()
+            .zip(own_points.iter().zip(&other_points))
+            .map(|(camera, (own, others))| Seen {
+                camera,
+                own,
+                others,
+            })
             .collect();
         let one = sightings(&m, &views, 1.0, 1);
         assert!(one.iter().any(|s| s.through > 0) && one.iter().any(|s| s.on > 0));

@@ -129,7 +129,7 @@ node_ports! {
 
 impl Node for TrainNode {
     fn spec(&self) -> NodeSpec {
-        NodeSpec::new("train", "24")
+        NodeSpec::new("train", "25")
             .doc(
                 "Mesh-splatting optimization of one component, initialized from the sparse points \
                   that fall inside its mask; objects are trained with background randomization.",
@@ -256,6 +256,7 @@ impl Node for TrainNode {
             },
         );
         data.depth_points = points.positions[..points.positions.len() - seeded].to_vec();
+        data.other_points = data.points_of_other_components(&all_points, visibility.as_ref())?;
         if !occluders.is_empty() {
             let models = occluders
                 .iter()

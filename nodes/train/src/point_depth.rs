@@ -27,7 +27,7 @@
 
 use crate::supervision::ComponentData;
 use glam::DVec3;
-use objectsplat_core::component::OWN;
+use objectsplat_core::component::{OTHER, OWN};
 use objectsplat_core::visibility::{neighbour_spacing, visible_pixels};
 use objectsplat_raster::RenderOutput;
 use std::collections::HashMap;
@@ -44,8 +44,20 @@ pub struct PointDepth {
 }
 
 impl PointDepth {
-    /// The visible points of every view of `data` (none when `points` is empty).
+    /// The visible points of every view of `data` on its own pixels (none when
+    /// `points` is empty).
     pub fn new(points: &[[f32; 3]], data: &ComponentData) -> Self {
+        Self::on_label(points, data, OWN)
+    }
+
+    /// The points of every view of `data` that lie on pixels another component
+    /// owns (label OTHER): `points` are those components' (see
+    /// `ComponentData::points_of_other_components`), used by the free-space rule only.
+    pub fn on_other_components(points: &[[f32; 3]], data: &ComponentData) -> Self {
+        Self::on_label(points, data, OTHER)
+    }
+
+    fn on_label(points: &[[f32; 3]], data: &ComponentData, label: u8) -> Self {
         let points: Vec<DVec3> = points
             .iter()
             .map(|p| DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64))
@@ -55,7 +67,7 @@ impl PointDepth {
         let views = data
             .views
             .iter()
-            .map(|view| visible_points(&points, spacing, view))
+            .map(|view| visible_points(&points, spacing, view, label))
             .collect();
         PointDepth { views }
     }
@@ -127,19 +139,20 @@ impl PointDepth {
     }
 }
 
-/// The points of `points` that `view` sees on its component's own pixels:
+/// The points of `points` that `view` sees on its pixels labelled `label`:
 /// (pixel, depth), the nearest one per pixel.
 fn visible_points(
     points: &[DVec3],
     spacing: f64,
     view: &crate::supervision::View,
+    label: u8,
 ) -> Vec<(u32, f32)> {
     let mut kept: HashMap<u32, f32> = HashMap::new();
     for (pixel, z) in visible_pixels(points, spacing, &view.camera)
         .into_iter()
         .flatten()
     {
-        if view.label(pixel as usize) != OWN {
+        if view.label(pixel as usize) != label {
             continue;
         }
         let d = kept.entry(pixel).or_insert(z as f32);

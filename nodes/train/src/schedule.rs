@@ -131,6 +131,10 @@ pub struct Schedule {
     /// points through at least this many times and more often than they saw
     /// points on them (see `crate::free_space`); 0 turns this off.
     pub free_space_min_sightings: u64,
+    /// 1: the free-space rule also counts the other components' points on the
+    /// pixels they own (an object's point proves the ray to it empty of the
+    /// background); 0: only the component's own points.
+    pub free_space_other_components: u64,
 
     /// Weight of the depth loss at a background component's measured points
     /// (see `crate::point_depth`); 0 turns it off.
@@ -290,6 +294,7 @@ impl Schedule {
             flat_fit_epochs: 2,
             flat_fit_lr: 5e-3,
             free_space_min_sightings: 2,
+            free_space_other_components: 1,
             point_depth_weight: 1.0,
             object_point_depth_weight: 0.0,
             point_depth_start: 0,
@@ -395,6 +400,12 @@ impl Schedule {
             if v == 0 {
                 bail!("schedule {name} must be at least 1");
             }
+        }
+        if self.free_space_other_components > 1 {
+            bail!(
+                "schedule free_space_other_components = {} must be 0 or 1",
+                self.free_space_other_components
+            );
         }
         if self.sh_max_degree > 3 {
             bail!("schedule sh_max_degree {} exceeds 3", self.sh_max_degree);

@@ -100,6 +100,10 @@ pub struct ComponentData {
     /// Measured points on this component's surfaces (its SfM or scanner points,
     /// not seeds), which supervise depth (see `crate::point_depth`).
     pub depth_points: Vec<[f32; 3]>,
+    /// Measured points of the other components' surfaces (the scene's points
+    /// this component does not own): on the pixels those components own, the
+    /// ray to such a point is empty of this component (see `crate::free_space`).
+    pub other_points: Vec<[f32; 3]>,
 }
 
 impl ComponentData {
@@ -134,6 +138,7 @@ impl ComponentData {
                 .collect::<Result<Vec<_>>>()?,
             occluders: None,
             depth_points: Vec::new(),
+            other_points: Vec::new(),
         })
     }
 
@@ -217,6 +222,26 @@ impl ComponentData {
         }
         Ok((0..points.positions.len())
             .filter(|&i| visible[i] > 0 && 2 * own[i] > visible[i])
+            .collect())
+    }
+
+    /// The points [`Self::select_points`] does not pick: the other components'.
+    pub fn points_of_other_components(
+        &self,
+        points: &Points,
+        visibility: Option<&Visibility>,
+    ) -> Result<Vec<[f32; 3]>> {
+        let own = self.select_points(points, visibility)?;
+        let mut mine = vec![false; points.positions.len()];
+        for i in own {
+            mine[i] = true;
+        }
+        Ok(points
+            .positions
+            .iter()
+            .zip(mine)
+            .filter(|(_, mine)| !mine)
+            .map(|(p, _)| *p)
             .collect())
     }
 

@@ -27,7 +27,7 @@ use crate::device_steps::DeviceSteps;
 use crate::face_stats::FaceWeights;
 use crate::flat_color::{FlatColors, Sighting};
 use crate::flat_fit::FlatFit;
-use crate::free_space::sightings;
+use crate::free_space::{Seen, sightings};
 use crate::host_steps::HostSteps;
 use crate::init::{InitSettings, init_model};
 use crate::point_depth::PointDepth;
@@ -580,13 +580,22 @@ pub fn train_component_with_hook(
     );
     // The free-space rule, over the measured points each training view sees.
     let free_space = depth_supervised && s.free_space_min_sightings > 0;
+    let in_front_of_others = if free_space && s.free_space_other_components == 1 {
+        PointDepth::on_other_components(&data.other_points, data)
+    } else {
+        PointDepth::default()
+    };
     let floating = |model: &Model<f32>, points: &PointDepth| -> Option<Vec<bool>> {
         if !free_space {
             return None;
         }
         let views: Vec<_> = train
             .iter()
-            .map(|&v| (&data.views[v].camera, points.of_view(v)))
+            .map(|&v| Seen {
+                camera: &data.views[v].camera,
+                own: points.of_view(v),
+                others: in_front_of_others.of_view(v),
+            })
             .collect();
         let min = u32::try_from(s.free_space_min_sightings).unwrap_or(u32::MAX);
         Some(
@@ -1199,6 +1208,7 @@ mod tests {
                 .collect(),
             occluders: None,
             depth_points: Vec::new(),
+            other_points: Vec::new(),
         }
     }
 

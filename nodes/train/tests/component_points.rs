@@ -78,6 +78,12 @@ fn majority_of_training_views_decides() {
     assert_eq!(c.select_points(&points(), None).unwrap(), vec![0]);
     let chosen = c.component_points(&points(), None).unwrap();
     assert_eq!(chosen.colors, vec![[255, 0, 0]]);
+    // The rest are the other components' (the free-space rule's), the unseen one too.
+    let p = points();
+    assert_eq!(
+        c.points_of_other_components(&p, None).unwrap(),
+        vec![p.positions[1], p.positions[2]]
+    );
 }
 
 #[test]

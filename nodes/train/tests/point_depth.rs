@@ -1,5 +1,5 @@
 //! Depth supervision at measured points: which points a view keeps (own pixels,
-//! nearest surface), and that the loss's gradient, carried through the renderer,
+//! or the other components' for the free-space rule; nearest surface), and that the loss's gradient, carried through the renderer,
 //! matches finite differences and pulls a surface onto the points.
 
 use glam::DVec3;
@@ -40,6 +40,7 @@ fn data(points: Vec<[f32; 3]>, other_column: Option<u32>) -> ComponentData {
         views: vec![View::from_planes("v", camera(), &target, &labels, Split::Train).unwrap()],
         occluders: None,
         depth_points: points,
+        other_points: Vec::new(),
     }
 }
 
@@ -75,6 +76,16 @@ fn a_view_keeps_the_nearest_points_on_its_own_pixels() {
     assert_eq!(depth.count(0), plane - on_other);
     let all_own = PointDepth::new(&points, &data(points.clone(), None));
     assert_eq!(all_own.count(0), plane);
+    // The free-space rule's other side: only the other component's column, the
+    // point hidden behind the plane still dropped.
+    let others = PointDepth::on_other_components(&points, &data(points.clone(), Some(other)));
+    assert_eq!(others.count(0), on_other);
+    assert!(
+        others
+            .of_view(0)
+            .iter()
+            .all(|&(pixel, d)| pixel % W == other && d == 2.0)
+    );
 }
 
 /// One opaque triangle in the plane z = `z`, filling the view, its edges far
