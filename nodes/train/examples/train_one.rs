@@ -22,8 +22,10 @@ fn main() -> Result<()> {
     let threads: usize = args.get(4).map_or(Ok(1), |t| t.parse())?;
     let mut data = ComponentData::read(&dir, threads)?;
     // As the train node's default min_object_points.
-    let (points, seeded) = objectsplat_train::hull::initial_points(&data, &points, None, 300, 0)?;
+    let (owned, others) = data.partition_points(&points, None)?;
+    let (points, seeded) = objectsplat_train::hull::initial_points(&data, &points, owned, 300, 0)?;
     data.depth_points = points.positions[..points.positions.len() - seeded].to_vec();
+    data.other_points = others;
     // Schedule overrides as a JSON object in $SCHEDULE, e.g. '{"lr_sh_dc": 0.03}'.
     let overrides: serde_json::Map<String, serde_json::Value> = match std::env::var("SCHEDULE") {
         Ok(text) => serde_json::from_str(&text).context("$SCHEDULE is not a JSON object")?,

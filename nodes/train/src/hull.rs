@@ -13,7 +13,6 @@ use anyhow::Result;
 use glam::DVec3;
 use objectsplat_core::ComponentKind;
 use objectsplat_core::component::OTHER;
-use objectsplat_core::visibility::Visibility;
 use objectsplat_core::{Points, Split};
 use rand::SeedableRng;
 use rand::seq::SliceRandom;
@@ -167,17 +166,18 @@ pub fn visual_hull_points(
     points
 }
 
-/// A component's initial points: the sparse points it owns, and for an object
-/// with fewer than `min_object_points` of them, points on the visual hull of its
-/// masks up to that count. Also returns how many came from the hull.
+/// A component's initial points: `owned`, the sparse points of `all_points` it
+/// owns (`ComponentData::partition_points`), and for an object with fewer than
+/// `min_object_points` of them, points on the visual hull of its masks up to
+/// that count. Also returns how many came from the hull.
 pub fn initial_points(
     data: &ComponentData,
     all_points: &Points,
-    visibility: Option<&Visibility>,
+    owned: Points,
     min_object_points: usize,
     seed: u64,
 ) -> Result<(Points, usize)> {
-    let mut points = data.owned_points(all_points, visibility)?;
+    let mut points = owned;
     let mut seeded = 0;
     if data.kind == ComponentKind::Object && points.positions.len() < min_object_points {
         // Narrow baselines leave a hull long along the viewing direction: where the
@@ -201,8 +201,7 @@ pub fn initial_points(
         }
     }
     if points.positions.is_empty() {
-        // Fails naming the component.
-        data.component_points(all_points, visibility)?;
+        return Err(data.nothing_to_initialize(all_points.positions.len()));
     }
     Ok((points, seeded))
 }

@@ -232,13 +232,9 @@ impl Node for TrainNode {
             .as_deref()
             .map(Visibility::read)
             .transpose()?;
-        let (points, seeded) = crate::hull::initial_points(
-            &data,
-            &all_points,
-            visibility.as_ref(),
-            min_object_points,
-            seed as u64,
-        )?;
+        let (owned, others) = data.partition_points(&all_points, visibility.as_ref())?;
+        let (points, seeded) =
+            crate::hull::initial_points(&data, &all_points, owned, min_object_points, seed as u64)?;
         ctx.note(
             "points",
             if seeded > 0 {
@@ -256,7 +252,7 @@ impl Node for TrainNode {
             },
         );
         data.depth_points = points.positions[..points.positions.len() - seeded].to_vec();
-        data.other_points = data.points_of_other_components(&all_points, visibility.as_ref())?;
+        data.other_points = others;
         if !occluders.is_empty() {
             let models = occluders
                 .iter()

@@ -52,7 +52,7 @@ impl PointDepth {
 
     /// The points of every view of `data` that lie on pixels another component
     /// owns (label OTHER): `points` are those components' (see
-    /// `ComponentData::points_of_other_components`), used by the free-space rule only.
+    /// `ComponentData::partition_points`), used by the free-space rule only.
     pub fn on_other_components(points: &[[f32; 3]], data: &ComponentData) -> Self {
         Self::on_label(points, data, OTHER)
     }

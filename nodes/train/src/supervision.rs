@@ -225,33 +225,36 @@ impl ComponentData {
             .collect())
     }
 
-    /// The points [`Self::select_points`] does not pick: the other components'.
-    pub fn points_of_other_components(
+    /// The scene's points split by [`Self::select_points`]: the ones it picks,
+    /// with their colours, and the positions of the rest — the other
+    /// components' points, which the free-space rule uses.
+    pub fn partition_points(
         &self,
         points: &Points,
         visibility: Option<&Visibility>,
-    ) -> Result<Vec<[f32; 3]>> {
-        let own = self.select_points(points, visibility)?;
+    ) -> Result<(Points, Vec<[f32; 3]>)> {
+        let chosen = self.select_points(points, visibility)?;
         let mut mine = vec![false; points.positions.len()];
-        for i in own {
+        for &i in &chosen {
             mine[i] = true;
         }
-        Ok(points
+        let own = Points {
+            positions: chosen.iter().map(|&i| points.positions[i]).collect(),
+            colors: chosen.iter().map(|&i| points.colors[i]).collect(),
+        };
+        let others = points
             .positions
             .iter()
             .zip(mine)
             .filter(|(_, mine)| !mine)
             .map(|(p, _)| *p)
-            .collect())
+            .collect();
+        Ok((own, others))
     }
 
     /// The points [`Self::select_points`] picks, possibly none.
     pub fn owned_points(&self, points: &Points, visibility: Option<&Visibility>) -> Result<Points> {
-        let chosen = self.select_points(points, visibility)?;
-        Ok(Points {
-            positions: chosen.iter().map(|&i| points.positions[i]).collect(),
-            colors: chosen.iter().map(|&i| points.colors[i]).collect(),
-        })
+        Ok(self.partition_points(points, visibility)?.0)
     }
 
     /// This component's points, or an error naming the component when none qualifies.
@@ -262,14 +265,18 @@ impl ComponentData {
     ) -> Result<Points> {
         let chosen = self.owned_points(points, visibility)?;
         if chosen.positions.is_empty() {
-            bail!(
-                "component {:?}: none of the {} sparse points projects inside its own mask in most \
-                 training views where it is visible, so there is nothing to initialize from",
-                self.name,
-                points.positions.len()
-            );
+            return Err(self.nothing_to_initialize(points.positions.len()));
         }
         Ok(chosen)
+    }
+
+    /// The error for a component none of the scene's `scene_points` belongs to.
+    pub(crate) fn nothing_to_initialize(&self, scene_points: usize) -> anyhow::Error {
+        anyhow::anyhow!(
+            "component {:?}: none of the {scene_points} sparse points projects inside its own mask \
+             in most training views where it is visible, so there is nothing to initialize from",
+            self.name
+        )
     }
 }
 

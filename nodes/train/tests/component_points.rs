@@ -80,10 +80,9 @@ fn majority_of_training_views_decides() {
     assert_eq!(chosen.colors, vec![[255, 0, 0]]);
     // The rest are the other components' (the free-space rule's), the unseen one too.
     let p = points();
-    assert_eq!(
-        c.points_of_other_components(&p, None).unwrap(),
-        vec![p.positions[1], p.positions[2]]
-    );
+    let (own, others) = c.partition_points(&p, None).unwrap();
+    assert_eq!(own.positions, chosen.positions);
+    assert_eq!(others, vec![p.positions[1], p.positions[2]]);
 }
 
 #[test]

@@ -19,7 +19,7 @@ fn seeds_lie_over_the_plate_in_its_colour() {
         positions: own.positions[..1].to_vec(),
         colors: own.colors[..1].to_vec(),
     };
-    let (seeds, seeded) = initial_points(&data, &one, None, 201, 0).unwrap();
+    let (seeds, seeded) = initial_points(&data, &one, one.clone(), 201, 0).unwrap();
     assert_eq!(seeded, 200);
     // Over the whole scene box the hull is a column through the plate.
     let column = visual_hull_points(&data, (DVec3::splat(-2.0), DVec3::splat(2.0)), 200, 0);
@@ -44,14 +44,15 @@ fn seeds_lie_over_the_plate_in_its_colour() {
 fn only_objects_short_of_points_are_seeded() {
     let (_dir, data) = common::plate_read(common::W, common::H);
     let points = common::points();
-    let own = data.owned_points(&points, None).unwrap().positions.len();
+    let owned = data.owned_points(&points, None).unwrap();
+    let own = owned.positions.len();
     assert!(own > 0);
-    let (none_asked, seeded) = initial_points(&data, &points, None, 0, 0).unwrap();
+    let (none_asked, seeded) = initial_points(&data, &points, owned.clone(), 0, 0).unwrap();
     assert_eq!((none_asked.positions.len(), seeded), (own, 0));
-    let (topped_up, seeded) = initial_points(&data, &points, None, own + 50, 0).unwrap();
+    let (topped_up, seeded) = initial_points(&data, &points, owned, own + 50, 0).unwrap();
     assert_eq!(seeded, 50);
     assert_eq!(topped_up.positions.len(), own + 50);
     // With no sparse points at all there is no box to search: a clear error.
-    let err = initial_points(&data, &Points::default(), None, 100, 0).unwrap_err();
+    let err = initial_points(&data, &Points::default(), Points::default(), 100, 0).unwrap_err();
     assert!(format!("{err:#}").contains("nothing to initialize from"));
 }
