@@ -6,6 +6,7 @@
 
 use anyhow::{Result, bail};
 use objectsplat_raster::parallel::{chunk_size, run_iter};
+use objectsplat_raster::real::all_finite;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// One parameter group: its learning rate and the first/second moments of its rows.
@@ -150,7 +151,9 @@ impl Adam {
             );
         }
         let (w, active) = (g.width, active.min(g.width));
-        if let Some(i) = grads.iter().position(|x| !x.is_finite()) {
+        if !all_finite(grads) {
+            // The scan found a value that is not finite: the search finds it.
+            let i = grads.iter().position(|x| !x.is_finite()).unwrap_or(0);
             bail!(
                 "Adam group {:?}: gradient {i} is {} (not finite)",
                 g.name,
@@ -189,7 +192,7 @@ impl Adam {
             .zip(grads.chunks(block))
             .zip(g.m.chunks_mut(block))
             .zip(g.v.chunks_mut(block));
-        let all_finite = AtomicBool::new(true);
+        let updates_finite = AtomicBool::new(true);
         run_iter(
             threads,
             jobs,
@@ -217,11 +220,11 @@ impl Adam {
                     }
                 }
                 if !finite {
-                    all_finite.store(false, Ordering::Relaxed);
+                    updates_finite.store(false, Ordering::Relaxed);
                 }
             },
         );
-        let finite = all_finite.into_inner();
+        let finite = updates_finite.into_inner();
         if !finite {
             // Found only on the slow path: which value overflowed.
             let i = params.iter().position(|x| !x.is_finite()).unwrap_or(0);

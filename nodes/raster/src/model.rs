@@ -1,7 +1,7 @@
 //! The triangle-splatting model: vertices, faces, per-vertex spherical
 //! harmonics and per-vertex opacity logits with the floor activation.
 
-use crate::real::Real;
+use crate::real::{Real, all_finite};
 use anyhow::{Result, bail};
 use serde_json::{Map, Value};
 
@@ -168,22 +168,30 @@ impl<R: Real> Model<R> {
         if !self.sigma.is_finite() || self.sigma <= 0.0 {
             bail!("sigma {} must be finite and positive", self.sigma);
         }
-        for (v, p) in self.vertices.iter().enumerate() {
-            if p.iter().any(|c| !c.is_finite()) {
-                bail!("vertex {v} position {:?} is not finite", p);
+        // Every render validates its model: the branch-free scans below pass
+        // a finite model, and only a failing one is searched for the culprit.
+        if !all_finite(self.vertices.as_flattened()) {
+            for (v, p) in self.vertices.iter().enumerate() {
+                if p.iter().any(|c| !c.is_finite()) {
+                    bail!("vertex {v} position {:?} is not finite", p);
+                }
             }
         }
-        for (v, rows) in self.sh.iter().enumerate() {
-            if let Some(k) = rows
-                .iter()
-                .position(|rgb| rgb.iter().any(|c| !c.is_finite()))
-            {
-                bail!("vertex {v} SH coefficient {k} {:?} is not finite", rows[k]);
+        if !all_finite(self.sh.as_flattened().as_flattened()) {
+            for (v, rows) in self.sh.iter().enumerate() {
+                if let Some(k) = rows
+                    .iter()
+                    .position(|rgb| rgb.iter().any(|c| !c.is_finite()))
+                {
+                    bail!("vertex {v} SH coefficient {k} {:?} is not finite", rows[k]);
+                }
             }
         }
-        for (v, x) in self.opacity_logits.iter().enumerate() {
-            if !x.is_finite() {
-                bail!("vertex {v} opacity logit {x} is not finite");
+        if !all_finite(&self.opacity_logits) {
+            for (v, x) in self.opacity_logits.iter().enumerate() {
+                if !x.is_finite() {
+                    bail!("vertex {v} opacity logit {x} is not finite");
+                }
             }
         }
         if !self.face_sigma.is_empty() {
@@ -205,12 +213,15 @@ impl<R: Real> Model<R> {
                 );
             }
         }
-        for (f, face) in self.faces.iter().enumerate() {
-            if let Some(&i) = face.iter().find(|&&i| i as usize >= nv) {
-                bail!(
-                    "face {f} {:?} references vertex {i}, but the model has {nv} vertices",
-                    face
-                );
+        let largest_index = self.faces.as_flattened().iter().fold(0, |m, &i| m.max(i));
+        if !self.faces.is_empty() && largest_index as usize >= nv {
+            for (f, face) in self.faces.iter().enumerate() {
+                if let Some(&i) = face.iter().find(|&&i| i as usize >= nv) {
+                    bail!(
+                        "face {f} {:?} references vertex {i}, but the model has {nv} vertices",
+                        face
+                    );
+                }
             }
         }
         Ok(())

@@ -4,6 +4,16 @@
 use num_traits::{Float, NumAssign};
 use std::fmt::{Debug, Display};
 
+/// Whether every value is finite. The checks on every render's model and
+/// every step's gradients use it: scanned without an early exit per value, it
+/// vectorizes, and chunks keep the early exit for a bad input (whose culprit
+/// the caller then searches for its message).
+pub fn all_finite<R: Float>(values: &[R]) -> bool {
+    values
+        .chunks(256)
+        .all(|chunk| chunk.iter().fold(true, |ok, x| ok & x.is_finite()))
+}
+
 /// A floating-point scalar usable by the rasterizer.
 pub trait Real: Float + NumAssign + Debug + Display + Default + Send + Sync + 'static {
     /// Converts an `f64` constant or parameter (rounding for `f32`).

@@ -170,6 +170,54 @@ fn non_finite_parameters_are_rejected_with_a_message() {
 }
 
 #[test]
+fn a_non_finite_value_anywhere_in_a_large_model_is_named() {
+    // The check scans in chunks of 256 values: a bad value in a later chunk,
+    // and in the very last vertex, is found and named like one in the first.
+    let (model, camera, bg) = stress_scene(3, 200, 1.0);
+    let s = RenderSettings::default();
+    let last = model.vertices.len() - 1;
+    for v in [100, last] {
+        let mut m = model.clone();
+        m.vertices[v][2] = f64::NAN;
+        expect_error(
+            &m,
+            &camera,
+            &bg,
+            &s,
+            &[&format!("vertex {v} position"), "not finite"],
+        );
+        let mut m = model.clone();
+        m.sh[v][15][0] = f64::INFINITY;
+        expect_error(
+            &m,
+            &camera,
+            &bg,
+            &s,
+            &[&format!("vertex {v} SH coefficient 15")],
+        );
+        let mut m = model.clone();
+        m.opacity_logits[v] = f64::NEG_INFINITY;
+        expect_error(
+            &m,
+            &camera,
+            &bg,
+            &s,
+            &[&format!("vertex {v} opacity logit")],
+        );
+    }
+    let mut m = model.clone();
+    let f = m.faces.len() - 1;
+    m.faces[f][0] = m.vertices.len() as u32;
+    expect_error(
+        &m,
+        &camera,
+        &bg,
+        &s,
+        &[&format!("face {f}"), "references vertex"],
+    );
+}
+
+#[test]
 fn malformed_models_and_inputs_are_rejected_with_a_message() {
     let (model, camera, bg) = stress_scene(2, 5, 1.0);
     let s = RenderSettings::default();

@@ -71,6 +71,8 @@ struct Partial {
     backed: Vec<(u32, u32)>,
     through: Vec<(u32, u32, u32)>,
     scratch: Vec<Option<crate::screen::Projected>>,
+    own_rows: Vec<usize>,
+    other_rows: Vec<usize>,
 }
 
 /// The sightings of every face of `model` over `views`. The views are shared
@@ -97,6 +99,8 @@ pub fn sightings(
             backed: Vec::new(),
             through: Vec::new(),
             scratch: Vec::new(),
+            own_rows: Vec::new(),
+            other_rows: Vec::new(),
         },
         |partial, (view, seen)| see(model, view, seen, world_scale, partial),
     );
@@ -133,7 +137,13 @@ fn see(model: &Model<f32>, view: usize, seen: &Seen<'_>, world_scale: f64, parti
         backed,
         through,
         scratch,
+        own_rows,
+        other_rows,
     } = partial;
+    // Most of a face's rows hold no point: the rows' ranges in the lists
+    // skip those without a search.
+    row_starts(seen.own, camera, own_rows);
+    row_starts(seen.others, camera, other_rows);
     for (f, [a, b, c]) in projected_faces(model, camera, scratch) {
         let area = (b.0 - a.0) * (c.1 - a.1) - (c.0 - a.0) * (b.1 - a.1);
         if area.abs() < 1e-12 {
@@ -152,12 +162,17 @@ fn see(model: &Model<f32>, view: usize, seen: &Seen<'_>, world_scale: f64, parti
             continue;
         }
         for y in y0 as usize..=y1 as usize {
+            let own_row = &seen.own[own_rows[y]..own_rows[y + 1]];
+            let others_row = &seen.others[other_rows[y]..other_rows[y + 1]];
+            if own_row.is_empty() && others_row.is_empty() {
+                continue;
+            }
             let row_start = (y * width + x0 as usize) as u32;
             let row_end = (y * width + x1 as usize) as u32;
-            let own = in_pixels(seen.own, row_start, row_end)
+            let own = in_pixels(own_row, row_start, row_end)
                 .iter()
                 .map(|&p| (p, false));
-            let others = in_pixels(seen.others, row_start, row_end)
+            let others = in_pixels(others_row, row_start, row_end)
                 .iter()
                 .map(|&p| (p, true));
             for ((pixel, depth), other_component) in own.chain(others) {
@@ -185,6 +200,17 @@ fn see(model: &Model<f32>, view: usize, seen: &Seen<'_>, world_scale: f64, parti
             }
         }
     }
+}
+
+/// Where each image row's points start in a pixel-sorted list: row `y`'s
+/// are `points[starts[y]..starts[y + 1]]`.
+fn row_starts(points: &[(u32, f32)], camera: &Camera, starts: &mut Vec<usize>) {
+    let width = camera.width as u64;
+    starts.clear();
+    starts.extend(
+        (0..=camera.height as u64)
+            .map(|y| points.partition_point(|&(p, _)| (p as u64) < y * width)),
+    );
 }
 
 /// The points of a pixel-sorted list whose pixel lies in `first..=last`.

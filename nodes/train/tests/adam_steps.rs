@@ -177,6 +177,26 @@ fn several_threads_step_exactly_as_one() {
     assert!(format!("{err:#}").contains("not finite"), "{err:#}");
 }
 
+#[test]
+fn a_gradient_that_is_not_finite_is_named_wherever_it_is() {
+    // The check scans in chunks: a bad value in a later chunk, and in the
+    // last value, is named, and nothing moves.
+    let (width, rows) = (48, 1000);
+    for (i, bad) in [(1000, f32::NAN), (width * rows - 1, f32::INFINITY)] {
+        let mut adam = Adam::new();
+        let g = adam.add_group("sh", 0.01, width, rows);
+        let mut p = vec![0.5f32; width * rows];
+        let mut grads = vec![0.25f32; width * rows];
+        grads[i] = bad;
+        let err = adam.step_columns(g, &mut p, &grads, width, 2).unwrap_err();
+        assert!(
+            format!("{err:#}").contains(&format!("gradient {i} is {bad}")),
+            "{err:#}"
+        );
+        assert!(p.iter().all(|&v| v == 0.5), "a refused step moved values");
+    }
+}
+
 /// Renumbered rows continue exactly as the same rows did in their old places:
 /// two optimizers, one stepping the rows as given and one the rows reversed
 /// from the start, agree after the first is renumbered.
