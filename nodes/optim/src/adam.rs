@@ -6,7 +6,7 @@
 
 use anyhow::{Result, bail};
 use objectsplat_raster::parallel::{chunk_size, run_iter};
-use objectsplat_raster::real::all_finite;
+use objectsplat_raster::real::all_finite_on;
 use std::sync::atomic::{AtomicBool, Ordering};
 
 /// One parameter group: its learning rate and the first/second moments of its rows.
@@ -151,7 +151,7 @@ impl Adam {
             );
         }
         let (w, active) = (g.width, active.min(g.width));
-        if !all_finite(grads) {
+        if !all_finite_on(threads, grads) {
             // The scan found a value that is not finite: the search finds it.
             let i = grads.iter().position(|x| !x.is_finite()).unwrap_or(0);
             bail!(
@@ -186,7 +186,9 @@ impl Adam {
             finite
         };
         // Blocks of whole rows; a block's values are contiguous in all four arrays.
-        let block = chunk_size(g.m.len() / w, threads, 16_384) * w;
+        // At least 16 Ki values a block, in whole rows: a group of SH rows
+        // (48 values a row) splits evenly over the threads.
+        let block = chunk_size(g.m.len() / w, threads, (16_384 / w).max(1)) * w;
         let jobs = params
             .chunks_mut(block)
             .zip(grads.chunks(block))

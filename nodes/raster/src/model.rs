@@ -1,7 +1,7 @@
 //! The triangle-splatting model: vertices, faces, per-vertex spherical
 //! harmonics and per-vertex opacity logits with the floor activation.
 
-use crate::real::{Real, all_finite};
+use crate::real::{Real, all_finite_on};
 use anyhow::{Result, bail};
 use serde_json::{Map, Value};
 
@@ -130,6 +130,12 @@ impl<R: Real> Model<R> {
     /// Checks array lengths, index ranges, finiteness and the scalar settings.
     /// The error names the first offending element.
     pub fn validate(&self) -> Result<()> {
+        self.validate_on(1)
+    }
+
+    /// [`Model::validate`], its scans of the values on up to `threads`
+    /// threads (the render of every training step validates its model).
+    pub fn validate_on(&self, threads: usize) -> Result<()> {
         let nv = self.vertices.len();
         if self.sh.len() != nv {
             bail!("model has {nv} vertices but {} SH rows", self.sh.len());
@@ -170,14 +176,14 @@ impl<R: Real> Model<R> {
         }
         // Every render validates its model: the branch-free scans below pass
         // a finite model, and only a failing one is searched for the culprit.
-        if !all_finite(self.vertices.as_flattened()) {
+        if !all_finite_on(threads, self.vertices.as_flattened()) {
             for (v, p) in self.vertices.iter().enumerate() {
                 if p.iter().any(|c| !c.is_finite()) {
                     bail!("vertex {v} position {:?} is not finite", p);
                 }
             }
         }
-        if !all_finite(self.sh.as_flattened().as_flattened()) {
+        if !all_finite_on(threads, self.sh.as_flattened().as_flattened()) {
             for (v, rows) in self.sh.iter().enumerate() {
                 if let Some(k) = rows
                     .iter()
@@ -187,7 +193,7 @@ impl<R: Real> Model<R> {
                 }
             }
         }
-        if !all_finite(&self.opacity_logits) {
+        if !all_finite_on(threads, &self.opacity_logits) {
             for (v, x) in self.opacity_logits.iter().enumerate() {
                 if !x.is_finite() {
                     bail!("vertex {v} opacity logit {x} is not finite");
@@ -202,10 +208,10 @@ impl<R: Real> Model<R> {
                     self.face_sigma.len()
                 );
             }
-            if let Some(f) = self
-                .face_sigma
-                .iter()
-                .position(|s| !(s.is_finite() && *s > 0.0))
+            let proper = |s: &f64| s.is_finite() && *s > 0.0;
+            // Branch-free first (it vectorizes), the search only on a failure.
+            if !self.face_sigma.iter().fold(true, |ok, s| ok & proper(s))
+                && let Some(f) = self.face_sigma.iter().position(|s| !proper(s))
             {
                 bail!(
                     "face {f} σ {} must be finite and positive",

@@ -17,6 +17,7 @@
 //! the samples' pixels.
 
 use crate::backend::{PixelRect, Region, RenderOutput, RenderSettings};
+use crate::parallel::for_chunks_mut;
 use crate::real::Real;
 use anyhow::{Result, bail};
 use objectsplat_core::Camera;
@@ -57,7 +58,10 @@ pub fn fine_view(camera: &Camera, settings: &RenderSettings, s: u32) -> (Camera,
 
 /// `fine` (a render of [`fine_view`]) box-filtered to the coarse camera's pixels.
 /// Per-face maxima are kept; pixel counts become coarse pixels (rounded up).
+/// Rows of pixels are spread over up to `threads` threads (the result does
+/// not depend on how many).
 pub fn downsample_into<R: Real>(
+    threads: usize,
     fine: &RenderOutput<R>,
     s: u32,
     coarse: &mut RenderOutput<R>,
@@ -94,25 +98,30 @@ pub fn downsample_into<R: Real>(
     let mean = |src: &[R], channels: usize, dst: &mut Vec<R>| {
         dst.clear();
         dst.resize(cw * ch * channels, R::of(0.0));
-        for (y, out) in dst.chunks_exact_mut(cw * channels).enumerate() {
-            for row in
-                src[y * s * fw * channels..(y + 1) * s * fw * channels].chunks_exact(fw * channels)
-            {
-                for (o, block) in out
-                    .chunks_exact_mut(channels)
-                    .zip(row.chunks_exact(s * channels))
+        let row_len = (cw * channels).max(1);
+        let rows = chunk_rows(ch, threads) * row_len;
+        for_chunks_mut(threads, dst, rows, |first, part| {
+            for (dy, out) in part.chunks_exact_mut(row_len).enumerate() {
+                let y = first / row_len + dy;
+                for row in src[y * s * fw * channels..(y + 1) * s * fw * channels]
+                    .chunks_exact(fw * channels)
                 {
-                    for sample in block.chunks_exact(channels) {
-                        for (o, &v) in o.iter_mut().zip(sample) {
-                            *o += v;
+                    for (o, block) in out
+                        .chunks_exact_mut(channels)
+                        .zip(row.chunks_exact(s * channels))
+                    {
+                        for sample in block.chunks_exact(channels) {
+                            for (o, &v) in o.iter_mut().zip(sample) {
+                                *o += v;
+                            }
                         }
                     }
                 }
+                for v in out.iter_mut() {
+                    *v *= scale;
+                }
             }
-        }
-        for v in dst.iter_mut() {
-            *v *= scale;
-        }
+        });
     };
     mean(&fine.color, 3, &mut coarse.color);
     mean(&fine.alpha, 1, &mut coarse.alpha);
@@ -138,8 +147,10 @@ pub fn downsample_into<R: Real>(
 }
 
 /// Each value of a `width`×`height` plane (`channels` per pixel) repeated over
-/// its pixel's `s × s` samples, row-major in the fine plane.
-pub fn replicate_into<R: Copy>(
+/// its pixel's `s × s` samples, row-major in the fine plane, on up to
+/// `threads` threads.
+pub fn replicate_into<R: Copy + Send + Sync>(
+    threads: usize,
     coarse: &[R],
     channels: usize,
     width: usize,
@@ -147,23 +158,71 @@ pub fn replicate_into<R: Copy>(
     s: u32,
     fine: &mut Vec<R>,
 ) {
+    replicate_mapped(threads, coarse, channels, width, height, s, fine, |v| v);
+}
+
+/// Rows per job of a pass over `rows` rows on `threads` threads: a few jobs
+/// a thread, none of a handful of rows.
+fn chunk_rows(rows: usize, threads: usize) -> usize {
+    crate::parallel::chunk_size(rows, threads, 8)
+}
+
+/// [`replicate_into`] of `map(value)`: each fine row is built once from its
+/// coarse row and copied for the block's other rows, rows of pixels on the
+/// job's threads (pushed a sample at a time on one core, the gradients' spread
+/// was 1 % of a background's step).
+#[allow(clippy::too_many_arguments)]
+fn replicate_mapped<R: Copy + Send + Sync>(
+    threads: usize,
+    coarse: &[R],
+    channels: usize,
+    width: usize,
+    height: usize,
+    s: u32,
+    fine: &mut Vec<R>,
+    map: impl Fn(R) -> R + Sync,
+) {
     let s = s as usize;
-    fine.clear();
-    fine.reserve(width * height * s * s * channels);
-    for y in 0..height * s {
-        let row = &coarse[(y / s) * width * channels..(y / s + 1) * width * channels];
-        for pixel in row.chunks_exact(channels) {
-            for _ in 0..s {
-                fine.extend_from_slice(pixel);
+    let row_len = width * s * channels;
+    let (Some(&fill), true) = (coarse.first(), row_len > 0) else {
+        fine.clear();
+        return;
+    };
+    // Every value is written below: resizing (keeping old values) is enough.
+    fine.resize(row_len * s * height, fill);
+    let block_rows = row_len * s;
+    for_chunks_mut(
+        threads,
+        fine,
+        chunk_rows(height, threads) * block_rows,
+        |first, part| {
+            for (dy, block) in part.chunks_exact_mut(block_rows).enumerate() {
+                let y = first / block_rows + dy;
+                let (head, rest) = block.split_at_mut(row_len);
+                let samples = head.chunks_exact_mut(channels * s);
+                for (pixel, out) in coarse[y * width * channels..(y + 1) * width * channels]
+                    .chunks_exact(channels)
+                    .zip(samples)
+                {
+                    for sample in out.chunks_exact_mut(channels) {
+                        for (o, &v) in sample.iter_mut().zip(pixel) {
+                            *o = map(v);
+                        }
+                    }
+                }
+                for copy in rest.chunks_exact_mut(row_len) {
+                    copy.copy_from_slice(head);
+                }
             }
-        }
-    }
+        },
+    );
 }
 
 /// The gradient of a coarse output plane (`channels` per pixel over
 /// `coarse_region`) with respect to its `s × s` samples: each sample carries
 /// its pixel's gradient over `s²` (the adjoint of [`downsample_into`]).
 pub fn spread_into<R: Real>(
+    threads: usize,
     coarse: &[R],
     channels: usize,
     coarse_region: PixelRect,
@@ -174,9 +233,8 @@ pub fn spread_into<R: Real>(
         coarse_region.width() as usize,
         coarse_region.height() as usize,
     );
-    replicate_into(coarse, channels, width, height, s, fine);
     let scale = R::of(1.0 / (s * s) as f64);
-    for g in fine.iter_mut() {
-        *g *= scale;
-    }
+    replicate_mapped(threads, coarse, channels, width, height, s, fine, |g| {
+        g * scale
+    });
 }

@@ -34,6 +34,7 @@ fn a_supersampled_render_is_the_mean_of_shifted_one_sample_renders() {
             let (fine_camera, fine_settings) = fine_view(&camera, &settings, s);
             let mut coarse = RenderOutput::default();
             downsample_into(
+                1,
                 &render(&model, &fine_camera, &fine_settings),
                 s,
                 &mut coarse,
@@ -114,7 +115,11 @@ fn spreading_a_gradient_is_the_adjoint_of_the_box_filter() {
             face_pixel_count: vec![7],
         };
         let mut coarse = RenderOutput::default();
-        downsample_into(&fine, s, &mut coarse).expect("whole blocks");
+        downsample_into(1, &fine, s, &mut coarse).expect("whole blocks");
+        // Rows spread over threads: the same values, bit for bit.
+        let mut on_threads = RenderOutput::default();
+        downsample_into(3, &fine, s, &mut on_threads).expect("whole blocks");
+        assert_eq!(on_threads, coarse);
         assert_eq!(coarse.region.pixels() * (s * s) as usize, samples);
         assert_eq!(coarse.face_pixel_count, vec![7u32.div_ceil(s * s)]);
         for (channels, coarse_plane, fine_plane) in [
@@ -125,7 +130,10 @@ fn spreading_a_gradient_is_the_adjoint_of_the_box_filter() {
                 .map(|_| rng.uniform(-1.0, 1.0))
                 .collect();
             let mut spread = Vec::new();
-            spread_into(&g, channels, coarse.region, s, &mut spread);
+            spread_into(1, &g, channels, coarse.region, s, &mut spread);
+            let mut on_threads = vec![7.0; 3];
+            spread_into(3, &g, channels, coarse.region, s, &mut on_threads);
+            assert_eq!(on_threads, spread);
             let lhs: f64 = g.iter().zip(coarse_plane.iter()).map(|(a, b)| a * b).sum();
             let rhs: f64 = spread
                 .iter()
@@ -157,7 +165,7 @@ fn factors_and_regions_that_do_not_divide_are_refused() {
         },
         ..Default::default()
     };
-    let e = downsample_into(&odd, 2, &mut RenderOutput::default()).expect_err("odd region");
+    let e = downsample_into(1, &odd, 2, &mut RenderOutput::default()).expect_err("odd region");
     assert!(e.to_string().contains("not whole 2×2 blocks"), "{e}");
 }
 

@@ -46,7 +46,7 @@ pub fn render_view(
             rgb.check_finite("background image")?;
             // Every sample of a pixel shows the pixel's fill.
             let mut fine = Vec::new();
-            supersample::replicate_into(&rgb.data, 3, width, height, supersample, &mut fine);
+            supersample::replicate_into(1, &rgb.data, 3, width, height, supersample, &mut fine);
             fine
         }
     };
@@ -58,7 +58,7 @@ pub fn render_view(
         return Ok(fine.color_image());
     }
     let mut out = RenderOutput::default();
-    supersample::downsample_into(&fine, supersample, &mut out)?;
+    supersample::downsample_into(1, &fine, supersample, &mut out)?;
     Ok(out.color_image())
 }
 

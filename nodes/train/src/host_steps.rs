@@ -200,7 +200,8 @@ impl<'a> Renderer<'a> {
         } else {
             let (camera, settings) = supersample::fine_view(camera, settings, s);
             self.backend.forward(model, &camera, &settings, b)?;
-            supersample::downsample_into(self.backend.output(), s, &mut self.coarse)?;
+            let threads = self.threads();
+            supersample::downsample_into(threads, self.backend.output(), s, &mut self.coarse)?;
         }
         Ok(self.output())
     }
@@ -229,13 +230,13 @@ impl<'a> Renderer<'a> {
         if s == 1 {
             return self.backend.backward(model, grads);
         }
-        let region = self.coarse.region;
-        supersample::spread_into(grads.color, 3, region, s, &mut self.fine_color);
+        let (region, threads) = (self.coarse.region, self.threads());
+        supersample::spread_into(threads, grads.color, 3, region, s, &mut self.fine_color);
         if let Some(g) = grads.alpha {
-            supersample::spread_into(g, 1, region, s, &mut self.fine_alpha);
+            supersample::spread_into(threads, g, 1, region, s, &mut self.fine_alpha);
         }
         if let Some(g) = grads.depth {
-            supersample::spread_into(g, 1, region, s, &mut self.fine_depth);
+            supersample::spread_into(threads, g, 1, region, s, &mut self.fine_depth);
         }
         if grads.median_depth.is_some() {
             bail!("median-depth gradients are not spread over supersamples");

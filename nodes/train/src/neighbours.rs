@@ -85,7 +85,7 @@ pub fn render_layer(
     let (fine, _) = backend.forward(frozen, &fine_camera, &fine_settings, &black)?;
     let out = if supersample > 1 {
         let mut coarse = RenderOutput::default();
-        supersample::downsample_into(&fine, supersample, &mut coarse)?;
+        supersample::downsample_into(1, &fine, supersample, &mut coarse)?;
         coarse
     } else {
         fine

@@ -183,12 +183,13 @@ impl<R: Real> Default for CpuWorkspace<R> {
 }
 
 fn check_inputs<R: Real>(
+    threads: usize,
     model: &Model<R>,
     camera: &Camera,
     settings: &RenderSettings,
     background: &Background<'_, R>,
 ) -> Result<()> {
-    model.validate().context("invalid model")?;
+    model.validate_on(threads).context("invalid model")?;
     camera
         .validate()
         .map_err(anyhow::Error::msg)
@@ -240,10 +241,10 @@ fn bands<'a, R: Real>(
 
 /// Runs `work(tile, entries, band, per_entry, record)` for every tile of the
 /// grid, a row of tiles per job: `band` is the row's output, `per_entry` the
-/// tile's part of `per_entry` (one element per entry of the tile lists) and
-/// `record` the tile's element of `records`.
+/// tile's part of `per_entry` (one element per entry of the tile lists, reset
+/// to its default first) and `record` the tile's element of `records`.
 #[allow(clippy::too_many_arguments)]
-fn for_each_tile_row<B: Send, S: Send, K: Send>(
+fn for_each_tile_row<B: Send, S: Send + Default, K: Send>(
     threads: usize,
     grid: &TileGrid,
     tiles: &TileLists,
@@ -267,6 +268,10 @@ fn for_each_tile_row<B: Send, S: Send, K: Send>(
                 let entries = tiles.offsets[tile]..tiles.offsets[tile + 1];
                 let (these, rest) = per_entry.split_at_mut(entries.len());
                 per_entry = rest;
+                // The kernels write only the entries they reach (a tile stops
+                // at saturation): the others must read as nothing. Reset here,
+                // in parallel, rather than the whole array on one core.
+                these.fill_with(S::default);
                 work(tile, entries, &mut band, these, record);
             }
         },
@@ -496,7 +501,9 @@ fn bin_faces<R: Real>(
         );
     }
     st.tiles.bin(&st.faces, &st.grid, threads);
-    refill(&mut st.stats, st.tiles.entries.len(), EntryStats::default());
+    // Sized only: `for_each_tile_row` resets each tile's statistics.
+    st.stats
+        .resize(st.tiles.entries.len(), EntryStats::default());
     st.tiles.row_offsets(&st.grid, &mut st.row_offsets);
     region
 }
@@ -524,7 +531,7 @@ impl CpuBackend {
         settings: &RenderSettings,
         background: Background<'_, R>,
     ) -> Result<()> {
-        check_inputs(model, camera, settings, &background)?;
+        check_inputs(self.threads, model, camera, settings, &background)?;
         let threads = self.threads;
         let region = bin_faces(threads, ws, model, camera, settings, true);
         let st = &mut ws.state;
@@ -572,7 +579,7 @@ impl CpuBackend {
             && let Some(model) = (model as &dyn std::any::Any).downcast_ref::<Model<f32>>()
         {
             let background = Background::Uniform([0.0; 3]);
-            check_inputs(model, camera, settings, &background)?;
+            check_inputs(self.threads, model, camera, settings, &background)?;
             bin_faces(self.threads, ws, model, camera, settings, false);
             let st = &mut ws.state;
             // What the workspace holds is no longer a forward pass a backward could use.
@@ -656,11 +663,9 @@ fn backward_impl<R: Real>(
     };
 
     // 1. Per (tile, face) partials and the background gradient, tile by tile.
-    refill(
-        &mut bw.partials,
-        tiles.entries.len(),
-        FacePartial::default(),
-    );
+    // Sized only: `for_each_tile_row` resets each tile's partials.
+    bw.partials
+        .resize(tiles.entries.len(), FacePartial::default());
     // The kernels write every pixel of the region: no need to clear.
     result.background.resize(pixels * 3, R::zero());
     backward_tiles(threads, st, bw, result, &pixel_grads);
@@ -675,12 +680,13 @@ fn backward_impl<R: Real>(
     }
     bw.cursor.clear();
     bw.cursor.extend_from_slice(&bw.face_entry_offsets);
-    refill(&mut bw.face_entries, tiles.entries.len(), 0);
+    // Sized only, here and below: every element is written before it is read.
+    bw.face_entries.resize(tiles.entries.len(), 0);
     for (e, &fi) in tiles.entries.iter().enumerate() {
         bw.face_entries[bw.cursor[fi as usize]] = e;
         bw.cursor[fi as usize] += 1;
     }
-    refill(&mut bw.corner_grads, faces.len(), CornerGrads::default());
+    bw.corner_grads.resize(faces.len(), CornerGrads::default());
     {
         let (offsets, entries, partials) = (&bw.face_entry_offsets, &bw.face_entries, &bw.partials);
         let n = faces.len();
@@ -714,7 +720,7 @@ fn backward_impl<R: Real>(
     }
     bw.cursor.clear();
     bw.cursor.extend_from_slice(&bw.vertex_offsets);
-    refill(&mut bw.vertex_corners, bw.vertex_offsets[nv], (0, 0));
+    bw.vertex_corners.resize(bw.vertex_offsets[nv], (0, 0));
     for (fi, &f) in st.face_ids.iter().enumerate() {
         for (k, &v) in model.faces[f as usize].iter().enumerate() {
             bw.vertex_corners[bw.cursor[v as usize]] = (fi as u32, k as u8);

@@ -445,13 +445,17 @@ pub fn order_by_tile<R: Real>(
     for b in 0..buckets {
         counts[b + 1] += counts[b];
     }
-    faces.clear();
-    face_ids.clear();
     let Some(first) = visible.iter().flatten().next() else {
+        faces.clear();
+        face_ids.clear();
         return;
     };
-    // Every position below `counts[buckets]` is written once by the loop.
+    // Every position below `counts[buckets]` is written once by the loop, so
+    // what the buffers held from the last render need not be cleared first
+    // (refilling them was about 1 % of a background's step, on one core).
+    faces.truncate(counts[buckets]);
     faces.resize(counts[buckets], *first);
+    face_ids.truncate(counts[buckets]);
     face_ids.resize(counts[buckets], 0);
     for f in visible.iter().flatten() {
         let k = key(f);
