@@ -8,7 +8,7 @@
 
 use super::preprocess::ScreenFace;
 use crate::backend::PixelRect;
-use crate::parallel::run_iter;
+use crate::parallel::{chunk_size, run_iter};
 use crate::real::Real;
 
 pub const TILE: u32 = 16;
@@ -82,57 +82,117 @@ impl TileGrid {
 pub struct TileLists {
     pub offsets: Vec<usize>,
     pub entries: Vec<u32>,
-    /// Sort keys, kept to reuse their allocation.
-    keys: Vec<u64>,
-    cursor: Vec<usize>,
+    /// One per run of faces binned by one job, kept to reuse their allocations.
+    runs: Vec<RunBins>,
 }
 
-impl TileLists {
-    /// Fills the lists for `faces` on `grid`, reusing the buffers.
-    pub fn bin<R: Real>(&mut self, faces: &[ScreenFace<R>], grid: &TileGrid, threads: usize) {
+/// A run of consecutive faces' sort keys grouped by tile: tile `t`'s are
+/// `keys[starts[t]..starts[t + 1]]`, in face order.
+#[derive(Debug, Clone, Default)]
+struct RunBins {
+    starts: Vec<usize>,
+    cursor: Vec<usize>,
+    keys: Vec<u64>,
+}
+
+impl RunBins {
+    /// A counting sort of `faces` (slots from `first_slot`) by tile.
+    fn fill<R: Real>(&mut self, faces: &[ScreenFace<R>], first_slot: usize, grid: &TileGrid) {
         let tiles = grid.tile_count();
-        self.offsets.clear();
-        self.offsets.resize(tiles + 1, 0);
+        let starts = &mut self.starts;
+        starts.clear();
+        starts.resize(tiles + 1, 0);
         for f in faces {
             if let Some((tx0, ty0, tx1, ty1)) = grid.tile_range(f.pixels) {
                 for ty in ty0..=ty1 {
                     for tx in tx0..=tx1 {
-                        self.offsets[(ty * grid.tiles_x + tx) as usize + 1] += 1;
+                        starts[(ty * grid.tiles_x + tx) as usize + 1] += 1;
                     }
                 }
             }
         }
         for t in 0..tiles {
-            self.offsets[t + 1] += self.offsets[t];
+            starts[t + 1] += starts[t];
         }
         self.cursor.clear();
-        self.cursor.extend_from_slice(&self.offsets);
-        // Sort keys: depth bits (positive floats order like their bit patterns) above the face slot.
-        self.keys.clear();
-        self.keys.resize(self.offsets[tiles], 0);
-        for (slot, f) in faces.iter().enumerate() {
+        self.cursor.extend_from_slice(starts);
+        // Every key below `starts[tiles]` is written once by the loop.
+        self.keys.resize(starts[tiles], 0);
+        for (i, f) in faces.iter().enumerate() {
             let Some((tx0, ty0, tx1, ty1)) = grid.tile_range(f.pixels) else {
                 continue;
             };
-            let depth_bits = (f.depth.f64() as f32).to_bits() as u64;
+            // Depth bits (positive floats order like their bit patterns) above the face slot.
+            let key = (((f.depth.f64() as f32).to_bits() as u64) << 32) | (first_slot + i) as u64;
             for ty in ty0..=ty1 {
                 for tx in tx0..=tx1 {
                     let t = (ty * grid.tiles_x + tx) as usize;
-                    self.keys[self.cursor[t]] = (depth_bits << 32) | slot as u64;
+                    self.keys[self.cursor[t]] = key;
                     self.cursor[t] += 1;
                 }
             }
         }
-        let offsets = &self.offsets;
-        let segments = SplitBy::new(&mut self.keys[..], offsets);
+    }
+
+    fn tile(&self, t: usize) -> &[u64] {
+        &self.keys[self.starts[t]..self.starts[t + 1]]
+    }
+}
+
+impl TileLists {
+    /// Fills the lists for `faces` on `grid`, reusing the buffers, on up to
+    /// `threads` threads: runs of faces are binned apart, then each row of
+    /// tiles gathers its tiles' keys from every run and sorts them. A key
+    /// (depth, slot) is unique, so the lists do not depend on the runs.
+    pub fn bin<R: Real>(&mut self, faces: &[ScreenFace<R>], grid: &TileGrid, threads: usize) {
+        let tiles = grid.tile_count();
+        let run_len = chunk_size(faces.len(), threads, 4096);
+        let run_count = faces.len().div_ceil(run_len).max(1);
+        self.runs.resize_with(run_count, RunBins::default);
+        let runs = &mut self.runs[..run_count];
+        // No faces: one empty run, so that every tile's list is empty.
+        let parts = faces.chunks(run_len).chain(std::iter::once(&faces[..0]));
+        let jobs = runs.iter_mut().zip(parts);
         run_iter(
             threads,
-            segments,
+            jobs.enumerate(),
             || (),
-            |_, segment| segment.sort_unstable(),
+            |_, (r, (run, part))| run.fill(part, r * run_len, grid),
         );
-        self.entries.clear();
-        self.entries.extend(self.keys.iter().map(|&k| k as u32));
+        let runs = &self.runs[..run_count];
+        self.offsets.clear();
+        self.offsets.push(0);
+        for t in 0..tiles {
+            let listed: usize = runs.iter().map(|run| run.tile(t).len()).sum();
+            self.offsets.push(self.offsets[t] + listed);
+        }
+        let total = self.offsets[tiles];
+        // Every entry below `total` is written by its row's job.
+        self.entries.resize(total, 0);
+        let tiles_x = (grid.tiles_x as usize).max(1);
+        let mut row_starts = Vec::new();
+        self.row_offsets(grid, &mut row_starts);
+        let offsets = &self.offsets;
+        let rows = SplitBy::new(&mut self.entries[..], &row_starts).enumerate();
+        run_iter(
+            threads,
+            rows,
+            Vec::new,
+            |keys: &mut Vec<u64>, (row, mut entries)| {
+                for t in row * tiles_x..((row + 1) * tiles_x).min(tiles) {
+                    keys.clear();
+                    for run in runs {
+                        keys.extend_from_slice(run.tile(t));
+                    }
+                    keys.sort_unstable();
+                    let (these, rest) = entries.split_at_mut(offsets[t + 1] - offsets[t]);
+                    for (e, &k) in these.iter_mut().zip(keys.iter()) {
+                        *e = k as u32;
+                    }
+                    entries = rest;
+                }
+            },
+        );
     }
 
     /// Into `out`: where each row of `grid`'s tiles starts in the lists, and their end.
@@ -179,5 +239,86 @@ impl<'a, T> Iterator for SplitBy<'a, T> {
     fn size_hint(&self) -> (usize, Option<usize>) {
         let left = self.offsets.len().saturating_sub(self.next + 1);
         (left, Some(left))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn face(slot: u32, depth: f32, pixels: [u32; 4]) -> ScreenFace<f32> {
+        ScreenFace {
+            face: slot,
+            origin: [0.0; 2],
+            q: [[0.0; 2]; 3],
+            lam: [[0.0; 3]; 3],
+            scale: [0.0; 3],
+            area2: 0.0,
+            inv_area2: 0.0,
+            len: [0.0; 3],
+            perimeter: 0.0,
+            sigma: 0.0,
+            opacity: 0.0,
+            argmin_corner: 0,
+            color: [[0.0; 3]; 3],
+            z: [0.0; 3],
+            depth,
+            pixels,
+        }
+    }
+
+    #[test]
+    fn lists_are_every_covering_face_front_to_back_on_any_thread_count() {
+        // More faces than one job bins, boxes partly or wholly off the grid,
+        // and depths that tie (then the slot orders them).
+        let mut state = 12345u64;
+        let mut next = |below: u32| {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 33) % below as u64) as u32
+        };
+        let faces: Vec<_> = (0..10_000)
+            .map(|slot| {
+                let (x, y) = (next(260), next(200));
+                let pixels = [x, y, x + next(40), y + next(30)];
+                face(slot, 0.5 + next(50) as f32 * 0.25, pixels)
+            })
+            .collect();
+        let grid = TileGrid::new(
+            240,
+            176,
+            PixelRect {
+                x0: 16,
+                y0: 32,
+                x1: 240,
+                y1: 170,
+            },
+        );
+        let mut expected = vec![Vec::new(); grid.tile_count()];
+        for (slot, f) in faces.iter().enumerate() {
+            if let Some((tx0, ty0, tx1, ty1)) = grid.tile_range(f.pixels) {
+                for ty in ty0..=ty1 {
+                    for tx in tx0..=tx1 {
+                        expected[(ty * grid.tiles_x + tx) as usize].push((f.depth, slot as u32));
+                    }
+                }
+            }
+        }
+        for list in &mut expected {
+            list.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        }
+        let mut lists = TileLists::default();
+        for threads in [1, 2, 3, 1] {
+            lists.bin(&faces, &grid, threads);
+            for (t, want) in expected.iter().enumerate() {
+                let got = &lists.entries[lists.offsets[t]..lists.offsets[t + 1]];
+                let want: Vec<u32> = want.iter().map(|e| e.1).collect();
+                assert_eq!(got, &want[..], "tile {t}, {threads} threads");
+            }
+            assert_eq!(lists.entries.len(), lists.offsets[grid.tile_count()]);
+        }
+        lists.bin::<f32>(&[], &grid, 2);
+        assert!(lists.entries.is_empty() && lists.offsets.iter().all(|&o| o == 0));
     }
 }
